@@ -1,0 +1,132 @@
+//! Measured columns (u_i, f_i, ω_i) and their scaling (DESIGN §3).
+//!
+//! The data are N = s·p complex response vectors u_i ∈ Cᵐ with forces f_i and
+//! angular frequencies ω_i, stored frequency-first (row i is column i of the
+//! paper's U). Before any Gram product we scale ω by ω0 (RMS of ω) and U, F by
+//! their RMS, so that every matrix formed later is O(1); λ and the answer are
+//! converted with [`Scaling`].
+
+use crate::error::PodidError;
+use faer::{c64, Mat};
+
+/// Borrowed, validated measurement columns.
+#[derive(Clone, Copy)]
+pub struct Columns<'a> {
+    /// responses, row-major (N, m)
+    pub u: &'a [c64],
+    /// forces, row-major (N, m)
+    pub f: &'a [c64],
+    /// angular frequency of each row (N,)
+    pub omega: &'a [f64],
+    pub m: usize,
+}
+
+impl<'a> Columns<'a> {
+    pub fn new(u: &'a [c64], f: &'a [c64], omega: &'a [f64], m: usize) -> Result<Self, PodidError> {
+        let n = omega.len();
+        if m == 0 || n == 0 {
+            return Err(PodidError::Invalid(format!(
+                "empty data: N = {n} columns of order m = {m}"
+            )));
+        }
+        if u.len() != n * m || f.len() != n * m {
+            return Err(PodidError::Invalid(format!(
+                "U and F must both hold N·m = {}·{} values; got {} and {}",
+                n,
+                m,
+                u.len(),
+                f.len()
+            )));
+        }
+        let finite = |z: &c64| z.re.is_finite() && z.im.is_finite();
+        if !u.iter().all(finite) || !f.iter().all(finite) {
+            return Err(PodidError::Invalid("U or F contains NaN or inf".into()));
+        }
+        if !omega.iter().all(|w| w.is_finite() && *w > 0.0) {
+            return Err(PodidError::Invalid(
+                "omega must be finite and strictly positive".into(),
+            ));
+        }
+        Ok(Self { u, f, omega, m })
+    }
+
+    /// Number of complex response vectors N.
+    pub fn len(&self) -> usize {
+        self.omega.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.omega.is_empty()
+    }
+}
+
+/// Reference scales: ω = ω0·ω̃, U = s_u·Ũ, F = s_f·F̃.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scaling {
+    pub omega0: f64,
+    pub su: f64,
+    pub sf: f64,
+}
+
+fn rms_c(z: &[c64]) -> f64 {
+    let s: f64 = z.iter().map(|v| v.norm_sqr()).sum();
+    (s / z.len() as f64).sqrt()
+}
+
+impl Scaling {
+    /// No scaling at all (used to test the Gram products against plain NumPy).
+    pub const IDENTITY: Scaling = Scaling {
+        omega0: 1.0,
+        su: 1.0,
+        sf: 1.0,
+    };
+
+    /// ω0 = RMS of ω, s_u = RMS of |U|, s_f = RMS of |F| (1 where a scale is 0).
+    pub fn of(cols: &Columns) -> Scaling {
+        let nz = |x: f64| if x > 0.0 && x.is_finite() { x } else { 1.0 };
+        let w2: f64 = cols.omega.iter().map(|w| w * w).sum::<f64>() / cols.len() as f64;
+        Scaling {
+            omega0: nz(w2.sqrt()),
+            su: nz(rms_c(cols.u)),
+            sf: nz(rms_c(cols.f)),
+        }
+    }
+
+    /// Factor c_b with X_b = c_b·X̃_b for blocks b = M, C, K:
+    /// s_f/(s_u ω0²), s_f/(s_u ω0), s_f/s_u.
+    pub fn block_factors(&self) -> [f64; 3] {
+        let base = self.sf / self.su;
+        [base / (self.omega0 * self.omega0), base / self.omega0, base]
+    }
+
+    /// λ in the scaled problem: λ̃_b = λ_b·c_b/s_f, i.e. λ_M/(s_u ω0²), λ_C/(s_u ω0), λ_K/s_u.
+    pub fn scaled_lam(&self, lam: [f64; 3]) -> [f64; 3] {
+        let c = self.block_factors();
+        [0, 1, 2].map(|b| lam[b] * c[b] / self.sf)
+    }
+}
+
+/// Scaled real stacked data: Y = [Re U; Im U]/s_u and G = [Re F; Im F]/s_f, both
+/// (2N × m), and w = ω/ω0 (N).
+pub struct Stacked {
+    pub y: Mat<f64>,
+    pub g: Mat<f64>,
+    pub w: Vec<f64>,
+}
+
+impl Stacked {
+    pub fn new(cols: &Columns, sc: &Scaling) -> Stacked {
+        let (n, m) = (cols.len(), cols.m);
+        let (iu, iff) = (1.0 / sc.su, 1.0 / sc.sf);
+        let y = Mat::from_fn(2 * n, m, |r, c| {
+            let z = cols.u[(r % n) * m + c];
+            iu * if r < n { z.re } else { z.im }
+        });
+        let g = Mat::from_fn(2 * n, m, |r, c| {
+            let z = cols.f[(r % n) * m + c];
+            iff * if r < n { z.re } else { z.im }
+        });
+        let w = cols.omega.iter().map(|w| w / sc.omega0).collect();
+        Stacked { y, g, w }
+    }
+}
