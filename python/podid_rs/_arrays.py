@@ -1,0 +1,61 @@
+"""Input checks for the pure-Python modules (systems, simulation, pod, reference).
+
+Each helper returns a fresh array, so callers can never modify what the user
+passed, and raises ``ValueError`` naming the argument when the input is unusable.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_array(x: object, name: str, *, real: bool = False) -> np.ndarray:
+    """Fresh float64 (complex128 for complex input) copy of ``x``, checked finite.
+
+    With ``real=True`` complex input is refused.
+    """
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} could not be read as a numeric array: {exc}") from None
+    if a.dtype == np.bool_ or not np.issubdtype(a.dtype, np.number):
+        raise ValueError(f"{name} must be a numeric array, got dtype {a.dtype}")
+    if np.iscomplexobj(a):
+        if real:
+            raise ValueError(f"{name} must be real, got complex dtype {a.dtype}")
+        a = np.array(a, dtype=np.complex128, copy=True)
+    else:
+        a = np.array(a, dtype=np.float64, copy=True)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains non-finite values (NaN or inf)")
+    return a
+
+
+def as_omega(omega: object) -> np.ndarray:
+    """Angular frequencies in rad/s: a fresh 1-D float64 array, non-empty, all > 0."""
+    w = as_array(omega, "omega", real=True)
+    if w.ndim != 1 or w.size == 0:
+        raise ValueError(f"omega must be a non-empty 1-D array (rad/s), got shape {w.shape}")
+    if np.any(w <= 0):
+        i = int(np.argmax(w <= 0))
+        raise ValueError(f"omega must be strictly positive (rad/s); omega[{i}] = {w[i]!r}")
+    return w
+
+
+def as_scalar(x: object, name: str, *, allow_zero: bool = False) -> float:
+    """A finite real scalar, strictly positive (or non-negative with ``allow_zero``)."""
+    a = as_array(x, name, real=True)
+    if a.ndim != 0 or a < 0 or (a == 0 and not allow_zero):
+        kind = "a non-negative" if allow_zero else "a positive"
+        raise ValueError(f"{name} must be {kind} number, got {x!r}")
+    return float(a)
+
+
+def as_count(x: object, name: str, lo: int, hi: int | None = None) -> int:
+    """An integer in ``[lo, hi]`` (``hi=None``: no upper bound); bools are refused."""
+    if isinstance(x, bool) or not isinstance(x, int | np.integer):
+        raise ValueError(f"{name} must be an integer, got {x!r}")
+    if x < lo or (hi is not None and x > hi):
+        bounds = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        raise ValueError(f"{name} must be {bounds}, got {x}")
+    return int(x)
