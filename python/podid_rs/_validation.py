@@ -115,9 +115,7 @@ def check_frequency_data(U: object, F: object, omega: object) -> FrequencyData:
             )
     if np.any(w <= 0):
         i = int(np.argmax(w <= 0))
-        raise ValueError(
-            f"omega must be strictly positive (rad/s); omega[{i}] = {w[i]!r}"
-        )
+        raise ValueError(f"omega must be strictly positive (rad/s); omega[{i}] = {w[i]!r}")
     if not np.any(Ua):
         raise ValueError("U is identically zero: there is nothing to identify from")
     return FrequencyData(Ua, Fa, w)

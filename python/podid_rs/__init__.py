@@ -1,0 +1,46 @@
+"""podid_rs: identify reduced mass, damping and stiffness matrices from frequency
+responses on a proper-orthogonal-decomposition basis.
+
+Khalil, Adhikari & Sarkar (2007), "Linear system identification using proper
+orthogonal decomposition", MSSP 21, 3123–3145 — with a Rust core that never forms
+the paper's Kronecker matrix. The pipeline, one module per stage:
+
+- :mod:`podid_rs.systems` — second-order systems, the paper's mass–spring chain;
+- :mod:`podid_rs.simulation` — white-noise forcing, responses, spectra, H1 FRFs;
+- :mod:`podid_rs.pod` — correlation matrices, POD basis, projection (eqs. 3–18);
+- :mod:`podid_rs.identification` — :func:`identify` (eqs. 19–49);
+- :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle).
+"""
+
+from .identification import IdentificationResult, RankDeficientWarning, identify
+from .pod import (
+    PODResult,
+    correlation_from_frf,
+    correlation_from_snapshots,
+    pod,
+    pod_from_correlation,
+    pod_from_frf,
+)
+from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
+from .systems import SecondOrderSystem, mass_spring_chain
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "IdentificationResult",
+    "PODResult",
+    "RankDeficientWarning",
+    "SecondOrderSystem",
+    "Simulation",
+    "add_noise",
+    "correlation_from_frf",
+    "correlation_from_snapshots",
+    "frf_h1",
+    "identify",
+    "mass_spring_chain",
+    "pod",
+    "pod_from_correlation",
+    "pod_from_frf",
+    "simulate_white_noise",
+    "spectra",
+]

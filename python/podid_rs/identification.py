@@ -1,0 +1,327 @@
+"""Identification of M, C, K from frequency-domain data (paper §3–4, eqs. 19–49).
+
+``identify`` is the entry point. It never forms the Kronecker matrix A of eq. 25:
+the least-squares data term only needs the Gram products H = Re(V Vᴴ) and
+B = Re(F Vᴴ) (DESIGN §2), and the normal equations are written in each block's
+orthonormal symmetric/skew basis, where the symmetry penalty of eq. 40 is a
+diagonal 4λ² on the skew coordinates (DESIGN §3). Two backends solve the same
+equations: ``"rust"`` (default: faer, parallel, in place) and ``"numpy"``
+(scipy.sparse + LAPACK, for comparison). ``podid_rs.reference`` keeps the
+paper's literal Kronecker formulation as the oracle both are tested against.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+
+from ._validation import FrequencyData, Triple, check_frequency_data, check_lam, count_equations
+
+Backend = Literal["rust", "numpy"]
+
+
+class RankDeficientWarning(UserWarning):
+    """The normal equations were numerically singular; a minimum-norm answer was returned."""
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Identified reduced matrices and what the solver saw.
+
+    ``M, C, K`` are float64 (m, m) in the caller's units; ``lam`` is the
+    (λ_M, λ_C, λ_K) triple in the paper's units (eq. 40); ``symmetric`` marks the
+    exact λ → ∞ solution. ``residual_norm`` is ‖Ax − y‖ (eq. 28) over all
+    frequency lines and load cases; ``penalty_norms`` are ‖X − Xᵀ‖_F = ‖L_X x‖ for
+    X = M, C, K and ``penalty_norm`` their root sum of squares.
+    """
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    lam: Triple
+    symmetric: bool
+    residual_norm: float
+    penalty_norms: Triple
+    method: str
+    rank: int
+    n_unknowns: int
+    min_pivot_ratio: float
+    backend: str
+    info: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def penalty_norm(self) -> float:
+        return float(np.sqrt(sum(v * v for v in self.penalty_norms)))
+
+    @property
+    def m(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def well_posed(self) -> bool:
+        """True when the normal matrix had full rank."""
+        return self.rank == self.n_unknowns
+
+    def symmetry_defect(self) -> Triple:
+        """‖X − Xᵀ‖_F / ‖X‖_F for X = M, C, K (0 for exactly symmetric matrices)."""
+        out = []
+        for X in (self.M, self.C, self.K):
+            nx = np.linalg.norm(X)
+            out.append(float(np.linalg.norm(X - X.T) / nx) if nx > 0 else 0.0)
+        return (out[0], out[1], out[2])
+
+    def system(self):
+        """The identified model as a :class:`podid_rs.SecondOrderSystem`."""
+        from .systems import SecondOrderSystem
+
+        return SecondOrderSystem(self.M, self.C, self.K)
+
+
+# ---------------------------------------------------------------------------
+# helpers shared by the backends
+
+
+def available_memory_bytes() -> int | None:
+    """MemAvailable from /proc/meminfo (Linux), or None where it cannot be read."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
+
+
+def _check_memory(nbytes: int, what: str) -> None:
+    avail = available_memory_bytes()
+    if avail is not None and nbytes > 0.9 * avail:
+        raise MemoryError(
+            f"{what} needs {nbytes / 1e9:.2f} GB but only {avail / 1e9:.2f} GB of memory is "
+            "available; reduce the order m, or use symmetric=True "
+            "(3m(m+1)/2 unknowns instead of 3m²)"
+        )
+
+
+def residual_norm(M: np.ndarray, C: np.ndarray, K: np.ndarray, data: FrequencyData) -> float:
+    """‖Ax − y‖ (eq. 28): the misfit of (−ω²M + iωC + K)u − f over all lines and loads."""
+    w = data.omega[:, None, None]
+    U = data.U
+    R = (
+        -(w**2) * np.einsum("ij,sjp->sip", M, U)
+        + 1j * w * np.einsum("ij,sjp->sip", C, U)
+        + np.einsum("ij,sjp->sip", K, U)
+        - data.F
+    )
+    return float(np.linalg.norm(R))
+
+
+def gram_numpy(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """H = Re(V Vᴴ), B = Re(F Vᴴ) with v_i = [−ω_i² u_i; iω_i u_i; u_i] (DESIGN §2).
+
+    U, F are (N, m) rows u_i, f_i; omega (N,). Literal, O(N·9m²); the Rust core
+    computes the same by GEMMs on the real stacked data.
+    """
+    w = omega[:, None]
+    V = np.concatenate([-(w**2) * U, 1j * w * U, U], axis=1)  # (N, 3m), rows v_iᵀ
+    H = np.real(V.T @ V.conj())
+    B = np.real(F.T @ V.conj())
+    return H, B
+
+
+def _scales(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[float, float, float]:
+    """ω0 = RMS ω, s_u = RMS |U|, s_f = RMS |F| (DESIGN §3); 1 where a scale is 0."""
+
+    def nz(x: float) -> float:
+        return x if x > 0 and np.isfinite(x) else 1.0
+
+    rms = lambda a: float(np.sqrt(np.mean(np.abs(a) ** 2)))  # noqa: E731
+    return nz(rms(omega)), nz(rms(U)), nz(rms(F))
+
+
+def symskew_basis(m: int, symmetric: bool) -> tuple[sp.csc_matrix, np.ndarray, np.ndarray]:
+    """Orthonormal basis T of the unknowns in row-major vec(Z), Z = [M C K] (m × 3m).
+
+    Columns: per block the diagonal E_jj and (E_jk + E_kj)/√2 (j < k), then (unless
+    ``symmetric``) per block (E_jk − E_kj)/√2. Returns T (3m² × n), the block of each
+    column, and a mask of the skew columns.
+    """
+    r2 = 1.0 / np.sqrt(2.0)
+    rows, cols, vals, blocks, skew = [], [], [], [], []
+
+    def put(b: int, j: int, k: int, sign: float | None) -> None:
+        c = len(blocks)
+        if sign is None:
+            rows.append(j * 3 * m + b * m + j)
+            cols.append(c)
+            vals.append(1.0)
+        else:
+            rows.extend([j * 3 * m + b * m + k, k * 3 * m + b * m + j])
+            cols.extend([c, c])
+            vals.extend([r2, sign * r2])
+        blocks.append(b)
+        skew.append(sign == -1.0)
+
+    for b in range(3):
+        for j in range(m):
+            for k in range(j, m):
+                put(b, j, k, None if j == k else 1.0)
+    if not symmetric:
+        for b in range(3):
+            for j in range(m):
+                for k in range(j + 1, m):
+                    put(b, j, k, -1.0)
+    T = sp.csc_matrix((vals, (rows, cols)), shape=(3 * m * m, len(blocks)))
+    return T, np.asarray(blocks), np.asarray(skew)
+
+
+def _solve_spd(G: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, str, int, float]:
+    """Cholesky, or the minimum-norm eigen solve if G is numerically singular."""
+    n = G.shape[0]
+    tol = n * np.finfo(float).eps
+    d = np.diag(G).copy()
+    if np.all(d > 0):
+        try:
+            L, _ = scipy.linalg.cho_factor(G, lower=True, check_finite=False)
+            ratio = float(np.min(np.diag(L) ** 2 / d))
+            if ratio > tol:
+                x = scipy.linalg.cho_solve((L, True), b, check_finite=False)
+                return x, "cholesky", n, ratio
+        except np.linalg.LinAlgError:
+            pass
+    s, Q = np.linalg.eigh(G)
+    keep = s > tol * max(float(s.max()), 0.0)
+    inv = 1.0 / s[keep]
+    x = Q[:, keep] @ (inv.reshape((-1,) + (1,) * (b.ndim - 1)) * (Q[:, keep].T @ b))
+    ratio = float(max(s.min(), 0.0) / s.max()) if s.max() > 0 else 0.0
+    return x, "eigen-min-norm", int(keep.sum()), ratio
+
+
+def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> dict:
+    """The structured normal equations of DESIGN §2–3 in NumPy/SciPy."""
+    U, F, w = data.columns()
+    m = data.m
+    w0, su, sf = _scales(U, F, w)
+    H, B = gram_numpy(U / su, F / sf, w / w0)
+    factors = np.array([sf / (su * w0**2), sf / (su * w0), sf / su])
+    if not symmetric and not any(lam):
+        _check_memory(8 * (3 * m) ** 2, "the 3m×3m Gram matrix")
+        Zt, method, rank, ratio = _solve_spd(H, B.T.copy())
+        Z = Zt.T
+        rank *= m
+    else:
+        T, blocks, skew = symskew_basis(m, symmetric)
+        n = T.shape[1]
+        _check_memory(3 * 8 * n * n, f"the {n}×{n} normal matrix (NumPy backend)")
+        KH = sp.kron(sp.identity(m, format="csr"), sp.csr_matrix(H), format="csr")
+        G = (T.T @ (KH @ T)).toarray()
+        lam_s = np.asarray(lam) * factors / sf
+        G[np.flatnonzero(skew), np.flatnonzero(skew)] += 4.0 * lam_s[blocks[skew]] ** 2
+        x, method, rank, ratio = _solve_spd(G, T.T @ B.ravel())
+        Z = (T @ x).reshape(m, 3 * m)
+    M, C, K = (factors[b] * Z[:, b * m : (b + 1) * m] for b in range(3))
+    return dict(
+        M=M,
+        C=C,
+        K=K,
+        method=method,
+        rank=rank,
+        n_unknowns=3 * m * m if not symmetric else 3 * m * (m + 1) // 2,
+        min_pivot_ratio=ratio,
+        scaling=(w0, su, sf),
+    )
+
+
+def _identify_rust(data: FrequencyData, lam: Triple, symmetric: bool, threads: int) -> dict:
+    from . import _core
+
+    _check_memory(int(_core.direct_memory_bytes(data.m, lam, symmetric)), "the direct solve")
+    U, F, w = data.columns()
+    return _core.identify_direct(U, F, w, lam, symmetric, threads)
+
+
+# ---------------------------------------------------------------------------
+
+
+def identify(
+    U: np.ndarray,
+    F: np.ndarray,
+    omega: np.ndarray,
+    lam: float | tuple[float, float, float] = 0.0,
+    symmetric: bool = False,
+    *,
+    backend: Backend = "rust",
+    threads: int | None = None,
+) -> IdentificationResult:
+    """Identify reduced M, C, K from responses U and forces F (paper eq. 49).
+
+    Parameters
+    ----------
+    U, F : complex arrays ``(s, m)`` or ``(s, m, p)``
+        Reduced responses and forces (eqs. 45–46), frequency-first, p load cases.
+    omega : ``(s,)`` angular frequencies in rad/s, all > 0.
+    lam : float or (λ_M, λ_C, λ_K)
+        Symmetry regularisation in the paper's units (eq. 40); 0 = plain least squares.
+    symmetric : solve the exact λ → ∞ limit (M, C, K exactly symmetric).
+    backend : ``"rust"`` (default) or ``"numpy"``, the same equations either way.
+    threads : worker threads for the Rust backend (None = all cores).
+
+    Raises ``ValueError`` for malformed data or a problem with fewer equations than
+    unknowns, ``MemoryError`` when the dense normal matrix would not fit. A
+    numerically singular problem gives the minimum-norm answer and a
+    :class:`RankDeficientWarning` stating the rank.
+    """
+    data = check_frequency_data(U, F, omega)
+    lam_t = check_lam(lam)
+    symmetric = bool(symmetric)
+    if threads is not None and (int(threads) != threads or threads < 0):
+        raise ValueError(f"threads must be a non-negative integer, got {threads!r}")
+    n_eq, n_unk = count_equations(data, lam_t, symmetric)
+    if n_eq < n_unk:
+        need = (
+            ""
+            if symmetric or all(lam_t)
+            else (" (a positive lam on every block, or symmetric=True, reduces the unknowns)")
+        )
+        raise ValueError(
+            f"too few equations: {data.s} frequency line(s) × {data.p} load case(s) give "
+            f"{n_eq} real equations for {n_unk} unknowns at order m = {data.m}{need}"
+        )
+    if backend == "rust":
+        out = _identify_rust(data, lam_t, symmetric, int(threads or 0))
+    elif backend == "numpy":
+        out = _identify_numpy(data, lam_t, symmetric)
+    else:
+        raise ValueError(f"backend must be 'rust' or 'numpy', got {backend!r}")
+
+    M, C, K = (np.asarray(out[k], dtype=np.float64) for k in ("M", "C", "K"))
+    if out["method"] != "cholesky":
+        warnings.warn(
+            f"the normal equations are numerically singular (rank {out['rank']} of "
+            f"{out['n_unknowns']} unknowns); returned the minimum-norm solution. More "
+            "frequency lines or load cases, a lower order m, or symmetry regularisation "
+            "would make the problem well posed",
+            RankDeficientWarning,
+            stacklevel=2,
+        )
+    pen = tuple(float(np.linalg.norm(X - X.T)) for X in (M, C, K))
+    return IdentificationResult(
+        M=M,
+        C=C,
+        K=K,
+        lam=lam_t,
+        symmetric=symmetric,
+        residual_norm=residual_norm(M, C, K, data),
+        penalty_norms=(pen[0], pen[1], pen[2]),
+        method=str(out["method"]),
+        rank=int(out["rank"]),
+        n_unknowns=int(out["n_unknowns"]),
+        min_pivot_ratio=float(out["min_pivot_ratio"]),
+        backend=backend,
+        info={"scaling": tuple(out["scaling"])},
+    )
