@@ -1,0 +1,232 @@
+"""Synthetic measurements: band-limited white-noise forcing, noise, spectra and H1 FRFs.
+
+Spectra here are NumPy's unnormalised real FFT along time,
+``X_k = Σ_j x(t_j) exp(−iω_k t_j)``, kept on the lines inside the band. Multiply
+by ``dt`` for an approximation of the continuous Fourier transform; responses
+and forces carry the same factor, so it cancels in the identification.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import get_window
+
+from podid_rs._arrays import as_array, as_count, as_scalar
+from podid_rs.systems import SecondOrderSystem
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """Steady-state response of a system to band-limited white noise.
+
+    Time histories are time-first: ``t`` ``(r,)``, ``forces`` and ``response``
+    ``(r, n)``. ``omega`` ``(s,)`` (rad/s) are the FFT lines inside ``band_hz``;
+    ``force_spectrum`` and ``response_spectrum`` ``(s, n)`` are the real FFT of the
+    histories on those lines, exactly as :func:`spectra` returns them.
+    """
+
+    t: np.ndarray
+    forces: np.ndarray
+    response: np.ndarray
+    omega: np.ndarray
+    force_spectrum: np.ndarray
+    response_spectrum: np.ndarray
+    dt: float
+    band_hz: tuple[float, float]
+
+
+def _band_lines(r: int, dt: float, band_hz: object) -> np.ndarray:
+    """Indices of the real-FFT lines of an r-sample record that lie in ``band_hz``.
+
+    ``band_hz=None`` keeps every line above 0 Hz. A band must satisfy
+    ``0 < lo < hi < Nyquist`` and contain at least one line (ends inclusive).
+    """
+    f = np.fft.rfftfreq(r, dt)
+    if band_hz is None:
+        return np.flatnonzero(f > 0)
+    band = as_array(band_hz, "band_hz", real=True)
+    if band.shape != (2,):
+        raise ValueError(f"band_hz must be a pair (lo, hi) in Hz, got {band_hz!r}")
+    lo, hi = band
+    nyquist = 0.5 / dt
+    if not 0 < lo < hi < nyquist:
+        raise ValueError(
+            f"band_hz must satisfy 0 < lo < hi < Nyquist = {nyquist:g} Hz, got {band_hz!r}"
+        )
+    lines = np.flatnonzero((f >= lo) & (f <= hi))
+    if lines.size == 0:
+        raise ValueError(
+            f"band_hz {band_hz!r} contains no frequency line; the resolution is {f[1]:g} Hz "
+            "(lengthen the record or widen the band)"
+        )
+    return lines
+
+
+def simulate_white_noise(
+    system: SecondOrderSystem,
+    band_hz: tuple[float, float],
+    dt: float,
+    duration: float,
+    intensity: float = 1.0,
+    seed: int | None = None,
+) -> Simulation:
+    """Periodic steady-state response to incoherent band-limited white noise on every DOF.
+
+    The "rain on the roof" loading of the paper (Sections 2.1 and 6.2). Every DOF
+    gets an independent force whose real-FFT coefficients are circular complex
+    Gaussian with equal expected power on each line inside ``band_hz`` and zero
+    outside; the response is synthesised exactly, ``U_k = H(ω_k) F_k`` (eq. 19),
+    and both are brought back to time by the inverse real FFT, so there is no
+    transient and no leakage.
+
+    ``intensity`` is the expected variance (mean square) of each force history,
+    in force units squared; the paper's "unit variance" is ``intensity=1``. The
+    one-sided force PSD is then about ``intensity / (hi − lo)`` per Hz, and the
+    response correlation ``⟨u uᵀ⟩ ≈ intensity / (2π (hi − lo)) · Ruu`` with ``Ruu``
+    from :func:`podid_rs.pod.correlation_from_frf`. The record has
+    ``r = round(duration / dt)`` samples; the line spacing is ``1 / (r dt)`` Hz.
+    """
+    if not isinstance(system, SecondOrderSystem):
+        raise ValueError(f"system must be a SecondOrderSystem, got {type(system).__name__}")
+    if band_hz is None:
+        raise ValueError("band_hz is required: the (lo, hi) band of the forcing in Hz")
+    dt = as_scalar(dt, "dt")
+    duration = as_scalar(duration, "duration")
+    intensity = as_scalar(intensity, "intensity")
+    r = round(duration / dt)
+    if r < 2:
+        raise ValueError(f"duration / dt gives {r} samples; at least 2 are needed")
+    lines = _band_lines(r, dt, band_hz)
+    omega = 2 * np.pi * np.fft.rfftfreq(r, dt)[lines]
+
+    # Parseval: mean_t x² = (2 / r²) Σ_k |X_k|², so E|X_k|² = intensity · r² / (2 s).
+    rng = np.random.default_rng(seed)
+    shape = (lines.size, system.n)
+    scale = r * np.sqrt(intensity / (4 * lines.size))
+    F = scale * (rng.standard_normal(shape) + 1j * rng.standard_normal(shape))
+    full = np.zeros((r // 2 + 1, system.n), dtype=np.complex128)
+    full[lines] = F
+    forces = np.fft.irfft(full, n=r, axis=0)
+    full[lines] = system.response(omega, F)
+    response = np.fft.irfft(full, n=r, axis=0)
+    return Simulation(
+        t=dt * np.arange(r),
+        forces=forces,
+        response=response,
+        omega=omega,
+        force_spectrum=np.fft.rfft(forces, axis=0)[lines],
+        response_spectrum=np.fft.rfft(response, axis=0)[lines],
+        dt=dt,
+        band_hz=(float(band_hz[0]), float(band_hz[1])),
+    )
+
+
+def add_noise(x: object, snr_db: float, seed: int | None = None, axis: int = 0) -> np.ndarray:
+    """Copy of ``x`` plus independent Gaussian noise at signal-to-noise ratio ``snr_db`` (eq. 53).
+
+    Every channel (every index other than ``axis``) gets noise of variance
+    ``σ_s² / 10^(snr_db / 10)``, with ``σ_s²`` that channel's own variance along
+    ``axis``. Real input gets real noise, complex input circular complex noise.
+    """
+    a = as_array(x, "x")
+    snr = as_array(snr_db, "snr_db", real=True)
+    if snr.ndim != 0:
+        raise ValueError(f"snr_db must be a number, got {snr_db!r}")
+    if (
+        isinstance(axis, bool)
+        or not isinstance(axis, int | np.integer)
+        or not (-a.ndim <= axis < a.ndim)
+    ):
+        raise ValueError(f"axis {axis!r} is out of range for x of shape {a.shape}")
+    sigma = np.sqrt(np.var(a, axis=axis, keepdims=True) / 10 ** (snr / 10))
+    rng = np.random.default_rng(seed)
+    if np.iscomplexobj(a):
+        noise = rng.standard_normal(a.shape) + 1j * rng.standard_normal(a.shape)
+        return a + sigma / np.sqrt(2) * noise
+    return a + sigma * rng.standard_normal(a.shape)
+
+
+def spectra(
+    x: object, dt: float, band_hz: tuple[float, float] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Real FFT of time histories ``x`` ``(r, n)`` along time → ``(omega (s,), X (s, n))``.
+
+    Keeps the lines inside ``band_hz`` (every line above 0 Hz when ``None``), the
+    same lines :func:`simulate_white_noise` uses, so that
+    ``spectra(sim.response, sim.dt, sim.band_hz)[1]`` equals ``sim.response_spectrum``.
+    These are the ``U_n(ω)``, ``F_n(ω)`` of eqs. 45–46.
+    """
+    a = as_array(x, "x", real=True)
+    if a.ndim != 2 or a.shape[0] < 2 or a.shape[1] == 0:
+        raise ValueError(f"x must have shape (r, n) with r >= 2 samples, got {a.shape}")
+    dt = as_scalar(dt, "dt")
+    lines = _band_lines(a.shape[0], dt, band_hz)
+    omega = 2 * np.pi * np.fft.rfftfreq(a.shape[0], dt)[lines]
+    return omega, np.fft.rfft(a, axis=0)[lines]
+
+
+def _records(x: object, name: str) -> np.ndarray:
+    a = as_array(x, name, real=True)
+    if a.ndim == 2:
+        a = a[None]
+    if a.ndim != 3 or a.shape[1] < 2 or a.shape[2] == 0:
+        raise ValueError(
+            f"{name} must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, got {a.shape}"
+        )
+    return a
+
+
+def frf_h1(
+    forces: object,
+    responses: object,
+    dt: float,
+    nperseg: int | None = None,
+    band_hz: tuple[float, float] | None = None,
+    window: str = "hann",
+) -> tuple[np.ndarray, np.ndarray]:
+    """H1 estimate of the FRF, ``H1(ω) = S_yx(ω) S_xx(ω)⁻¹``, by Welch averaging.
+
+    ``forces`` ``(r, n_in)`` and ``responses`` ``(r, n_out)``, or several records
+    ``(n_rec, r, ·)`` averaged together. Segments of ``nperseg`` samples
+    (default ``min(r, 256)``) overlap by half, are mean-removed and windowed, as in
+    ``scipy.signal.csd``. Returns ``omega`` ``(s,)`` (rad/s; lines in ``band_hz``,
+    or all above 0 Hz) and ``H`` ``(s, n_out, n_in)``.
+    """
+    x = _records(forces, "forces")
+    y = _records(responses, "responses")
+    if x.shape[:2] != y.shape[:2]:
+        raise ValueError(
+            f"forces and responses must have the same number of records and samples, "
+            f"got {x.shape} and {y.shape}"
+        )
+    dt = as_scalar(dt, "dt")
+    r = x.shape[1]
+    nperseg = min(r, 256) if nperseg is None else as_count(nperseg, "nperseg", 2, r)
+    step = nperseg - nperseg // 2
+    n_avg = x.shape[0] * ((r - nperseg) // step + 1)
+    n_in = x.shape[2]
+    if n_avg < n_in:
+        raise ValueError(
+            f"{n_avg} averaged segments cannot resolve {n_in} inputs (S_xx would be "
+            "singular); use longer or more records or a smaller nperseg"
+        )
+    lines = _band_lines(nperseg, dt, band_hz)
+    win = get_window(window, nperseg)
+
+    def segment_spectra(a: np.ndarray) -> np.ndarray:
+        """Windowed spectra of every segment of every record, ``(s, channels, n_avg)``."""
+        seg = np.lib.stride_tricks.sliding_window_view(a, nperseg, axis=1)[:, ::step]
+        seg = seg - seg.mean(axis=-1, keepdims=True)
+        X = np.fft.rfft(seg * win, axis=-1)[..., lines]  # (n_rec, n_seg, channels, s)
+        return X.reshape(n_avg, a.shape[2], lines.size).transpose(2, 1, 0)
+
+    X = segment_spectra(x)
+    Y = segment_spectra(y)
+    Xh = X.conj().transpose(0, 2, 1)
+    Sxx = X @ Xh  # (s, n_in, n_in)
+    Syx = Y @ Xh  # (s, n_out, n_in)
+    # H Sxx = Syx  ⇔  Sxxᵀ Hᵀ = Syxᵀ
+    H = np.linalg.solve(Sxx.transpose(0, 2, 1), Syx.transpose(0, 2, 1)).transpose(0, 2, 1)
+    return 2 * np.pi * np.fft.rfftfreq(nperseg, dt)[lines], H
