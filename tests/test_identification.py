@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from podid_rs import RankDeficientWarning, _core, identify, mass_spring_chain
 from podid_rs.identification import gram_numpy
 from podid_rs.reference import identify_kronecker

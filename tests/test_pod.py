@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from podid_rs.pod import (
     PODResult,
     correlation_from_frf,

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from podid_rs.reference import (
     identify_kronecker,
     kronecker_system,

@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
+from scipy import signal
+
 from podid_rs.simulation import add_noise, frf_h1, simulate_white_noise, spectra
 from podid_rs.systems import SecondOrderSystem, mass_spring_chain
-from scipy import signal
 
 # A soft, well-damped 4-DOF chain: modes at 7.7, 16.4, 32.7 and 55.3 Hz.
 SYSTEM = mass_spring_chain(4, ku=4e3, a0=2.0, a1=1e-3)

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from podid_rs.systems import SecondOrderSystem, mass_spring_chain
 
 

@@ -323,5 +323,5 @@ def identify(
         n_unknowns=int(out["n_unknowns"]),
         min_pivot_ratio=float(out["min_pivot_ratio"]),
         backend=backend,
-        info={"scaling": tuple(out["scaling"])},
+        info={"scaling": tuple(out["scaling"]), "timings": dict(out.get("timings", {}))},
     )

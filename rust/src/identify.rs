@@ -7,6 +7,7 @@ use crate::error::{try_zeroed, PodidError};
 use crate::gram::{gram, Gram};
 use crate::normal::{n_unknowns, Basis};
 use faer::{Mat, Par};
+use std::time::Instant;
 
 /// Identified M, C, K with what the solver saw.
 pub struct Identified {
@@ -18,6 +19,8 @@ pub struct Identified {
     pub n_unknowns: usize,
     pub min_pivot_ratio: f64,
     pub scaling: Scaling,
+    /// wall time per phase, seconds: gram, form (normal matrix), factor, total
+    pub timings: Vec<(&'static str, f64)>,
 }
 
 /// True when no block is penalised: the problem splits into m rows sharing H.
@@ -36,26 +39,30 @@ pub fn dense_bytes(m: usize, lam: [f64; 3], symmetric: bool) -> u128 {
 }
 
 /// Solve with Cholesky, falling back to the minimum-norm eigen solution.
+/// Returns the solution and the time spent forming G.
 fn solve_dense(
     form: impl Fn(&mut [f64]),
     n: usize,
     rhs: &[f64],
     par: Par,
     what: &str,
-) -> Result<Solution, PodidError> {
+) -> Result<(Solution, f64), PodidError> {
+    let start = Instant::now();
     let mut g = try_zeroed(n * n, what)?;
     form(&mut g);
+    let form_seconds = start.elapsed().as_secs_f64();
     if let Some(sol) = cholesky_solve(&mut g, n, rhs, par) {
-        return Ok(sol);
+        return Ok((sol, form_seconds));
     }
     // the factor overwrote g: form it again for the rank-revealing solve
     g.iter_mut().for_each(|v| *v = 0.0);
     form(&mut g);
-    eigen_min_norm_solve(&g, n, rhs).map_err(PodidError::Invalid)
+    let sol = eigen_min_norm_solve(&g, n, rhs).map_err(PodidError::Invalid)?;
+    Ok((sol, form_seconds))
 }
 
 /// λ = 0 everywhere: Z H = B, one 3m×3m factorisation for all m rows.
-fn solve_rows(gm: &Gram, m: usize, par: Par) -> Result<(Mat<f64>, Solution), PodidError> {
+fn solve_rows(gm: &Gram, m: usize, par: Par) -> Result<(Mat<f64>, Solution, f64), PodidError> {
     let n = 3 * m;
     let h = &gm.h;
     let form = |g: &mut [f64]| {
@@ -69,10 +76,10 @@ fn solve_rows(gm: &Gram, m: usize, par: Par) -> Result<(Mat<f64>, Solution), Pod
     let rhs: Vec<f64> = (0..m)
         .flat_map(|r| (0..n).map(move |c| gm.b[(r, c)]))
         .collect();
-    let mut sol = solve_dense(form, n, &rhs, par, "the 3m×3m Gram matrix")?;
+    let (mut sol, form_seconds) = solve_dense(form, n, &rhs, par, "the 3m×3m Gram matrix")?;
     let z = Mat::from_fn(m, n, |r, c| sol.x[r * n + c]);
     sol.rank *= m;
-    Ok((z, sol))
+    Ok((z, sol, form_seconds))
 }
 
 /// General case: the full normal matrix in the symmetric/skew basis.
@@ -82,14 +89,14 @@ fn solve_coords(
     lam_scaled: [f64; 3],
     symmetric: bool,
     par: Par,
-) -> Result<(Mat<f64>, Solution), PodidError> {
+) -> Result<(Mat<f64>, Solution, f64), PodidError> {
     let basis = Basis::new(m, symmetric);
     let n = basis.len();
     let rhs = basis.rhs(gm.b.as_ref());
     let form = |g: &mut [f64]| basis.assemble(gm.h.as_ref(), lam_scaled, g);
     let what = format!("the {n}×{n} normal matrix");
-    let sol = solve_dense(form, n, &rhs, par, &what)?;
-    Ok((basis.to_blocks(&sol.x), sol))
+    let (sol, form_seconds) = solve_dense(form, n, &rhs, par, &what)?;
+    Ok((basis.to_blocks(&sol.x), sol, form_seconds))
 }
 
 /// Identify M, C, K from the columns (paper eq. 49, solved in the symmetric/skew
@@ -106,10 +113,12 @@ pub fn identify(
             "lam must be finite and non-negative, got {lam:?}"
         )));
     }
+    let start = Instant::now();
     let m = cols.m;
     let scaling = Scaling::of(cols);
     let gm = gram(&Stacked::new(cols, &scaling), par);
-    let (z, sol) = if unregularised(lam, symmetric) {
+    let gram_seconds = start.elapsed().as_secs_f64();
+    let (z, sol, form_seconds) = if unregularised(lam, symmetric) {
         solve_rows(&gm, m, par)?
     } else {
         solve_coords(&gm, m, scaling.scaled_lam(lam), symmetric, par)?
@@ -123,6 +132,12 @@ pub fn identify(
         n_unknowns: n_unknowns(m, symmetric),
         min_pivot_ratio: sol.min_pivot_ratio,
         scaling,
+        timings: vec![
+            ("gram", gram_seconds),
+            ("form", form_seconds),
+            ("factor", sol.factor_seconds),
+            ("total", start.elapsed().as_secs_f64()),
+        ],
     })
 }
 
@@ -196,13 +211,13 @@ mod tests {
         let cols = Columns::new(&u, &f, &w, m).unwrap();
         let id = identify(&cols, [0.0; 3], false, Par::Seq).unwrap();
         assert_eq!(id.method, Method::Cholesky);
-        for b in 0..3 {
-            assert!(rel_err(&id.mck[b], &t[b]) < 1e-10, "block {b}");
+        for (b, (x, want)) in id.mck.iter().zip(&t).enumerate() {
+            assert!(rel_err(x, want) < 1e-10, "block {b}");
         }
         // the general assembly with λ = (0, 0, tiny) gives the same answer
         let id2 = identify(&cols, [0.0, 0.0, 1e-300], false, Par::Seq).unwrap();
-        for b in 0..3 {
-            assert!(rel_err(&id2.mck[b], &t[b]) < 1e-10, "block {b}");
+        for (b, (x, want)) in id2.mck.iter().zip(&t).enumerate() {
+            assert!(rel_err(x, want) < 1e-10, "block {b}");
         }
     }
 
@@ -218,10 +233,9 @@ mod tests {
         let cols = Columns::new(&u, &f, &w, m).unwrap();
         for (lam, sym) in [([0.0; 3], true), ([100.0; 3], false)] {
             let id = identify(&cols, lam, sym, Par::Seq).unwrap();
-            for b in 0..3 {
-                assert!(rel_err(&id.mck[b], &t[b]) < 1e-10, "block {b} sym={sym}");
+            for (b, (x, want)) in id.mck.iter().zip(&t).enumerate() {
+                assert!(rel_err(x, want) < 1e-10, "block {b} sym={sym}");
                 if sym {
-                    let x = &id.mck[b];
                     assert_eq!(x, &x.transpose().to_owned());
                 }
             }

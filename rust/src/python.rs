@@ -50,20 +50,22 @@ fn mat_to_py<'py>(py: Python<'py>, a: &Mat<f64>) -> Bound<'py, PyArray2<f64>> {
     )
 }
 
-fn slices<'a>(
+/// Borrow the validated columns (arrays are C-contiguous from the Python layer).
+fn columns<'a>(
     u: &'a PyReadonlyArray2<'_, Complex64>,
     f: &'a PyReadonlyArray2<'_, Complex64>,
     omega: &'a PyReadonlyArray1<'_, f64>,
-) -> PyResult<(&'a [Complex64], &'a [Complex64], &'a [f64], usize)> {
-    let m = u.shape()[1];
+) -> PyResult<Columns<'a>> {
     let err = |_| PyValueError::new_err("arrays must be C-contiguous");
-    Ok((
+    let (us, fs, ws) = (
         u.as_slice().map_err(err)?,
         f.as_slice().map_err(err)?,
         omega.as_slice().map_err(err)?,
-        m,
-    ))
+    );
+    Columns::new(us, fs, ws, u.shape()[1]).map_err(to_py)
 }
+
+type MatPair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// Gram products H = Re(V Vᴴ) (3m×3m) and B = Re(F Vᴴ) (m×3m), unscaled (DESIGN §2).
 /// u, f: complex (N, m) rows u_i, f_i; omega: (N,).
@@ -75,10 +77,9 @@ fn py_gram<'py>(
     f: PyReadonlyArray2<'py, Complex64>,
     omega: PyReadonlyArray1<'py, f64>,
     threads: usize,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
-    let (u, f, w, m) = slices(&u, &f, &omega)?;
+) -> PyResult<MatPair<'py>> {
+    let cols = columns(&u, &f, &omega)?;
     let g = run(py, threads, || {
-        let cols = Columns::new(u, f, w, m)?;
         Ok(crate::gram::gram(
             &Stacked::new(&cols, &Scaling::IDENTITY),
             Par::rayon(0),
@@ -100,10 +101,9 @@ fn identify_direct<'py>(
     symmetric: bool,
     threads: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (u, f, w, m) = slices(&u, &f, &omega)?;
+    let cols = columns(&u, &f, &omega)?;
     let lam = [lam.0, lam.1, lam.2];
     let id = run(py, threads, || {
-        let cols = Columns::new(u, f, w, m)?;
         identify::identify(&cols, lam, symmetric, Par::rayon(0))
     })?;
     let d = PyDict::new(py);
@@ -116,6 +116,11 @@ fn identify_direct<'py>(
     d.set_item("min_pivot_ratio", id.min_pivot_ratio)?;
     let s = id.scaling;
     d.set_item("scaling", (s.omega0, s.su, s.sf))?;
+    let t = PyDict::new(py);
+    for (name, secs) in &id.timings {
+        t.set_item(*name, *secs)?;
+    }
+    d.set_item("timings", t)?;
     Ok(d)
 }
 
