@@ -1,8 +1,8 @@
 """Input checks shared by every identification path.
 
-Every public function that takes measured data passes it through here, so that
-bad input gives the same clear ``ValueError`` whichever backend runs, and the
-caller's arrays are never modified (we always work on fresh copies).
+Every identification path passes its data through here, so that bad input gives
+the same clear ``ValueError`` whichever backend runs, and the caller's arrays are
+never modified (``_arrays`` always returns fresh copies).
 """
 
 from __future__ import annotations
@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from ._arrays import as_array, as_omega
 
 Triple = tuple[float, float, float]
 
@@ -51,40 +53,15 @@ class FrequencyData:
         return U, F, w
 
 
-def _as_complex_array(x: object, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x)
-    except Exception as exc:  # ragged lists and the like
-        raise ValueError(f"{name} could not be read as a numeric array: {exc}") from None
-    if a.dtype == object or not (
-        np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.bool_)
-    ):
-        raise ValueError(f"{name} must be a numeric array, got dtype {a.dtype}")
-    if np.issubdtype(a.dtype, np.bool_):
-        raise ValueError(f"{name} must be a numeric array, got booleans")
-    return np.array(a, dtype=np.complex128, order="C", copy=True)
-
-
 def check_frequency_data(U: object, F: object, omega: object) -> FrequencyData:
     """Validate responses ``U``, forces ``F`` and angular frequencies ``omega``.
 
     Accepted shapes: ``U``/``F`` ``(s, m)`` or ``(s, m, p)``, ``omega`` ``(s,)`` in
     rad/s, all finite, ``omega > 0``.  Returns copies; inputs are untouched.
     """
-    Ua = _as_complex_array(U, "U")
-    Fa = _as_complex_array(F, "F")
-    try:
-        w = np.asarray(omega)
-    except Exception as exc:
-        raise ValueError(f"omega could not be read as a numeric array: {exc}") from None
-    if w.dtype == object or not np.issubdtype(w.dtype, np.number):
-        raise ValueError(f"omega must be a real numeric array, got dtype {w.dtype}")
-    if np.iscomplexobj(w):
-        if np.any(np.imag(w) != 0):
-            raise ValueError("omega must be real (angular frequency in rad/s)")
-        w = np.real(w)
-    w = np.array(w, dtype=np.float64, copy=True).reshape(w.shape)
-
+    Ua = np.ascontiguousarray(as_array(U, "U"), dtype=np.complex128)
+    Fa = np.ascontiguousarray(as_array(F, "F"), dtype=np.complex128)
+    w = as_omega(omega)
     if Ua.ndim not in (2, 3):
         raise ValueError(f"U must have shape (s, m) or (s, m, p); got shape {Ua.shape}")
     if Ua.ndim == 2:
@@ -92,30 +69,18 @@ def check_frequency_data(U: object, F: object, omega: object) -> FrequencyData:
     if Fa.ndim == 2:
         Fa = Fa[:, :, None]
     if Fa.shape != Ua.shape:
+        squeeze = lambda a: a.shape[:2] if a.shape[2] == 1 else a.shape  # noqa: E731
         raise ValueError(
-            f"F must have the same shape as U (frequency-first (s, m) or (s, m, p)); "
-            f"got U {Ua.shape[:2] if Ua.shape[2] == 1 else Ua.shape} "
-            f"and F {Fa.shape[:2] if Fa.shape[2] == 1 else Fa.shape}"
+            "F must have the same shape as U (frequency-first (s, m) or (s, m, p)); "
+            f"got U {squeeze(Ua)} and F {squeeze(Fa)}"
         )
-    if w.ndim != 1 or w.shape[0] != Ua.shape[0]:
+    if w.shape[0] != Ua.shape[0]:
         raise ValueError(
             f"omega must be 1-D with one entry per frequency line (s = {Ua.shape[0]}); "
             f"got shape {w.shape}"
         )
-    s, m, p = Ua.shape
-    if s == 0 or m == 0 or p == 0:
+    if 0 in Ua.shape:
         raise ValueError(f"empty data: U has shape {Ua.shape}")
-    for name, a in (("U", Ua), ("F", Fa), ("omega", w)):
-        bad = ~np.isfinite(a)
-        if bad.any():
-            idx = np.argwhere(bad)[0]
-            raise ValueError(
-                f"{name} contains {int(bad.sum())} non-finite value(s) (NaN or inf), "
-                f"first at index {tuple(int(i) for i in idx)}"
-            )
-    if np.any(w <= 0):
-        i = int(np.argmax(w <= 0))
-        raise ValueError(f"omega must be strictly positive (rad/s); omega[{i}] = {w[i]!r}")
     if not np.any(Ua):
         raise ValueError("U is identically zero: there is nothing to identify from")
     return FrequencyData(Ua, Fa, w)
