@@ -24,27 +24,3 @@ impl fmt::Display for PodidError {
 }
 
 impl std::error::Error for PodidError {}
-
-/// Allocate a zeroed vector of `len` doubles, or a clear error instead of an abort.
-///
-/// Uses `alloc_zeroed`, so the pages of a large matrix are not touched twice.
-pub fn try_zeroed(len: usize, what: &str) -> Result<Vec<f64>, PodidError> {
-    let oom = || PodidError::OutOfMemory {
-        bytes: len as u128 * 8,
-        what: what.to_string(),
-    };
-    if len == 0 {
-        return Ok(Vec::new());
-    }
-    let layout = std::alloc::Layout::array::<f64>(len).map_err(|_| oom())?;
-    // SAFETY: the layout has non-zero size; a null pointer is handled; the
-    // pointer comes from the global allocator with exactly the layout that
-    // `Vec<f64>` with capacity `len` uses, and all-zero bytes are valid f64s.
-    unsafe {
-        let ptr = std::alloc::alloc_zeroed(layout) as *mut f64;
-        if ptr.is_null() {
-            return Err(oom());
-        }
-        Ok(Vec::from_raw_parts(ptr, len, len))
-    }
-}

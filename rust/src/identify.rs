@@ -1,9 +1,10 @@
 //! The whole direct identification: scale, Gram products, normal equations in
 //! the symmetric/skew basis, solve, map back to M, C, K in the caller's units.
 
+use crate::buffer::DenseBuf;
 use crate::data::{Columns, Scaling, Stacked};
 use crate::direct::{cholesky_solve, eigen_min_norm_solve, Method, Solution};
-use crate::error::{try_zeroed, PodidError};
+use crate::error::PodidError;
 use crate::gram::{gram, Gram};
 use crate::normal::{n_unknowns, Basis};
 use faer::{Mat, Par};
@@ -48,7 +49,7 @@ fn solve_dense(
     what: &str,
 ) -> Result<(Solution, f64), PodidError> {
     let start = Instant::now();
-    let mut g = try_zeroed(n * n, what)?;
+    let mut g = DenseBuf::zeroed(n * n, what)?;
     form(&mut g);
     let form_seconds = start.elapsed().as_secs_f64();
     if let Some(sol) = cholesky_solve(&mut g, n, rhs, par) {

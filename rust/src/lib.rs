@@ -10,6 +10,7 @@
 //!
 //! The Python bindings live in `python.rs` behind the `python` feature.
 
+pub mod buffer;
 pub mod data;
 pub mod direct;
 pub mod error;
