@@ -87,3 +87,50 @@ pub fn gram(data: &Stacked, par: Par) -> Gram {
     }
     Gram { h, b }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::{Columns, Scaling};
+    use faer::c64;
+
+    fn gram_of(u: &[c64], f: &[c64], w: &[f64], m: usize) -> Gram {
+        let cols = Columns::new(u, f, w, m).unwrap();
+        gram(&Stacked::new(&cols, &Scaling::IDENTITY), Par::Seq)
+    }
+
+    /// m = 1, u = 1+2i, f = 3−i, ω = 2: |u|² = 5, f ū = 1 − 7i, so
+    /// H = 5·[[ω⁴, 0, −ω²], [0, ω², 0], [−ω², 0, 1]] and B = [−ω²·1, ω·(−7), 1].
+    #[test]
+    fn single_dof_by_hand() {
+        let g = gram_of(&[c64::new(1.0, 2.0)], &[c64::new(3.0, -1.0)], &[2.0], 1);
+        let h = [[80.0, 0.0, -20.0], [0.0, 20.0, 0.0], [-20.0, 0.0, 5.0]];
+        for (i, row) in h.iter().enumerate() {
+            for (j, want) in row.iter().enumerate() {
+                assert_eq!(g.h[(i, j)], *want, "H[{i},{j}]");
+            }
+        }
+        for (j, want) in [-4.0, -14.0, 1.0].iter().enumerate() {
+            assert_eq!(g.b[(0, j)], *want, "B[0,{j}]");
+        }
+    }
+
+    /// m = 2, u = [1, i], ω = 1: Re(u uᴴ) = I, Im(u uᴴ) = [[0, −1], [1, 0]] = J, so the
+    /// (M, C) block of H is −ω³J and the (C, K) block −ωJ.
+    #[test]
+    fn imaginary_part_enters_as_antisymmetric_blocks() {
+        let u = [c64::new(1.0, 0.0), c64::new(0.0, 1.0)];
+        let g = gram_of(&u, &[c64::new(0.0, 0.0); 2], &[1.0], 2);
+        let j = [[0.0, -1.0], [1.0, 0.0]];
+        for a in 0..2 {
+            for b in 0..2 {
+                let id = if a == b { 1.0 } else { 0.0 };
+                assert_eq!(g.h[(a, 2 + b)], -j[a][b], "(M,C)");
+                assert_eq!(g.h[(2 + a, 4 + b)], -j[a][b], "(C,K)");
+                assert_eq!(g.h[(2 + a, b)], j[a][b], "(C,M)");
+                assert_eq!(g.h[(a, b)], id, "S4");
+                assert_eq!(g.h[(a, 4 + b)], -id, "−S2");
+            }
+        }
+    }
+}
