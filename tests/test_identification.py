@@ -200,6 +200,8 @@ def test_bad_input_raises_value_error_naming_the_problem(mutate, match):
         ({"lam": "lcurve"}, "selection rule"),
         ({"backend": "fortran"}, "backend"),
         ({"threads": -2}, "threads"),
+        ({"threads": 2**40}, "threads"),
+        ({"threads": 1.5}, "threads"),
     ],
 )
 def test_bad_options_raise(kwargs, match):

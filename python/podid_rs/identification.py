@@ -108,6 +108,20 @@ def _check_memory(nbytes: int, what: str) -> None:
         )
 
 
+MAX_THREADS = 1024  # as the Rust core's bound
+
+
+def _check_threads(threads: object) -> int:
+    """Worker-thread count for the Rust core: None → 0 (all cores), else 1…MAX_THREADS."""
+    if threads is None:
+        return 0
+    if isinstance(threads, bool) or not isinstance(threads, int | np.integer):
+        raise ValueError(f"threads must be None or a positive integer, got {threads!r}")
+    if not 0 <= threads <= MAX_THREADS:
+        raise ValueError(f"threads must be between 1 and {MAX_THREADS}, got {threads}")
+    return int(threads)
+
+
 def residual_norm(M: np.ndarray, C: np.ndarray, K: np.ndarray, data: FrequencyData) -> float:
     """‖Ax − y‖ (eq. 28): the misfit of (−ω²M + iωC + K)u − f over all lines and loads."""
     w = data.omega[:, None, None]
@@ -279,8 +293,7 @@ def identify(
     data = check_frequency_data(U, F, omega)
     lam_t = check_lam(lam)
     symmetric = bool(symmetric)
-    if threads is not None and (int(threads) != threads or threads < 0):
-        raise ValueError(f"threads must be a non-negative integer, got {threads!r}")
+    threads = _check_threads(threads)
     n_eq, n_unk = count_equations(data, lam_t, symmetric)
     if n_eq < n_unk:
         need = (
@@ -293,7 +306,7 @@ def identify(
             f"{n_eq} real equations for {n_unk} unknowns at order m = {data.m}{need}"
         )
     if backend == "rust":
-        out = _identify_rust(data, lam_t, symmetric, int(threads or 0))
+        out = _identify_rust(data, lam_t, symmetric, threads)
     elif backend == "numpy":
         out = _identify_numpy(data, lam_t, symmetric)
     else:

@@ -122,12 +122,12 @@ mod tests {
         let u = [c64::new(1.0, 0.0), c64::new(0.0, 1.0)];
         let g = gram_of(&u, &[c64::new(0.0, 0.0); 2], &[1.0], 2);
         let j = [[0.0, -1.0], [1.0, 0.0]];
-        for a in 0..2 {
-            for b in 0..2 {
+        for (a, jrow) in j.iter().enumerate() {
+            for (b, &jab) in jrow.iter().enumerate() {
                 let id = if a == b { 1.0 } else { 0.0 };
-                assert_eq!(g.h[(a, 2 + b)], -j[a][b], "(M,C)");
-                assert_eq!(g.h[(2 + a, 4 + b)], -j[a][b], "(C,K)");
-                assert_eq!(g.h[(2 + a, b)], j[a][b], "(C,M)");
+                assert_eq!(g.h[(a, 2 + b)], -jab, "(M,C)");
+                assert_eq!(g.h[(2 + a, 4 + b)], -jab, "(C,K)");
+                assert_eq!(g.h[(2 + a, b)], jab, "(C,M)");
                 assert_eq!(g.h[(a, b)], id, "S4");
                 assert_eq!(g.h[(a, 4 + b)], -id, "−S2");
             }

@@ -23,17 +23,65 @@ mod python;
 
 pub use error::PodidError;
 
-/// Run `f` on a rayon pool with `threads` workers (0 = all cores).
+/// Most worker threads a caller may ask for: beyond this a count is a mistake.
+pub const MAX_THREADS: usize = 1024;
+
+/// Run `f` on a rayon pool with `threads` workers (0 = the global pool, all cores).
+///
+/// Pools are built once per thread count and kept, so repeated calls do not
+/// start and abandon threads.
 pub fn with_threads<T: Send>(
     threads: usize,
     f: impl FnOnce() -> T + Send,
 ) -> Result<T, PodidError> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+
     if threads == 0 {
         return Ok(f());
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| PodidError::Invalid(format!("could not start {threads} threads: {e}")))?;
+    if threads > MAX_THREADS {
+        return Err(PodidError::Invalid(format!(
+            "threads must be at most {MAX_THREADS}, got {threads}"
+        )));
+    }
+    let pool = {
+        let mut pools = POOLS
+            .get_or_init(Default::default)
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        match pools.get(&threads) {
+            Some(p) => p.clone(),
+            None => {
+                let p = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| {
+                        PodidError::Invalid(format!("could not start {threads} threads: {e}"))
+                    })?;
+                let p = Arc::new(p);
+                pools.insert(threads, p.clone());
+                p
+            }
+        }
+    };
     Ok(pool.install(f))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thread_pools_are_bounded_and_reused() {
+        assert_eq!(with_threads(2, rayon::current_num_threads).unwrap(), 2);
+        assert_eq!(with_threads(3, rayon::current_num_threads).unwrap(), 3);
+        assert!(with_threads(MAX_THREADS + 1, || ()).is_err());
+        let ids: Vec<_> = (0..2)
+            .map(|_| with_threads(2, || std::thread::current().id()).unwrap())
+            .collect();
+        // both calls ran on a worker of the same pool (2 threads), not a fresh one each time
+        assert!(ids.iter().all(|id| *id != std::thread::current().id()));
+    }
 }
