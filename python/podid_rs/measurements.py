@@ -22,6 +22,12 @@ operational data) give a basis but no M, C, K, and a force calibration error
 scales all three matrices by its inverse. Each load case gives 2m real
 equations per line against 3m² unknowns (3m(m+1)/2 symmetric), so
 ``s · p ≥ 1.5 m`` lines × load cases is the least that can determine them.
+Unit forces on p driven DOFs span at most p of the m reduced directions, and
+then every ``(I + Q) [M C K]`` with ``Q F_m = 0`` fits the data as well as the
+truth: plain least squares (λ = 0) is rank deficient, rank at most
+m (2m + p) of 3m², unless p ≥ m. Symmetry removes that freedom for generic
+systems, so identify FRF data with ``symmetric=True`` or λ > 0. Forces that vary
+from line to line (random excitation, ``estimator="spectra"``) have no such limit.
 
 **Units.** Everything is converted to receptance (displacement per unit force)
 with the e^{iωt} convention of the FFT used here: velocity ÷ iω, acceleration
