@@ -64,6 +64,8 @@ def check_frequency_data(U: object, F: object, omega: object) -> FrequencyData:
     w = as_omega(omega)
     if Ua.ndim not in (2, 3):
         raise ValueError(f"U must have shape (s, m) or (s, m, p); got shape {Ua.shape}")
+    if Fa.ndim not in (2, 3):
+        raise ValueError(f"F must have shape (s, m) or (s, m, p) like U; got shape {Fa.shape}")
     if Ua.ndim == 2:
         Ua = Ua[:, :, None]
     if Fa.ndim == 2:
