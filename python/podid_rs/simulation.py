@@ -140,6 +140,8 @@ def add_noise(x: object, snr_db: float, seed: int | None = None, axis: int = 0) 
         or not (-a.ndim <= axis < a.ndim)
     ):
         raise ValueError(f"axis {axis!r} is out of range for x of shape {a.shape}")
+    if a.size == 0:
+        raise ValueError(f"x is empty (shape {a.shape}): no signal variance to scale noise to")
     sigma = np.sqrt(np.var(a, axis=axis, keepdims=True) / 10 ** (snr / 10))
     rng = np.random.default_rng(seed)
     if np.iscomplexobj(a):
