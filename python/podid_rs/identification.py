@@ -132,7 +132,7 @@ def residual_norm(M: np.ndarray, C: np.ndarray, K: np.ndarray, data: FrequencyDa
         + np.einsum("ij,sjp->sip", K, U)
         - data.F
     )
-    return float(np.linalg.norm(R))
+    return float(scipy.linalg.norm(R.ravel(), check_finite=False))  # BLAS nrm2: no overflow
 
 
 def gram_numpy(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -154,7 +154,11 @@ def _scales(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[float, flo
     def nz(x: float) -> float:
         return x if x > 0 and np.isfinite(x) else 1.0
 
-    rms = lambda a: float(np.sqrt(np.mean(np.abs(a) ** 2)))  # noqa: E731
+    def rms(a: np.ndarray) -> float:
+        """RMS of |a|, computed on a / max|a| so that it cannot overflow or underflow."""
+        top = float(np.max(np.abs(a)))
+        return top * float(np.sqrt(np.mean(np.abs(a / top) ** 2))) if top > 0 else 0.0
+
     return nz(rms(omega)), nz(rms(U)), nz(rms(F))
 
 
