@@ -9,10 +9,14 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.simulation` — white-noise forcing, responses, spectra, H1 FRFs;
 - :mod:`podid_rs.pod` — correlation matrices, POD basis, projection (eqs. 3–18);
 - :mod:`podid_rs.identification` — :func:`identify` (eqs. 19–49);
-- :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle).
+- :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle);
+- :mod:`podid_rs.measurements` — measured data in: UFF 58 FRFs, time histories, ``.npz``;
+- :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability.
 """
 
 from .identification import IdentificationResult, RankDeficientWarning, identify
+from .measurements import MeasuredData, load_data, load_model, read_uff, save_data, save_model
+from .physical import make_physical, modal_parameters
 from .pod import (
     PODResult,
     correlation_from_frf,
@@ -28,6 +32,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "IdentificationResult",
+    "MeasuredData",
     "PODResult",
     "RankDeficientWarning",
     "SecondOrderSystem",
@@ -37,10 +42,17 @@ __all__ = [
     "correlation_from_snapshots",
     "frf_h1",
     "identify",
+    "load_data",
+    "load_model",
+    "make_physical",
     "mass_spring_chain",
+    "modal_parameters",
     "pod",
     "pod_from_correlation",
     "pod_from_frf",
+    "read_uff",
+    "save_data",
+    "save_model",
     "simulate_white_noise",
     "spectra",
 ]
