@@ -426,12 +426,13 @@ def test_measured_data_from_frf(data, draw):
         st.one_of(
             st.lists(st.integers(0, n - 1), min_size=n_in, max_size=n_in, unique=True),
             st.lists(st.integers(-2, n + 2), min_size=0, max_size=n + 1),
+            st.lists(st.floats(-1e30, 1e30), min_size=n_in, max_size=n_in),
             st.none(),
         )
     )
     quantity = draw.draw(st.sampled_from(["displacement", "velocity", "acceleration", "force"]))
     cols = np.array(inputs if inputs is not None and len(inputs) == n_in else range(n_in))
-    cols = np.clip(cols, 0, n - 1)
+    cols = np.clip(cols, 0, n - 1).astype(int)
     factor = {"velocity": 1j * omega, "acceleration": -(omega**2)}.get(quantity, 1.0 + 0 * omega)
     Hq = H[:, :, cols] * factor[:, None, None]
     out = checked(from_frf, relayout(draw.draw, Hq), omega, inputs=inputs, quantity=quantity)

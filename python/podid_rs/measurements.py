@@ -113,9 +113,9 @@ def _input_indices(inputs: object, n: int, n_in: int) -> np.ndarray:
         raise ValueError(
             f"inputs must hold {n_in} integer indices (one per driven DOF), got {inputs!r}"
         )
-    idx = a.astype(np.int64)
-    if np.any(idx < 0) or np.any(idx >= n):
+    if np.any(a < 0) or np.any(a >= n):
         raise ValueError(f"inputs must index the {n} measured DOFs (0 … {n - 1}), got {inputs!r}")
+    idx = a.astype(np.int64)
     if np.unique(idx).size != idx.size:
         raise ValueError(f"inputs must not repeat a DOF, got {inputs!r}")
     return idx
