@@ -4,6 +4,9 @@ Commands:
 
 - ``paper`` — reproduce Section 6 of the paper: figures and a results table
   (:func:`podid_rs.paper.run_paper_study`).
+- ``identify`` — identify a reduced model from measured data (UFF 58 FRFs, time
+  histories or a saved data set): model, FRF overlays and modal table
+  (:func:`podid_rs.workflow.run_identify`).
 
 Each command is one ``_add_<name>`` function that registers its sub-parser and
 sets ``handler``, a function ``(args) -> int`` (bound to its sub-parser, for usage
@@ -62,6 +65,16 @@ def _seed(text: str) -> int:
     return n
 
 
+def _order(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return n
+
+
 def _run_paper(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``podid-rs paper``: run the study, print its summary; 1 if it fails."""
     from .paper import run_paper_study
@@ -110,6 +123,64 @@ def _add_paper(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=functools.partial(_run_paper, parser=p))
 
 
+def _run_identify(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``podid-rs identify``: identify, write the files, print the summary; 1 if it fails."""
+    from .workflow import run_identify
+
+    lo, hi = args.band_hz
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
+        parser.error(f"--band-hz needs 0 <= LO < HI in Hz, got {lo:g} {hi:g}")
+    lam = None
+    if args.lam is not None:
+        try:
+            lam = parse_lam(args.lam)
+        except ValueError as exc:
+            parser.error(str(exc))
+    try:
+        run = run_identify(
+            args.data, args.out, band_hz=(lo, hi), m=args.m, energy=args.energy, lam=lam,
+            physical=args.physical,
+        )
+    except (ValueError, MemoryError, OSError) as exc:
+        print(f"podid-rs identify: error: {exc}", file=sys.stderr)
+        return 1
+    print(run.summary(), end="")
+    print("wrote " + ", ".join(str(p) for p in run.files))
+    return 0
+
+
+def _add_identify(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "identify",
+        help="identify reduced M, C, K from measured FRFs or time histories",
+        description=(
+            "Identify a reduced model from measured data: a Universal File (.uff/.unv, "
+            "dataset 58 FRFs; velocity and acceleration are converted to receptance), or an "
+            ".npz with time histories (arrays forces, responses, dt, inputs; FRFs by H1 with "
+            "Welch averaging) or a data set saved by podid_rs.save_data. Builds the POD basis "
+            "of the responses in the band, identifies M, C, K and writes model.npz, FRF "
+            "overlays (frf_input<k>.png) and the modal table (modes.csv, modes.md)."
+        ),
+    )
+    p.add_argument("data", metavar="DATA", help="measured data file (.uff, .unv or .npz)")
+    p.add_argument("--band-hz", nargs=2, type=float, required=True, metavar=("LO", "HI"),
+                   help="frequency band in Hz; the lines in it are used")
+    order = p.add_mutually_exclusive_group()
+    order.add_argument("--m", type=_order, default=None, metavar="M",
+                       help="reduced order (number of POD modes)")
+    order.add_argument("--energy", type=_energy, default=None, metavar="K",
+                       help="smallest order capturing this energy fraction (default: 0.99)")
+    p.add_argument("--lam", nargs="+", default=None, metavar="LAM",
+                   help="symmetry regularisation λ, or λ_M λ_C λ_K (paper eq. 40; default: "
+                   "exactly symmetric M, C, K, the λ → ∞ limit)")
+    p.add_argument("--physical", action="store_true",
+                   help="make M, K positive definite and C positive semidefinite (nearest "
+                   "matrices), reporting the change in residual")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder (created if missing)")
+    p.set_defaults(handler=functools.partial(_run_identify, parser=p))
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``podid-rs`` argument parser with all its sub-commands."""
     parser = argparse.ArgumentParser(
@@ -120,6 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     _add_paper(sub)
+    _add_identify(sub)
     return parser
 
 
