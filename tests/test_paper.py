@@ -124,6 +124,11 @@ def test_energy_and_lam_options_reach_the_study(tmp_path):
     assert "energy fraction 0.9" in s.md_path.read_text(encoding="utf-8")
 
 
+def test_an_energy_needing_too_many_modes_is_refused(tmp_path):
+    with pytest.raises(ValueError, match=r"needs m = \d+ POD modes in band 1"):
+        run_paper_study(tmp_path, quick=True, energy=1.0, progress=False)
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [{"energy": 0.0}, {"energy": 1.5}, {"seed": -1}, {"seed": 1.5}, {"lam": -1.0},
