@@ -180,19 +180,7 @@ def test_identify_is_invariant_to_the_units(data, a, f, c, backend):
         assert rel(getattr(out, k) * 10.0**-e, getattr(ref, k)) < 1e-8
 
 
-@pytest.mark.parametrize(
-    "backend",
-    [
-        "numpy",
-        pytest.param(
-            "rust",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="the Rust core's RMS scaling sums |u|², which overflows beyond 1e154",
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("backend", ["numpy", "rust"])
 def test_identify_with_data_beyond_1e154(backend):
     _, U, F, omega = make_system_data(2, 1, 6, seed=0)
     ref = identify(U, F, omega, symmetric=True, backend=backend)

@@ -68,9 +68,17 @@ pub struct Scaling {
     pub sf: f64,
 }
 
+/// RMS of |z|, computed on z / max|z| so that it cannot overflow (|z| up to f64::MAX).
 fn rms_c(z: &[c64]) -> f64 {
-    let s: f64 = z.iter().map(|v| v.norm_sqr()).sum();
-    (s / z.len() as f64).sqrt()
+    let top = z
+        .iter()
+        .map(|v| v.re.abs().max(v.im.abs()))
+        .fold(0.0, f64::max);
+    if top == 0.0 || !top.is_finite() {
+        return top;
+    }
+    let s: f64 = z.iter().map(|v| (v / top).norm_sqr()).sum();
+    top * (s / z.len() as f64).sqrt()
 }
 
 impl Scaling {
@@ -128,5 +136,22 @@ impl Stacked {
         });
         let w = cols.omega.iter().map(|w| w / sc.omega0).collect();
         Stacked { y, g, w }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scales_do_not_overflow_or_underflow() {
+        for big in [1e-300, 1.0, 1e200, 1e300] {
+            let u = [c64::new(3.0 * big, 4.0 * big), c64::new(0.0, 0.0)];
+            let rms = rms_c(&u);
+            assert!(
+                (rms / big - 5.0 / 2f64.sqrt()).abs() < 1e-14,
+                "{big}: {rms}"
+            );
+        }
     }
 }
