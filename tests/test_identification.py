@@ -202,6 +202,7 @@ def test_bad_input_raises_value_error_naming_the_problem(mutate, match):
         ({"threads": -2}, "threads"),
         ({"threads": 2**40}, "threads"),
         ({"threads": 1.5}, "threads"),
+        ({"symmetric": "no"}, "True or False"),
     ],
 )
 def test_bad_options_raise(kwargs, match):

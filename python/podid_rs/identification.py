@@ -296,6 +296,8 @@ def identify(
     """
     data = check_frequency_data(U, F, omega)
     lam_t = check_lam(lam)
+    if not isinstance(symmetric, bool | np.bool_):
+        raise ValueError(f"symmetric must be True or False, got {symmetric!r}")
     symmetric = bool(symmetric)
     threads = _check_threads(threads)
     n_eq, n_unk = count_equations(data, lam_t, symmetric)

@@ -31,11 +31,14 @@ fn unregularised(lam: [f64; 3], symmetric: bool) -> bool {
 
 /// Bytes of the largest dense matrix the direct path allocates.
 pub fn dense_bytes(m: usize, lam: [f64; 3], symmetric: bool) -> u128 {
+    let m = m as u128;
     let n = if unregularised(lam, symmetric) {
         3 * m
+    } else if symmetric {
+        3 * m * (m + 1) / 2
     } else {
-        n_unknowns(m, symmetric)
-    } as u128;
+        3 * m * m
+    };
     n * n * 8
 }
 
@@ -241,6 +244,13 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn dense_bytes_does_not_wrap() {
+        assert_eq!(dense_bytes(100, [1.0; 3], false), 30_000u128 * 30_000 * 8);
+        assert_eq!(dense_bytes(100, [0.0; 3], false), 300u128 * 300 * 8);
+        assert!(dense_bytes(usize::MAX / 2, [1.0; 3], true) > u64::MAX as u128);
     }
 
     #[test]
