@@ -9,6 +9,7 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.simulation` — white-noise forcing, responses, spectra, H1 FRFs;
 - :mod:`podid_rs.pod` — correlation matrices, POD basis, projection (eqs. 3–18);
 - :mod:`podid_rs.identification` — :func:`identify` (eqs. 19–49);
+- :mod:`podid_rs.regularisation` — choosing λ: L-curve, GCV, discrepancy (§4.2);
 - :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle).
 """
 
@@ -21,6 +22,14 @@ from .pod import (
     pod_from_correlation,
     pod_from_frf,
 )
+from .regularisation import (
+    LambdaCurve,
+    LambdaSelectionWarning,
+    NoCornerWarning,
+    choose_lambda,
+    lambda_curve,
+    plot_lambda_curve,
+)
 from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
 from .systems import SecondOrderSystem, mass_spring_chain
 
@@ -28,16 +37,22 @@ __version__ = "0.1.0"
 
 __all__ = [
     "IdentificationResult",
+    "LambdaCurve",
+    "LambdaSelectionWarning",
+    "NoCornerWarning",
     "PODResult",
     "RankDeficientWarning",
     "SecondOrderSystem",
     "Simulation",
     "add_noise",
+    "choose_lambda",
     "correlation_from_frf",
     "correlation_from_snapshots",
     "frf_h1",
     "identify",
+    "lambda_curve",
     "mass_spring_chain",
+    "plot_lambda_curve",
     "pod",
     "pod_from_correlation",
     "pod_from_frf",
