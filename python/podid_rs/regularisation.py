@@ -299,9 +299,6 @@ def _corner_golden(ev: _Repeated, grid: np.ndarray) -> tuple[float, float, list[
         )
     kappa = [_menger(pts[i - 1], pts[i], pts[i + 1]) for i in range(1, t.size - 1)]
     i = 1 + int(np.nanargmax(kappa))
-    problems = []
-    if i in (1, t.size - 2):
-        problems.append("the curvature is largest at an end of the λ range")
     t1, t4 = t[i - 1], t[i + 1]
     t2, t3 = t4 - _GOLDEN * (t4 - t1), t1 + _GOLDEN * (t4 - t1)
     while t4 - t1 > CORNER_XTOL_DECADES * _LN10:
@@ -315,6 +312,9 @@ def _corner_golden(ev: _Repeated, grid: np.ndarray) -> tuple[float, float, list[
             t3 = t1 + _GOLDEN * (t4 - t1)
     c2, c3 = _menger(pt(t1), pt(t2), pt(t3)), _menger(pt(t2), pt(t3), pt(t4))
     tc, k = (t2, c2) if c2 > c3 else (t3, c3)
+    problems = []
+    if not t[1] <= tc <= t[-2]:
+        problems.append("the curvature is largest in an end interval of the λ range")
     if not k >= CORNER_MIN_CURVATURE:
         problems.append(
             f"its largest curvature {k:.3g} is below {CORNER_MIN_CURVATURE:.3g} (natural-log "
@@ -381,6 +381,7 @@ def _evaluator(
     method: str,
     solve: Callable[[float], IdentificationResult] | None,
     threads: int,
+    backend: str = "rust",
 ) -> _Spectral | _Repeated:
     from . import _core
 
@@ -389,7 +390,7 @@ def _evaluator(
     if solve is None:
 
         def solve(lam: float) -> IdentificationResult:
-            return identify(data.U, data.F, data.omega, lam, threads=threads)
+            return identify(data.U, data.F, data.omega, lam, backend=backend, threads=threads)
 
     if method == "repeated":
         return _Repeated(solve, data)
@@ -581,7 +582,7 @@ def identify_with_rule(
         raise ValueError(f"backend must be 'rust' or 'numpy', got {backend!r}")
     data, rule, nthreads = _prepare(U, F, omega, rule, threads)
     target = _target_residual(data, noise, snr_db, None)
-    ev = _evaluator(data, "auto", None, nthreads)
+    ev = _evaluator(data, "auto", None, nthreads, backend)
     curve = _curve(data, rule, None, None, target, ev)
     lam = curve.lam
     if isinstance(ev, _Repeated):
