@@ -433,31 +433,35 @@ impl Sweep {
     }
 
     /// K̃ times each column of z, through H⁻¹: O(m³) per column.
-    fn apply_k(&self, z: MatRef<f64>) -> Mat<f64> {
-        let mut out = Mat::zeros(z.nrows(), z.ncols());
-        for j in 0..z.ncols() {
+    fn apply_k(&self, z: MatRef<f64>, par: Par) -> Mat<f64> {
+        let (m, k) = (self.m, z.ncols());
+        // the columns' m×3m blocks stacked, times H⁻¹ in one product
+        let mut stacked = Mat::zeros(k * m, 3 * m);
+        for j in 0..k {
             let x: Vec<f64> = z
                 .col(j)
                 .iter()
                 .zip(&self.root_w)
                 .map(|(a, r)| a * r)
                 .collect();
-            let blocks = self.skew.to_blocks(&x);
-            let mut prod = Mat::zeros(blocks.nrows(), blocks.ncols());
-            matmul(
-                prod.as_mut(),
-                Accum::Replace,
-                blocks.as_ref(),
-                self.hinv.as_ref(),
-                1.0,
-                Par::Seq,
-            );
-            for ((o, v), r) in out
-                .col_mut(j)
-                .iter_mut()
-                .zip(self.skew.rhs(prod.as_ref()))
-                .zip(&self.root_w)
-            {
+            stacked
+                .as_mut()
+                .subrows_mut(j * m, m)
+                .copy_from(self.skew.to_blocks(&x));
+        }
+        let mut prod = Mat::zeros(k * m, 3 * m);
+        matmul(
+            prod.as_mut(),
+            Accum::Replace,
+            stacked.as_ref(),
+            self.hinv.as_ref(),
+            1.0,
+            par,
+        );
+        let mut out = Mat::zeros(z.nrows(), k);
+        for j in 0..k {
+            let coords = self.skew.rhs(prod.as_ref().subrows(j * m, m));
+            for ((o, v), r) in out.col_mut(j).iter_mut().zip(coords).zip(&self.root_w) {
                 *o = v * r;
             }
         }
@@ -471,14 +475,14 @@ impl Sweep {
         let nw = self.z0w.len();
         let mut z = Mat::from_fn(nw, lams.len(), |i, _| self.z0w[i]);
         self.tri.solve_shifted(&shifts, z.as_mut(), par);
-        let mut kz = self.apply_k(z.as_ref());
+        let mut kz = self.apply_k(z.as_ref(), par);
         for _ in 0..REFINEMENT_STEPS {
             let mut r = Mat::from_fn(nw, lams.len(), |i, j| {
                 self.z0w[i] - z[(i, j)] - shifts[j] * kz[(i, j)]
             });
             self.tri.solve_shifted(&shifts, r.as_mut(), par);
             z += &r;
-            kz = self.apply_k(z.as_ref());
+            kz = self.apply_k(z.as_ref(), par);
         }
         (z, kz)
     }
