@@ -26,6 +26,10 @@ The rules (Section 4.2):
   response vector seen through the dynamic stiffness D(ω) = −ω²M + iωC + K of the
   unregularised fit (λ = 0). For noise added to full-order responses and
   projected on an orthonormal POD basis, σ is the full-order per-DOF RMS noise.
+  Expect δ just above the residual at λ → 0, which absorbs a fraction
+  3m²/(2Nm) of the noise: a δ below it (a noise level stated too small, or one
+  sample of noise smaller than its expectation) gives a warning and the smallest
+  λ, a δ above the exactly symmetric fit's residual the largest.
 
 How: the spectral sweep (Rust, ``rust/src/sweep.rs``) tridiagonalises once the
 n_w×n_w skew block of G_d⁻¹ (n_w = 3m(m−1)/2, a quarter of the direct solve's
@@ -421,23 +425,28 @@ def _evaluator(
     return _Spectral(sweep, threads)
 
 
-def _curve(
-    data: FrequencyData,
-    rule: str,
-    lams: object,
-    n: int | None,
-    target: float | None,
-    ev: _Spectral | _Repeated,
-) -> LambdaCurve:
+def _check_options(
+    rule: str, target: float | None, n: object, lams: object
+) -> tuple[int | None, np.ndarray | None]:
+    """The cheap checks, before anything is factorised: (n, the grid or None)."""
     if rule == "discrepancy" and target is None:
         raise ValueError("lam='discrepancy' needs the noise level: noise=, snr_db= or delta=")
     if n is not None and (isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 3):
         raise ValueError(f"n must be an integer >= 3, got {n!r}")
-    if lams is None:
+    return (None if n is None else int(n)), (None if lams is None else _check_grid(lams))
+
+
+def _curve(
+    rule: str,
+    grid: np.ndarray | None,
+    n: int | None,
+    target: float | None,
+    ev: _Spectral | _Repeated,
+) -> LambdaCurve:
+    if grid is None:
         lo, hi = ev.default_range()
-        grid = np.geomspace(lo, hi, int(n or (50 if ev.method == "spectral" else 12)))
+        grid = np.geomspace(lo, hi, n or (50 if ev.method == "spectral" else 12))
     else:
-        grid = _check_grid(lams)
         lo, hi = float(grid[0]), float(grid[-1])
     choices: dict[str, float] = {}
     problems: dict[str, list[str]] = {}
@@ -544,8 +553,9 @@ def lambda_curve(
     """
     data, rule, nthreads = _prepare(U, F, omega, rule, threads)
     target = _target_residual(data, noise, snr_db, delta)
+    n, grid = _check_options(rule, target, n, lams)
     ev = _evaluator(data, method, solve, nthreads)
-    return _curve(data, rule, lams, n, target, ev)
+    return _curve(rule, grid, n, target, ev)
 
 
 def choose_lambda(
@@ -582,8 +592,9 @@ def identify_with_rule(
         raise ValueError(f"backend must be 'rust' or 'numpy', got {backend!r}")
     data, rule, nthreads = _prepare(U, F, omega, rule, threads)
     target = _target_residual(data, noise, snr_db, None)
+    _check_options(rule, target, None, None)
     ev = _evaluator(data, "auto", None, nthreads, backend)
-    curve = _curve(data, rule, None, None, target, ev)
+    curve = _curve(rule, None, None, target, ev)
     lam = curve.lam
     if isinstance(ev, _Repeated):
         res = ev.result(lam)
