@@ -545,7 +545,9 @@ def lambda_curve(
         per point) or ``"auto"``: spectral unless its n_w² doubles would not fit in
         memory or the unregularised problem is rank deficient.
     solve : ``solve(lam) -> IdentificationResult`` for the repeated path; default
-        ``identify(U, F, omega, lam)``. An iterative solver plugs in here.
+        ``identify(U, F, omega, lam)``. The direct solve needs four times the
+        sweep's memory, so where the sweep does not fit only an iterative solver
+        will: it plugs in here (and as the default in ``_evaluator``).
     threads : worker threads for the Rust core (None = all cores).
 
     Warnings: :class:`NoCornerWarning` / :class:`LambdaSelectionWarning` when the
