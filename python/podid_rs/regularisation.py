@@ -626,6 +626,17 @@ def identify_with_rule(
 # ---------------------------------------------------------------------------
 
 
+def _narrow_log_axis(axis, values: np.ndarray) -> None:
+    """Plain, uncrowded ticks on a log axis whose data span less than a decade."""
+    from matplotlib import ticker
+
+    v = values[np.isfinite(values) & (values > 0)]
+    if v.size and v.max() < 10 * v.min():
+        axis.set_major_locator(ticker.MaxNLocator(4))
+        axis.set_minor_locator(ticker.NullLocator())
+        axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: f"{x:.5g}"))
+
+
 def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None):
     """The L-curve with the chosen corner, GCV against λ, and both norms against λ.
 
@@ -663,6 +674,7 @@ def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None
         sel = " (chosen)" if rule == curve.rule else ""
         label = f"{names[rule]}{sel}: λ = {lam:.3g}"
         ax_l.loglog(*on_curve(lam), mk, color=col, ms=9, mfc="none", mew=2, label=label)
+    _narrow_log_axis(ax_l.xaxis, curve.residual_norms)
     ax_l.set_xlabel("residual norm ‖Ax − y‖")
     ax_l.set_ylabel("penalty norm ‖Lx‖ = (Σ ‖X − Xᵀ‖²)$^{1/2}$")
     kap = curve.corner_curvature
@@ -678,6 +690,7 @@ def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None
             lam = curve.choices["gcv"]
             ax_g.axvline(lam, color="C2", ls="--", label=f"minimum: λ = {lam:.3g}")
             ax_g.legend(fontsize=8)
+        _narrow_log_axis(ax_g.yaxis, curve.gcv)
         ax_g.set_xlabel("λ")
         ax_g.set_ylabel("GCV(λ) = ‖Ax − y‖² / (2Nm − t(λ))²")
         ax_g.grid(True, which="both", alpha=0.3)
@@ -693,6 +706,7 @@ def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None
         ax_n.axhline(curve.target_residual, color="C4", ls=":", label="target δ")
     for rule, lam in curve.choices.items():
         ax_n.axvline(lam, color=marks[rule][1], ls="--", lw=1, label=names[rule])
+    _narrow_log_axis(ax_n.yaxis, curve.residual_norms)
     ax_n.set_xlabel("λ")
     ax_n.set_ylabel("residual norm")
     ax_p.set_ylabel("penalty norm")
