@@ -82,6 +82,32 @@ def scipy_cholesky(case: dict) -> dict:
     return {"seconds": secs, "gflops": n**3 / 3 / secs / 1e9}
 
 
+def chain_problem(m: int, lines: int = 400, noise: float = 0.0, seed: int = 0):
+    """The full-order chain ``mass_spring_chain(m)`` (R = I), random complex forces on
+    every DOF, ``lines`` lines over 5–200 Hz; ``noise`` adds complex noise of that
+    RMS fraction of |U| to the responses. Returns (system, U, F, omega)."""
+    from podid_rs import mass_spring_chain
+
+    sys_ = mass_spring_chain(m)
+    omega = 2 * np.pi * np.linspace(5.0, 200.0, lines)
+    rng = np.random.default_rng(seed)
+    F = rng.standard_normal((lines, m)) + 1j * rng.standard_normal((lines, m))
+    U = sys_.response(omega, F)
+    if noise:
+        e = rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape)
+        U = U + noise * np.sqrt(np.mean(np.abs(U) ** 2) / 2) * e
+    return sys_, U, F, omega
+
+
+def val(r: dict | None, key: str) -> float | None:
+    """A measured value, or None when the case was skipped or failed."""
+    return r.get(key) if r and "error" not in r else None
+
+
+def ratio(a: float | None, b: float | None) -> float | None:
+    return a / b if a is not None and b else None
+
+
 def fmt(x: object, spec: str = ".3g") -> str:
     if x is None:
         return "—"

@@ -21,26 +21,19 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import (  # noqa: E402
+    chain_problem,
     gemm_gflops,
     markdown_table,
+    ratio,
     run_worker,
     scipy_cholesky,
     timed,
+    val,
     worker_main,
 )
 
 S_LINES = 400
 LAM = 100.0
-
-
-def chain_problem(m: int, seed: int = 0):
-    from podid_rs import mass_spring_chain
-
-    sys_ = mass_spring_chain(m)
-    omega = 2 * np.pi * np.linspace(5.0, 200.0, S_LINES)
-    rng = np.random.default_rng(seed)
-    F = rng.standard_normal((S_LINES, m)) + 1j * rng.standard_normal((S_LINES, m))
-    return sys_, sys_.response(omega, F), F, omega
 
 
 def max_rel_err(res, sys_) -> float:
@@ -52,7 +45,7 @@ def identify_case(case: dict) -> dict:
     from podid_rs import identify
     from podid_rs.reference import identify_kronecker
 
-    sys_, U, F, omega = chain_problem(case["m"])
+    sys_, U, F, omega = chain_problem(case["m"], S_LINES)
     sym = case["symmetric"]
     if case["kind"] == "oracle":
         res, secs = timed(lambda: identify_kronecker(U, F, omega, LAM, sym))
@@ -123,15 +116,6 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text + "\n")
     print(f"\nwritten to {args.out}")
-
-
-def val(r: dict | None, key: str) -> float | None:
-    """A measured value, or None when the case was skipped or failed."""
-    return r.get(key) if r and "error" not in r else None
-
-
-def ratio(a: float | None, b: float | None) -> float | None:
-    return a / b if a is not None and b else None
 
 
 def fmt_s(x: float | None) -> str:

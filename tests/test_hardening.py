@@ -242,7 +242,7 @@ def _corruptions(U: np.ndarray, F: np.ndarray, w: np.ndarray):
     yield "lam nan", (U, F, w, {"lam": (1.0, np.nan, 1.0)}), "finite"
     yield "lam pair", (U, F, w, {"lam": (1.0, 2.0)}), "triple"
     yield "lam complex", (U, F, w, {"lam": 1j}), "lam"
-    yield "lam rule", (U, F, w, {"lam": "gcv"}), "selection rule"
+    yield "lam rule", (U, F, w, {"lam": "aic"}), "selection rule"
     yield "backend", (U, F, w, {"backend": "cuda"}), "backend"
     yield "threads negative", (U, F, w, {"threads": -1}), "threads"
     yield "threads float", (U, F, w, {"threads": 2.5}), "threads"

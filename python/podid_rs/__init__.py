@@ -9,6 +9,7 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.simulation` — white-noise forcing, responses, spectra, H1 FRFs;
 - :mod:`podid_rs.pod` — correlation matrices, POD basis, projection (eqs. 3–18);
 - :mod:`podid_rs.identification` — :func:`identify` (eqs. 19–49);
+- :mod:`podid_rs.regularisation` — choosing λ: L-curve, GCV, discrepancy (§4.2);
 - :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle);
 - :mod:`podid_rs.measurements` — measured data in: UFF 58 FRFs, time histories, ``.npz``;
 - :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability.
@@ -25,6 +26,14 @@ from .pod import (
     pod_from_correlation,
     pod_from_frf,
 )
+from .regularisation import (
+    LambdaCurve,
+    LambdaSelectionWarning,
+    NoCornerWarning,
+    choose_lambda,
+    lambda_curve,
+    plot_lambda_curve,
+)
 from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
 from .systems import SecondOrderSystem, mass_spring_chain
 
@@ -32,21 +41,27 @@ __version__ = "0.1.0"
 
 __all__ = [
     "IdentificationResult",
+    "LambdaCurve",
+    "LambdaSelectionWarning",
     "MeasuredData",
+    "NoCornerWarning",
     "PODResult",
     "RankDeficientWarning",
     "SecondOrderSystem",
     "Simulation",
     "add_noise",
+    "choose_lambda",
     "correlation_from_frf",
     "correlation_from_snapshots",
     "frf_h1",
     "identify",
+    "lambda_curve",
     "load_data",
     "load_model",
     "make_physical",
     "mass_spring_chain",
     "modal_parameters",
+    "plot_lambda_curve",
     "pod",
     "pod_from_correlation",
     "pod_from_frf",

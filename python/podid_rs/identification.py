@@ -270,11 +270,13 @@ def identify(
     U: np.ndarray,
     F: np.ndarray,
     omega: np.ndarray,
-    lam: float | tuple[float, float, float] = 0.0,
+    lam: float | tuple[float, float, float] | str = 0.0,
     symmetric: bool = False,
     *,
     backend: Backend = "rust",
     threads: int | None = None,
+    noise: float | None = None,
+    snr_db: float | None = None,
 ) -> IdentificationResult:
     """Identify reduced M, C, K from responses U and forces F (paper eq. 49).
 
@@ -283,17 +285,37 @@ def identify(
     U, F : complex arrays ``(s, m)`` or ``(s, m, p)``
         Reduced responses and forces (eqs. 45–46), frequency-first, p load cases.
     omega : ``(s,)`` angular frequencies in rad/s, all > 0.
-    lam : float or (λ_M, λ_C, λ_K)
+    lam : float, (λ_M, λ_C, λ_K), or a rule ``"lcurve"``, ``"gcv"``, ``"discrepancy"``
         Symmetry regularisation in the paper's units (eq. 40); 0 = plain least squares.
+        A rule chooses one common λ (paper §4.2, :mod:`podid_rs.regularisation`); the
+        result's ``lam`` holds it and ``info["lambda_curve"]`` the whole curve.
     symmetric : solve the exact λ → ∞ limit (M, C, K exactly symmetric).
     backend : ``"rust"`` (default) or ``"numpy"``, the same equations either way.
     threads : worker threads for the Rust backend (None = all cores).
+    noise, snr_db : the noise on U for ``lam="discrepancy"`` (at most one): RMS σ per
+        entry, or 10 log10(mean |U|² / σ²).
 
     Raises ``ValueError`` for malformed data or a problem with fewer equations than
     unknowns, ``MemoryError`` when the dense normal matrix would not fit. A
     numerically singular problem gives the minimum-norm answer and a
     :class:`RankDeficientWarning` stating the rank.
     """
+    if isinstance(lam, str):
+        from .regularisation import identify_with_rule
+
+        return identify_with_rule(
+            U,
+            F,
+            omega,
+            lam,
+            symmetric=symmetric,
+            backend=backend,
+            threads=threads,
+            noise=noise,
+            snr_db=snr_db,
+        )
+    if noise is not None or snr_db is not None:
+        raise ValueError("noise and snr_db set the discrepancy target; they need lam='discrepancy'")
     data = check_frequency_data(U, F, omega)
     lam_t = check_lam(lam)
     if not isinstance(symmetric, bool | np.bool_):

@@ -6,7 +6,9 @@
 //! - [`gram`]: H = Re(V Vᴴ) and B = Re(F Vᴴ) (DESIGN §2);
 //! - [`normal`]: the normal equations in each block's symmetric/skew basis;
 //! - [`direct`]: in-place Cholesky with a rank-revealing fallback;
-//! - [`identify`]: the whole solve, scaled in and out.
+//! - [`identify`]: the whole solve, scaled in and out;
+//! - [`sweep`]: the λ-curves (L-curve, GCV, discrepancy) from one eigendecomposition;
+//! - [`tridiag`]: two-stage symmetric tridiagonalisation (for the sweep).
 //!
 //! The Python bindings live in `python.rs` behind the `python` feature.
 
@@ -17,6 +19,8 @@ pub mod error;
 pub mod gram;
 pub mod identify;
 pub mod normal;
+pub mod sweep;
+pub mod tridiag;
 
 #[cfg(feature = "python")]
 mod python;

@@ -123,6 +123,17 @@ impl Basis {
         Basis { m, coords, n_sym }
     }
 
+    /// The skew coordinates of [`Basis::new`]`(m, false)` alone, in the same order:
+    /// an orthonormal basis of the skew-symmetric parts of M, C, K (used by the λ sweep).
+    pub fn skew(m: usize) -> Basis {
+        let full = Basis::new(m, false);
+        Basis {
+            m,
+            coords: full.coords[full.n_sym..].to_vec(),
+            n_sym: 0,
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.coords.len()
     }

@@ -4,10 +4,14 @@
 
 use crate::data::{Columns, Scaling, Stacked};
 use crate::error::PodidError;
+use crate::sweep::Sweep;
 use crate::{identify, with_threads};
 use faer::{Mat, Par};
 use numpy::ndarray::Array2;
-use numpy::{Complex64, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    Complex64, IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -130,11 +134,158 @@ fn direct_memory_bytes(m: usize, lam: (f64, f64, f64), symmetric: bool) -> u128 
     identify::dense_bytes(m, [lam.0, lam.1, lam.2], symmetric)
 }
 
+fn timings_dict<'py>(py: Python<'py>, timings: &[(&str, f64)]) -> PyResult<Bound<'py, PyDict>> {
+    let t = PyDict::new(py);
+    for (name, secs) in timings {
+        t.set_item(*name, *secs)?;
+    }
+    Ok(t)
+}
+
+/// The λ-curves of one common symmetry weight from one eigendecomposition
+/// (`crate::sweep`). Built by `lambda_sweep`; holds n_w² doubles.
+#[pyclass(name = "LambdaSweep", module = "podid_rs._core", frozen)]
+struct PyLambdaSweep {
+    inner: Sweep,
+}
+
+#[pymethods]
+impl PyLambdaSweep {
+    #[getter]
+    fn m(&self) -> usize {
+        self.inner.m()
+    }
+
+    /// Real equations 2·N·m of the stacked problem.
+    #[getter]
+    fn n_rows(&self) -> usize {
+        self.inner.n_rows()
+    }
+
+    #[getter]
+    fn n_unknowns(&self) -> usize {
+        self.inner.n_unknowns()
+    }
+
+    /// ν_i (1/λ² units): skew direction i is damped by 1/(1 + λ²ν_i).
+    #[getter]
+    fn eigenvalues<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.eigenvalues().to_vec().into_pyarray(py)
+    }
+
+    #[getter]
+    fn min_pivot_ratio(&self) -> f64 {
+        self.inner.min_pivot_ratio()
+    }
+
+    #[getter]
+    fn scaling(&self) -> (f64, f64, f64) {
+        let s = self.inner.scaling();
+        (s.omega0, s.su, s.sf)
+    }
+
+    #[getter]
+    fn timings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        timings_dict(py, self.inner.timings())
+    }
+
+    /// residual ‖Ax−y‖, penalty ‖Lx‖, trace, gcv and curvature at each λ (paper
+    /// units): `exact` refines residual and penalty by solves (O(n_w²) per λ),
+    /// otherwise all come from the spectrum (O(n_w) per λ, ~1e-8 relative).
+    #[pyo3(signature = (lams, exact = false, threads = 0))]
+    fn curve<'py>(
+        &self,
+        py: Python<'py>,
+        lams: PyReadonlyArray1<'py, f64>,
+        exact: bool,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let lams = lams
+            .as_slice()
+            .map_err(|_| PyValueError::new_err("lams must be C-contiguous"))?;
+        if !lams.iter().all(|l| l.is_finite() && *l >= 0.0) {
+            return Err(PyValueError::new_err(
+                "lams must be finite and non-negative",
+            ));
+        }
+        let sweep = &self.inner;
+        let pts = run(py, threads, || {
+            Ok(if exact {
+                sweep.exact_points(lams, Par::rayon(0))
+            } else {
+                lams.iter().map(|&l| sweep.spectral_point(l)).collect()
+            })
+        })?;
+        let d = PyDict::new(py);
+        let fields: [(&str, PointField); 5] = [
+            ("residual_norm", |p| p.residual),
+            ("penalty_norm", |p| p.penalty),
+            ("trace", |p| p.trace),
+            ("gcv", |p| p.gcv),
+            ("curvature", |p| p.curvature),
+        ];
+        for (name, get) in fields {
+            d.set_item(
+                name,
+                pts.iter().map(get).collect::<Vec<_>>().into_pyarray(py),
+            )?;
+        }
+        Ok(d)
+    }
+
+    /// (M, C, K) at λ (paper units).
+    #[pyo3(signature = (lam, threads = 0))]
+    fn solve<'py>(&self, py: Python<'py>, lam: f64, threads: usize) -> PyResult<MatTriple<'py>> {
+        if !(lam.is_finite() && lam >= 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "lam must be finite and non-negative, got {lam}"
+            )));
+        }
+        let sweep = &self.inner;
+        let [mm, cc, kk] = run(py, threads, || Ok(sweep.solve(lam, Par::rayon(0))))?;
+        Ok((mat_to_py(py, &mm), mat_to_py(py, &cc), mat_to_py(py, &kk)))
+    }
+}
+
+/// One field of a [`Point`](crate::sweep::Point), for building the curve dict.
+type PointField = fn(&crate::sweep::Point) -> f64;
+
+type MatTriple<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+);
+
+/// Factor once for the λ-curves; None when H is not positive definite (the
+/// unregularised problem is rank deficient: sweep with repeated solves instead).
+#[pyfunction]
+#[pyo3(signature = (u, f, omega, threads = 0))]
+fn lambda_sweep<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray2<'py, Complex64>,
+    f: PyReadonlyArray2<'py, Complex64>,
+    omega: PyReadonlyArray1<'py, f64>,
+    threads: usize,
+) -> PyResult<Option<PyLambdaSweep>> {
+    let cols = columns(&u, &f, &omega)?;
+    let sweep = run(py, threads, || Sweep::new(&cols, Par::rayon(0)))?;
+    Ok(sweep.map(|inner| PyLambdaSweep { inner }))
+}
+
+/// Bytes of the largest matrix `lambda_sweep` allocates.
+#[pyfunction]
+fn sweep_memory_bytes(m: usize) -> u128 {
+    crate::sweep::sweep_bytes(m)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(py_gram, m)?)?;
     m.add_function(wrap_pyfunction!(identify_direct, m)?)?;
     m.add_function(wrap_pyfunction!(direct_memory_bytes, m)?)?;
+    m.add_function(wrap_pyfunction!(lambda_sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep_memory_bytes, m)?)?;
+    m.add_class::<PyLambdaSweep>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
