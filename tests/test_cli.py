@@ -16,9 +16,11 @@ from podid_rs._progress import Progress
 from podid_rs.cli import build_parser, main, parse_lam
 
 
-def test_parse_lam_one_or_three_values():
+def test_parse_lam_one_or_three_values_or_a_rule():
     assert parse_lam(["100"]) == 100.0
     assert parse_lam(["1e2", "50", "0"]) == (100.0, 50.0, 0.0)
+    for rule in ("lcurve", "gcv", "discrepancy"):
+        assert parse_lam([rule]) == rule
 
 
 @pytest.mark.parametrize(

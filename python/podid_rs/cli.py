@@ -22,13 +22,17 @@ import sys
 from collections.abc import Sequence
 
 from . import __version__
+from .regularisation import RULES
 
 
-def parse_lam(tokens: Sequence[str]) -> float | tuple[float, float, float]:
-    """The ``--lam`` value: one λ for all three blocks, or λ_M λ_C λ_K (paper eq. 40).
+def parse_lam(tokens: Sequence[str]) -> float | tuple[float, float, float] | str:
+    """The ``--lam`` value: one λ for all three blocks, λ_M λ_C λ_K (paper eq. 40), or the
+    name of a rule that chooses λ (``lcurve``, ``gcv``, ``discrepancy``; §4.2).
 
     Raises ``ValueError`` with a message fit for the command line.
     """
+    if len(tokens) == 1 and tokens[0] in RULES:
+        return tokens[0]
     if len(tokens) not in (1, 3):
         raise ValueError(
             f"--lam takes one value or three (lam_M lam_C lam_K), got {len(tokens)}"
@@ -114,8 +118,9 @@ def _add_paper(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=_seed, default=0, metavar="N",
                    help="random seed of forces and noise (default: %(default)s)")
     p.add_argument("--lam", nargs="+", default=["100"], metavar="LAM",
-                   help="symmetry regularisation: one value for λ_M = λ_C = λ_K, or three "
-                   "values λ_M λ_C λ_K (default: the paper's 100)")
+                   help="symmetry regularisation: one value for λ_M = λ_C = λ_K, three "
+                   "values λ_M λ_C λ_K, or a rule that chooses λ per band and noise level: "
+                   "lcurve, gcv or discrepancy (default: the paper's 100)")
     p.add_argument("--energy", type=_energy, default=None, metavar="K",
                    help="choose m as the smallest order capturing this energy fraction of the "
                    "noise-free response (default: the paper's m = 2, 4, 10, 13)")

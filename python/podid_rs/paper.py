@@ -60,6 +60,7 @@ from __future__ import annotations
 import csv
 import math
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
@@ -72,6 +73,7 @@ from ._validation import check_lam
 from .identification import identify
 from .plotting import Curve, plot_frf_comparison, plot_full_frf, plot_pod_eigenvalues
 from .pod import pod
+from .regularisation import RULES, LambdaSelectionWarning, plot_lambda_curve
 from .simulation import Simulation, add_noise, simulate_white_noise, spectra
 from .systems import SecondOrderSystem, mass_spring_chain
 
@@ -102,7 +104,8 @@ class StudySettings:
 
     quick: bool
     seed: int
-    lam: tuple[float, float, float]
+    #: λ triple (eq. 40), or the name of a rule that chooses one λ per row (§4.2)
+    lam: tuple[float, float, float] | str
     energy: float | None
     dt: float
     duration: float
@@ -115,7 +118,9 @@ class StudySettings:
         return 1.0 / self.duration
 
 
-def _settings(quick: bool, seed: int, lam: tuple[float, float, float], energy: float | None):
+def _settings(
+    quick: bool, seed: int, lam: tuple[float, float, float] | str, energy: float | None
+):
     if quick:
         return StudySettings(quick, seed, lam, energy, dt=1 / 400, duration=20.0,
                              plot_points=300, full_points=1200)
@@ -156,6 +161,8 @@ class StudyRow:
     proj_h50_50_p95_db: float
     proj_h60_40_median_db: float
     proj_h60_40_p95_db: float
+    lam: float
+    lam_rule: str
     t_simulate_s: float
     t_pod_s: float
     t_identify_s: float
@@ -218,7 +225,9 @@ def _noise_slug(snr_db: float | None) -> str:
     return "noisefree" if snr_db is None else f"snr{snr_db:g}dB"
 
 
-def _lam_text(lam: tuple[float, float, float]) -> str:
+def _lam_text(lam: tuple[float, float, float] | str) -> str:
+    if isinstance(lam, str):
+        return f"chosen by {lam}"
     if lam[0] == lam[1] == lam[2]:
         return f"{lam[0]:g}"
     return "(" + ", ".join(f"{v:g}" for v in lam) + ")"
@@ -307,17 +316,42 @@ def _figure_name(number: int, band: int, what: str) -> str:
     return f"fig{number:02d}_band{band}_{what}.png"
 
 
+def _identify_row(U, F, omega, lam, noise_sigma, path, title):
+    """identify() with a fixed λ, or with λ chosen by a rule of §4.2 (then the λ curve
+    is plotted to ``path``). Returns the result, the λ used, the rule and any warning.
+
+    The discrepancy principle needs the noise level: ``noise_sigma`` (RMS of the
+    projected response noise that was added); noise-free rows have none, so GCV
+    chooses there instead.
+    """
+    if not isinstance(lam, str):
+        return identify(U, F, omega, lam=lam), lam[0], "fixed", ""
+    rule = "gcv" if lam == "discrepancy" and noise_sigma is None else lam
+    kw = {"noise": noise_sigma} if rule == "discrepancy" else {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LambdaSelectionWarning)
+        result = identify(U, F, omega, lam=rule, **kw)
+    plot_lambda_curve(result.info["lambda_curve"], path, title=title)
+    notes = "; ".join(
+        str(w.message) for w in caught if issubclass(w.category, LambdaSelectionWarning)
+    )
+    return result, result.lam[0], rule, notes
+
+
 def run_paper_study(
     out_dir: str | Path = "podid-results",
     quick: bool = False,
     seed: int = 0,
-    lam: float | tuple[float, float, float] = PAPER_LAMBDA,
+    lam: float | tuple[float, float, float] | str = PAPER_LAMBDA,
     energy: float | None = None,
     progress: bool = True,
 ) -> PaperStudy:
     """Run the paper's Section 6 study and write its figures and tables to ``out_dir``.
 
-    ``lam`` is λ or (λ_M, λ_C, λ_K) of eq. 40 (the paper's 100 by default);
+    ``lam`` is λ or (λ_M, λ_C, λ_K) of eq. 40 (the paper's 100 by default), or a
+    rule of §4.2 — ``"lcurve"``, ``"gcv"`` or ``"discrepancy"`` — that chooses one
+    common λ for every row (then ``lambda_band{b}_{noise}.png`` shows the curves;
+    noise-free rows use GCV when the rule is the discrepancy principle);
     ``energy`` replaces the paper's orders (2, 4, 10, 13) by the smallest m
     capturing that energy fraction (eq. 43); ``seed`` makes the run
     reproducible; ``quick`` shortens the record and the plotting grids (same
@@ -330,7 +364,12 @@ def run_paper_study(
     work), and when ``energy`` asks for more than :data:`MAX_ORDER` modes in a band.
     """
     t_start = time.perf_counter()
-    lam_t = check_lam(lam)
+    if isinstance(lam, str):
+        if lam not in RULES:
+            raise ValueError(f"lam must be a number, a triple or one of {RULES}, got {lam!r}")
+        lam_t: tuple[float, float, float] | str = lam
+    else:
+        lam_t = check_lam(lam)
     if energy is not None and not (isinstance(energy, int | float) and 0 < energy <= 1):
         raise ValueError(f"energy must be a fraction in (0, 1], got {energy!r}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
@@ -345,6 +384,7 @@ def run_paper_study(
     rows: list[StudyRow] = []
     eigen_plots: list[dict[str, np.ndarray]] = []
     orders: list[int] = []
+    lam_notes: list[str] = []
 
     bar.step("full model FRFs (Fig. 2)")
     f_full = np.geomspace(0.5, 160.0, cfg.full_points)
@@ -364,6 +404,7 @@ def run_paper_study(
 
         band_eigs: dict[str, np.ndarray] = {}
         curves: dict[float | None, tuple[list[Curve], list[Curve]]] = {}
+        lam_label: dict[float | None, str] = {}
         m = 0
         for k, snr in enumerate(NOISE_LEVELS):
             bar.step(f"band {b}, {_noise_label(snr)}: POD, identification, FRFs")
@@ -388,7 +429,19 @@ def run_paper_study(
             t_pod = time.perf_counter() - t0
 
             t0 = time.perf_counter()
-            result = identify(U, F, sim.omega, lam=lam_t)
+            sigma = None
+            if snr is not None:
+                noise = P.project(U_n - sim.response_spectrum, m)
+                sigma = float(np.sqrt(np.mean(np.abs(noise) ** 2)))
+            result, lam_used, rule, notes = _identify_row(
+                U, F, sim.omega, lam_t, sigma,
+                out / f"lambda_band{b}_{_noise_slug(snr)}.png",
+                f"λ for band {b} ({band[0]:g}–{band[1]:g} Hz), {_noise_label(snr)}, m = {m}",
+            )
+            if notes:
+                lam_notes.append(f"band {b}, {_noise_label(snr)}: {notes}")
+            if isinstance(lam_t, str):
+                figures.append(out / f"lambda_band{b}_{_noise_slug(snr)}.png")
             t_id = time.perf_counter() - t0
 
             t0 = time.perf_counter()
@@ -397,6 +450,7 @@ def run_paper_study(
             err_id = _errors(frf_entries(identified, sim.omega, basis=R), H_orig_lines)
             err_proj = _errors(frf_entries(projected, sim.omega, basis=R), H_orig_lines)
             w_plot = 2 * np.pi * f_plot
+            lam_label[snr] = f"λ = {lam_used:.3g}" + ("" if rule == "fixed" else f" ({rule})")
             curves[snr] = (
                 [Curve(f"original FRF, n = {system.n}", H_orig_plot, "original"),
                  Curve(f"POD-projected (RᵀMR, RᵀCR, RᵀKR), m = {m}",
@@ -409,7 +463,8 @@ def run_paper_study(
             rows.append(StudyRow(
                 b, band[0], band[1], _noise_label(snr), math.nan if snr is None else snr,
                 m, sim.omega.size, float(P.energy_fraction[m - 1]), *result.symmetry_defect(),
-                *err_id, *err_proj, t_sim if snr is None else math.nan, t_pod, t_id, t_frf,
+                *err_id, *err_proj, lam_used, rule,
+                t_sim if snr is None else math.nan, t_pod, t_id, t_frf,
             ))
         eigen_plots.append(band_eigs)
         orders.append(m)
@@ -428,7 +483,7 @@ def run_paper_study(
                 f_plot, base + ident,
                 out / _figure_name(number, b, f"identified_{_noise_slug(snr)}"), band_hz=band,
                 title=f"Fig. {number} — original and identified POD-reduced FRFs, {label}, "
-                f"{_noise_label(snr)}, λ = {_lam_text(cfg.lam)}", entries=ENTRIES,
+                f"{_noise_label(snr)}, {lam_label[snr]}", entries=ENTRIES,
             ))
 
     bar.step("POD eigenvalues (Fig. 3) and tables")
@@ -436,7 +491,7 @@ def run_paper_study(
                                            out / "fig03_pod_eigenvalues.png"))
     csv_path = _write_csv(rows, out / "results.csv")
     elapsed = time.perf_counter() - t_start
-    md_path = _write_markdown(rows, cfg, elapsed, out / "results.md")
+    md_path = _write_markdown(rows, cfg, elapsed, out / "results.md", lam_notes)
     bar.close()
     return PaperStudy(out, tuple(rows), tuple(figures), csv_path, md_path, cfg, elapsed)
 
@@ -453,7 +508,7 @@ def _write_csv(rows: Sequence[StudyRow], path: Path) -> Path:
 
 
 def _write_markdown(rows: Sequence[StudyRow], cfg: StudySettings, elapsed: float,
-                    path: Path) -> Path:
+                    path: Path, lam_notes: Sequence[str] = ()) -> Path:
     if cfg.energy is None:
         orders = "the paper's m = " + ", ".join(map(str, PAPER_ORDERS))
     else:
@@ -474,18 +529,20 @@ def _write_markdown(rows: Sequence[StudyRow], cfg: StudySettings, elapsed: float
         "the in-band frequency lines, median / 95th percentile, for the identified model "
         "and for the POD-projected model (RᵀMR, RᵀCR, RᵀKR) on the same basis — the best "
         "an identified model of order m can do.",
+        "- **λ**: the common λ used, and the rule that chose it (eq. 40, §4.2).",
         "- **time**: seconds for simulate (shared by a band's rows) / POD / identify / FRFs.",
         "",
-        "| band | Hz | noise | m | lines | energy | sym M / C / K "
+        "| band | Hz | noise | m | lines | energy | λ | sym M / C / K "
         "| identified H(50,50) | identified H(60,40) | projected H(50,50) "
         "| projected H(60,40) | time (s) |",
-        "|---:|:---|:---|---:|---:|---:|:---|---:|---:|---:|---:|:---|",
+        "|---:|:---|:---|---:|---:|---:|:---|:---|---:|---:|---:|---:|:---|",
     ]
     body = []
     for r in rows:
         t_sim = "—" if math.isnan(r.t_simulate_s) else f"{r.t_simulate_s:.1f}"
         body.append(
             f"| {r.band} | {_band_text(r)} | {r.noise} | {r.m} | {r.n_lines} | {r.energy:.4f} "
+            f"| {r.lam:.3g}{'' if r.lam_rule == 'fixed' else f' ({r.lam_rule})'} "
             f"| {r.sym_M:.1e} / {r.sym_C:.1e} / {r.sym_K:.1e} "
             f"| {r.id_h50_50_median_db:.2f} / {r.id_h50_50_p95_db:.1f} "
             f"| {r.id_h60_40_median_db:.2f} / {r.id_h60_40_p95_db:.1f} "
@@ -493,5 +550,6 @@ def _write_markdown(rows: Sequence[StudyRow], cfg: StudySettings, elapsed: float
             f"| {r.proj_h60_40_median_db:.2f} / {r.proj_h60_40_p95_db:.1f} "
             f"| {t_sim} / {r.t_pod_s:.2f} / {r.t_identify_s:.3f} / {r.t_frf_s:.2f} |"
         )
-    path.write_text("\n".join(head + body) + "\n", encoding="utf-8")
+    tail = ["", "Warnings from the λ rules:", ""] + [f"- {n}" for n in lam_notes]
+    path.write_text("\n".join(head + body + (tail if lam_notes else [])) + "\n", encoding="utf-8")
     return path
