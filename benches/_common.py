@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import resource
+import signal
 import subprocess
 import sys
 import time
@@ -41,8 +42,10 @@ def run_worker(script: str, case: dict, timeout: float = 3600) -> dict:
         timeout=timeout,
     )
     if proc.returncode != 0:
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["?"]
-        return {"error": tail[0]}
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:]
+        if proc.returncode < 0:
+            tail = [f"killed by {signal.Signals(-proc.returncode).name}"] + tail
+        return {"error": " / ".join(tail) or f"exit code {proc.returncode}"}
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
@@ -74,7 +77,8 @@ def scipy_cholesky(case: dict) -> dict:
     import scipy.linalg
 
     n = case["n"]
-    A = np.random.default_rng(1).standard_normal((n, n))
+    # Fortran order (the transpose of a C array, no copy): otherwise cho_factor copies
+    A = np.random.default_rng(1).standard_normal((n, n)).T
     A[np.diag_indices(n)] += 3 * np.sqrt(n)  # Gershgorin-safe: SPD on the lower triangle
     _, secs = timed(
         lambda: scipy.linalg.cho_factor(A, lower=True, overwrite_a=True, check_finite=False)

@@ -14,6 +14,7 @@ order as our penalty-mode normal matrix.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -79,7 +80,8 @@ def main() -> None:
         if m <= args.oracle_max_m:
             ora = run_worker(me, {"kind": "oracle", "m": m, "symmetric": False})
         chol = run_worker(me, {"kind": "scipy_chol", "n": n_pen})
-        for name, r in (("rust", pen), ("rust-sym", sym), ("numpy", npy), ("oracle", ora)):
+        for name, r in (("rust", pen), ("rust-sym", sym), ("numpy", npy), ("oracle", ora),
+                        ("scipy-chol", chol)):
             if r and "error" in r:
                 notes.append(f"m={m} {name}: {r['error']}")
         t = {k: val(r, "seconds") for k, r in
@@ -104,6 +106,9 @@ def main() -> None:
         "rust chol GF/s", "scipy chol GF/s", "rust total / scipy chol", "chol / GEMM",
     ]  # fmt: skip
     table = markdown_table(header, rows)
+    load = os.getloadavg()[0]
+    notes.append(f"1-minute load average at the end: {load:.2f} (2 cores; above 1 means "
+                 "other processes were competing)")
     text = (
         f"Direct path, s = {S_LINES} lines, λ = {LAM:g}; NumPy GEMM {gemm:.1f} GFLOP/s.\n"
         f"Oracle run for m ≤ {args.oracle_max_m} (beyond, its A alone is "
