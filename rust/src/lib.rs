@@ -6,16 +6,21 @@
 //! - [`gram`]: H = Re(V Vᴴ) and B = Re(F Vᴴ) (DESIGN §2);
 //! - [`normal`]: the normal equations in each block's symmetric/skew basis;
 //! - [`direct`]: in-place Cholesky with a rank-revealing fallback;
-//! - [`identify`]: the whole solve, scaled in and out.
+//! - [`identify`]: the whole solve, scaled in and out;
+//! - [`cg`]: the matrix-free alternative for large m — preconditioned CG on the
+//!   packed sym/skew coordinates of [`pairs`], preconditioned by [`precond`].
 //!
 //! The Python bindings live in `python.rs` behind the `python` feature.
 
+pub mod cg;
 pub mod data;
 pub mod direct;
 pub mod error;
 pub mod gram;
 pub mod identify;
 pub mod normal;
+pub mod pairs;
+pub mod precond;
 
 #[cfg(feature = "python")]
 mod python;
