@@ -18,7 +18,7 @@
 //! In the exact-symmetric mode the skew coordinates do not exist: pack projects
 //! onto block-symmetric matrices.
 
-use faer::{MatMut, MatRef};
+use faer::{ColMut, MatMut, MatRef};
 use rayon::prelude::*;
 
 const RSQRT2: f64 = std::f64::consts::FRAC_1_SQRT_2;
@@ -66,32 +66,41 @@ impl Layout {
         (diag, sym, skew)
     }
 
-    /// Z (m×3m) from the coordinates x. Parallel over the columns of Z.
+    /// Z (m×3m) from the coordinates x. Parallel over c, writing column c of all
+    /// three blocks at once so that each pair's three values are read together.
     pub fn unpack(&self, x: &[f64], z: MatMut<f64>) {
         let m = self.m;
         assert!(x.len() == self.len() && z.nrows() == m && z.ncols() == 3 * m);
         let (diag, sym, skew) = self.split(x);
-        z.par_col_iter_mut().enumerate().for_each(|(col, zc)| {
-            let (b, c) = (col / m, col % m);
-            let zc = zc
-                .try_as_col_major_mut()
-                .expect("dense column")
-                .as_slice_mut();
-            // rows r < c: upper entry of pair (r, c), contiguous in p
-            let base = c * c.saturating_sub(1) / 2;
-            for (r, v) in zc[..c].iter_mut().enumerate() {
-                let i = 3 * (base + r) + b;
-                let t = if self.symmetric { 0.0 } else { skew[i] };
-                *v = RSQRT2 * (sym[i] + t);
-            }
-            zc[c] = diag[3 * c + b];
-            // rows r > c: lower entry of pair (c, r)
-            for (r, v) in zc.iter_mut().enumerate().skip(c + 1) {
-                let i = 3 * (r * (r - 1) / 2 + c) + b;
-                let t = if self.symmetric { 0.0 } else { skew[i] };
-                *v = RSQRT2 * (sym[i] - t);
-            }
-        });
+        let (z0, rest) = z.split_at_col_mut(m);
+        let (z1, z2) = rest.split_at_col_mut(m);
+        z0.par_col_iter_mut()
+            .zip(z1.par_col_iter_mut())
+            .zip(z2.par_col_iter_mut())
+            .enumerate()
+            .for_each(|(c, ((a, b), d))| {
+                let mut cols = [a, b, d].map(dense);
+                // rows r < c: upper entry of pair (r, c), contiguous in p
+                let base = c * c.saturating_sub(1) / 2;
+                for r in 0..c {
+                    let i = 3 * (base + r);
+                    for (blk, col) in cols.iter_mut().enumerate() {
+                        let t = if self.symmetric { 0.0 } else { skew[i + blk] };
+                        col[r] = RSQRT2 * (sym[i + blk] + t);
+                    }
+                }
+                for (blk, col) in cols.iter_mut().enumerate() {
+                    col[c] = diag[3 * c + blk];
+                }
+                // rows r > c: lower entry of pair (c, r)
+                for r in c + 1..m {
+                    let i = 3 * (r * (r - 1) / 2 + c);
+                    for (blk, col) in cols.iter_mut().enumerate() {
+                        let t = if self.symmetric { 0.0 } else { skew[i + blk] };
+                        col[r] = RSQRT2 * (sym[i + blk] - t);
+                    }
+                }
+            });
     }
 
     /// Coordinates of Y (m×3m) into x; in the exact-symmetric mode only its
@@ -128,6 +137,13 @@ impl Layout {
                 }
             });
     }
+}
+
+/// A column of a column-major matrix as a slice.
+fn dense(col: ColMut<'_, f64>) -> &mut [f64] {
+    col.try_as_col_major_mut()
+        .expect("dense column")
+        .as_slice_mut()
 }
 
 /// Split a pair-major array (`width` values per pair) into the runs of the pairs

@@ -104,8 +104,9 @@ fn tri(i: usize, j: usize) -> usize {
     i * (i + 1) / 2 + j
 }
 
-/// In-place Cholesky of a packed n×n SPD matrix. A pivot that is not above
-/// `1e3·ε` times its diagonal entry (or a non-positive diagonal entry) is
+/// In-place Cholesky L Lᵀ of a packed n×n SPD matrix, storing 1/L_ii on the
+/// diagonal (the solves then multiply instead of divide). A pivot that is not
+/// above `1e3·ε` times its diagonal entry (or a non-positive diagonal entry) is
 /// replaced by that floor (by 1 if the entry is not positive), so the result
 /// always defines an SPD approximate inverse: the preconditioner must stay SPD
 /// even for degenerate data. The floor is relative to each entry's own diagonal,
@@ -124,32 +125,40 @@ fn small_cholesky(a: &mut [f64], n: usize) {
                 } else {
                     1.0
                 };
-                s.max(floor).sqrt()
+                1.0 / s.max(floor).sqrt()
             } else {
-                s / a[tri(j, j)]
+                s * a[tri(j, j)]
             };
         }
     }
 }
 
-/// Solve L Lᵀ x = r in place with a packed factor from [`small_cholesky`].
+/// Solve L Lᵀ x = r in place with a packed N×N factor from [`small_cholesky`]
+/// (N is a constant, so the loops unroll: this runs once per pair per iteration).
 #[inline]
-fn small_solve(l: &[f64], x: &mut [f64]) {
-    let n = x.len();
-    for i in 0..n {
+fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
+    for i in 0..N {
         let mut s = x[i];
         for k in 0..i {
             s -= l[tri(i, k)] * x[k];
         }
-        x[i] = s / l[tri(i, i)];
+        x[i] = s * l[tri(i, i)];
     }
-    for i in (0..n).rev() {
+    for i in (0..N).rev() {
         let mut s = x[i];
-        for k in i + 1..n {
+        for k in i + 1..N {
             s -= l[tri(k, i)] * x[k];
         }
-        x[i] = s / l[tri(i, i)];
+        x[i] = s * l[tri(i, i)];
     }
+}
+
+/// [`small_solve`] of a 3-vector stored in a slice.
+#[inline]
+fn solve3(l: &[f64], x: &mut [f64]) {
+    let mut v = [x[0], x[1], x[2]];
+    small_solve::<3>(l, &mut v);
+    x.copy_from_slice(&v);
 }
 
 /// Factor a small SPD block given as its packed lower triangle.
@@ -235,14 +244,14 @@ impl PairPrecond {
         z.copy_from_slice(r);
         let (zd, zs, zk) = lay.split_mut(z);
         for (x, l) in zd.chunks_exact_mut(3).zip(self.diag.chunks_exact(6)) {
-            small_solve(l, x);
+            solve3(l, x);
         }
         if lay.symmetric {
             zs.par_chunks_mut(3 * 1024)
                 .zip(self.pairs.par_chunks(6 * 1024))
                 .for_each(|(xs, ls)| {
                     for (x, l) in xs.chunks_exact_mut(3).zip(ls.chunks_exact(6)) {
-                        small_solve(l, x);
+                        solve3(l, x);
                     }
                 });
         } else {
@@ -253,7 +262,7 @@ impl PairPrecond {
                     let it = xs.chunks_exact_mut(3).zip(xk.chunks_exact_mut(3));
                     for ((s, t), l) in it.zip(ls.chunks_exact(21)) {
                         let mut x = [s[0], s[1], s[2], t[0], t[1], t[2]];
-                        small_solve(l, &mut x);
+                        small_solve::<6>(l, &mut x);
                         s.copy_from_slice(&x[..3]);
                         t.copy_from_slice(&x[3..]);
                     }
