@@ -245,9 +245,11 @@ def test_memory_guard_refuses_impossible_size(monkeypatch):
     monkeypatch.setattr(ident, "available_memory_bytes", lambda: 10**9)
     _, U, F, omega = random_system_data(40, 70, 1, 0, 0.0)
     # 3·40² = 4800 unknowns → 184 MB normal matrix; pretend only 1 GB... fits
-    identify(U, F, omega, 1.0)
+    identify(U, F, omega, 1.0, solver="direct")
     monkeypatch.setattr(ident, "available_memory_bytes", lambda: 10**8)
     with pytest.raises(MemoryError, match="GB"):
-        identify(U, F, omega, 1.0)
+        identify(U, F, omega, 1.0, solver="direct")
     # the unregularised problem only needs the 3m×3m Gram matrix
     identify(U, F, omega, 0.0)
+    # solver="auto" does not try the dense matrix where it would not fit
+    assert identify(U, F, omega, 1.0).method == "cg"

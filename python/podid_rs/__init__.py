@@ -12,7 +12,12 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle).
 """
 
-from .identification import IdentificationResult, RankDeficientWarning, identify
+from .identification import (
+    ConvergenceWarning,
+    IdentificationResult,
+    RankDeficientWarning,
+    identify,
+)
 from .pod import (
     PODResult,
     correlation_from_frf,
@@ -27,6 +32,7 @@ from .systems import SecondOrderSystem, mass_spring_chain
 __version__ = "0.1.0"
 
 __all__ = [
+    "ConvergenceWarning",
     "IdentificationResult",
     "PODResult",
     "RankDeficientWarning",
