@@ -84,6 +84,8 @@ pub struct Operator<'a> {
     z: Mat<f64>,
     y: Mat<f64>,
     par: Par,
+    /// wall time spent in the GEMM so far (the rest of an apply is O(m²))
+    pub gemm_seconds: f64,
 }
 
 impl<'a> Operator<'a> {
@@ -96,12 +98,14 @@ impl<'a> Operator<'a> {
             z: Mat::zeros(m, 3 * m),
             y: Mat::zeros(m, 3 * m),
             par,
+            gemm_seconds: 0.0,
         }
     }
 
     /// out = A x
     pub fn apply(&mut self, x: &[f64], out: &mut [f64]) {
         self.layout.unpack(x, self.z.as_mut());
+        let start = Instant::now();
         matmul(
             self.y.as_mut(),
             Accum::Replace,
@@ -110,6 +114,7 @@ impl<'a> Operator<'a> {
             1.0,
             self.par,
         );
+        self.gemm_seconds += start.elapsed().as_secs_f64();
         self.layout.pack(self.y.as_ref(), out);
         if !self.layout.symmetric {
             let (_, _, xk) = self.layout.split(x);
@@ -288,6 +293,7 @@ pub fn identify_cg(
             ("gram", gram_seconds),
             ("setup", setup_seconds),
             ("iterate", iterate_seconds),
+            ("gemm", op.gemm_seconds),
             ("total", start.elapsed().as_secs_f64()),
         ],
         cg: Some(report),

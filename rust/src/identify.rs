@@ -21,7 +21,7 @@ pub struct Identified {
     pub min_pivot_ratio: f64,
     pub scaling: Scaling,
     /// wall time per phase, seconds (direct: gram, form, factor, total;
-    /// CG: gram, setup, iterate, total)
+    /// CG: gram, setup, iterate, gemm (the operator's GEMMs within iterate), total)
     pub timings: Vec<(&'static str, f64)>,
     /// iterations and final residual of the matrix-free solver (None for direct)
     pub cg: Option<CgReport>,

@@ -18,6 +18,7 @@ pub mod direct;
 pub mod error;
 pub mod gram;
 pub mod identify;
+pub mod joint;
 pub mod normal;
 pub mod pairs;
 pub mod precond;

@@ -1,6 +1,7 @@
 //! The preconditioner of the matrix-free solver (DESIGN §4), and the basis it lives in.
 //!
-//! Let Q be the eigenvectors of S = H_MM + H_CC + H_KK (m×m). In the variables
+//! Let Q be the eigenvectors of S = H_MM + H_CC + H_KK (m×m), refined to
+//! diagonalise the three blocks together ([`crate::joint`]). In the variables
 //! X̃_b = Qᵀ X_b Q the data term is still a row operator, Z̃ ↦ Z̃ H̃ with
 //! H̃ = (I₃⊗Q)ᵀ H (I₃⊗Q), and the penalty and the symmetric projection are
 //! unchanged (Q is orthogonal, so X̃ − X̃ᵀ = Qᵀ(X − Xᵀ)Q). The approximation:
@@ -20,6 +21,7 @@
 //! their coupling is the part always left out. The solver works in the Q basis
 //! throughout, so each preconditioner application costs O(m²), not O(m³).
 
+use crate::joint;
 use crate::pairs::{split_by_column, Layout};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
@@ -51,13 +53,44 @@ pub fn eigenvectors(s: MatRef<f64>, par: Par) -> Result<Mat<f64>, String> {
     Ok(u)
 }
 
-/// Q: eigenvectors of the sum of the three diagonal blocks of H (3m×3m).
+/// Block-Jacobi sweeps of the joint diagonalisation refining Q.
+pub const JOINT_SWEEPS: usize = 1;
+
+/// Q: eigenvectors of the sum of the three diagonal blocks of H (3m×3m), refined
+/// by [`joint::refine`] to diagonalise the three blocks (each scaled to unit
+/// trace) together.
 pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<Mat<f64>, String> {
     let m = h.nrows() / 3;
-    let s = Mat::from_fn(m, m, |i, j| {
-        (0..3).map(|b| h[(b * m + i, b * m + j)]).sum::<f64>()
-    });
-    eigenvectors(s.as_ref(), par)
+    let block = |b: usize| h.submatrix(b * m, b * m, m, m);
+    let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block(b)[(i, j)]).sum::<f64>());
+    let mut q = eigenvectors(sum.as_ref(), par)?;
+    let mut mats: Vec<Mat<f64>> = (0..3)
+        .map(|b| {
+            let trace: f64 = (0..m).map(|i| block(b)[(i, i)]).sum();
+            let scale = if trace > 0.0 { 1.0 / trace } else { 1.0 };
+            let mut sq = Mat::zeros(m, m);
+            matmul(
+                sq.as_mut(),
+                Accum::Replace,
+                block(b),
+                q.as_ref(),
+                scale,
+                par,
+            );
+            let mut qsq = Mat::zeros(m, m);
+            matmul(
+                qsq.as_mut(),
+                Accum::Replace,
+                q.transpose(),
+                sq.as_ref(),
+                1.0,
+                par,
+            );
+            qsq
+        })
+        .collect();
+    joint::refine(&mut mats, &mut q, JOINT_SWEEPS, par);
+    Ok(q)
 }
 
 /// a ↦ a·(I₃⊗Q) for a with 3m columns (one GEMM per block column).
