@@ -32,9 +32,10 @@ from ._validation import FrequencyData, Triple, check_frequency_data, check_lam,
 Backend = Literal["rust", "numpy"]
 Solver = Literal["auto", "direct", "cg"]
 
-#: default relative-residual tolerance of ``solver="cg"``: on the chain and random
-#: systems of m = 10…60 (noisy and noise-free, 20 % to 190 Hz bands, both modes)
-#: it keeps CG within 2e-9 of the direct answer; 1e-10 left up to 2e-8.
+#: default relative-residual tolerance of ``solver="cg"``: on the full-order chain
+#: at m = 10…60 (noise-free and 5 % noise; 20 %, 50–150 Hz and 5–200 Hz bands;
+#: exact-symmetric and penalty modes, λ = 1e-3 and 100) it kept CG within 3e-9 of
+#: the direct answer, where 1e-10 left up to 2.6e-8 and 1e-12 bought little (1.2e-9).
 CG_TOL = 1e-11
 #: default iteration limit of ``solver="cg"``
 CG_MAX_ITER = 10_000
@@ -391,12 +392,13 @@ def identify(
         deficiency, which CG cannot.
     tol : CG stops when the relative residual of the scaled normal equations is
         ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to
-        2e-9 in our tests).
+        3e-9 in our tests).
     max_iter : CG iteration limit (default 10 000).
     progress : CG only: ``True`` draws a progress bar (iterations, residual) on
         stderr; a callable is called as ``progress(iteration, residual)`` about
-        every 0.1 s. Ctrl-C, or an exception raised by the callable, stops the
-        solve and propagates.
+        every 0.1 s and after the last iteration (residual: the iteration's
+        recursively updated one). Ctrl-C, or an exception raised by the
+        callable, stops the solve and propagates.
 
     Raises ``ValueError`` for malformed data or options or a problem with fewer
     equations than unknowns, ``MemoryError`` when the chosen solver's memory would

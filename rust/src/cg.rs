@@ -61,13 +61,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     parts.iter().sum()
 }
 
-/// y += alpha·x
-fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
-    y.par_chunks_mut(CHUNK)
-        .zip(x.par_chunks(CHUNK))
-        .for_each(|(y, x)| y.iter_mut().zip(x).for_each(|(v, u)| *v += alpha * u));
-}
-
 /// p = z + beta·p
 fn xpby(z: &[f64], beta: f64, p: &mut [f64]) {
     p.par_chunks_mut(CHUNK)
@@ -142,10 +135,36 @@ fn true_residual(op: &mut Operator, x: &[f64], b: &[f64], bnorm: f64, r: &mut [f
     dot(r, r).sqrt() / bnorm
 }
 
-/// Preconditioned CG from x = 0. Convergence is judged on the true residual:
-/// when the recursive one reaches `tol` the true one is computed, and if it is
-/// still above `tol` the iteration restarts from it (or stops, when restarts no
-/// longer halve it: the attainable accuracy has been reached).
+/// x += α·p, r −= α·q in one pass; returns ‖r‖² (fixed chunking, as [`dot`]).
+fn step(alpha: f64, p: &[f64], q: &[f64], x: &mut [f64], r: &mut [f64]) -> f64 {
+    let parts: Vec<f64> = x
+        .par_chunks_mut(CHUNK)
+        .zip(r.par_chunks_mut(CHUNK))
+        .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK)))
+        .map(|((x, r), (p, q))| {
+            let mut rr = 0.0;
+            for (((xi, ri), pi), qi) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q) {
+                *xi += alpha * pi;
+                *ri -= alpha * qi;
+                rr += *ri * *ri;
+            }
+            rr
+        })
+        .collect();
+    parts.iter().sum()
+}
+
+/// The true residual is also checked each time the recursive one has fallen by
+/// this factor since the last check, to notice when it has stopped following.
+const CHECK_FACTOR: f64 = 1e-3;
+
+/// Preconditioned CG from x = 0, judged on the true residual. The recursively
+/// updated residual drifts from the true one once rounding dominates, so the
+/// true one is computed (one more operator apply) when the recursive one reaches
+/// `tol` — converged if it is there too, else CG restarts from it — and every
+/// time the recursive one has fallen by [`CHECK_FACTOR`]. If between two checks
+/// the true residual has not halved, it has reached the attainable accuracy of
+/// the problem in floating point and the iteration stops there, not converged.
 pub fn pcg(
     op: &mut Operator,
     pre: &PairPrecond,
@@ -171,6 +190,7 @@ pub fn pcg(
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
     let mut last_true = f64::INFINITY;
+    let mut next_check = CHECK_FACTOR;
     let mut iterations = 0;
     let mut true_res = None;
     while iterations < opts.max_iter {
@@ -180,26 +200,30 @@ pub fn pcg(
             break; // breakdown: nothing more to gain from this direction
         }
         let alpha = rz / pq;
-        axpy(alpha, &p, &mut x);
-        axpy(-alpha, &q, &mut r);
+        let res = step(alpha, &p, &q, &mut x, &mut r).sqrt() / bnorm;
         iterations += 1;
-        let res = dot(&r, &r).sqrt() / bnorm;
         if let Some(cb) = progress.as_mut() {
             if cb(iterations, res).is_break() {
                 return Err(PodidError::Interrupted);
             }
         }
-        if res <= opts.tol {
-            let t = true_residual(op, &x, b, bnorm, &mut r);
+        let reached = res <= opts.tol;
+        if reached || res <= next_check {
+            // q is free until the next apply
+            let t = true_residual(op, &x, b, bnorm, &mut q);
             if t <= opts.tol || t > 0.5 * last_true {
                 true_res = Some(t);
                 break;
             }
             last_true = t;
-            pre.apply(&r, &mut z);
-            p.copy_from_slice(&z);
-            rz = dot(&r, &z);
-            continue;
+            next_check = res * CHECK_FACTOR;
+            if reached {
+                r.copy_from_slice(&q);
+                pre.apply(&r, &mut z);
+                p.copy_from_slice(&z);
+                rz = dot(&r, &z);
+                continue;
+            }
         }
         pre.apply(&r, &mut z);
         let rz_new = dot(&r, &z);

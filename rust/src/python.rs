@@ -61,8 +61,9 @@ const POLL: Duration = Duration::from_millis(100);
 
 /// Like [`run`] for an iterative job: it runs on a worker thread while this
 /// (Python's) thread polls for signals every [`POLL`] and passes the latest
-/// (iteration, residual) to `progress`. Ctrl-C, or an exception raised by
-/// `progress`, stops the job at its next iteration and is re-raised here.
+/// (iteration, residual) to `progress`, and once more at the end. Ctrl-C, or an
+/// exception raised by `progress`, stops the job at its next iteration and is
+/// re-raised here.
 fn run_iterative<T: Send>(
     py: Python<'_>,
     threads: usize,
@@ -94,20 +95,31 @@ fn run_iterative<T: Send>(
             });
             let mut raised: Option<PyErr> = None;
             let mut shown = 0;
+            // check Ctrl-C, and show the latest iteration if it is new
+            let mut poll = |check_signals: bool| {
+                let (it, res) = latest.lock().map(|l| *l).unwrap_or((0, f64::NAN));
+                let step = Python::attach(|py| {
+                    if check_signals {
+                        py.check_signals()?;
+                    }
+                    match &progress {
+                        Some(cb) if it > shown => cb.call1(py, (it, res)).map(|_| ()),
+                        _ => Ok(()),
+                    }
+                });
+                shown = it;
+                step
+            };
             loop {
                 match rx.recv_timeout(POLL) {
-                    Ok(out) => return (out, raised),
+                    Ok(out) => {
+                        if raised.is_none() {
+                            raised = poll(false).err();
+                        }
+                        return (out, raised);
+                    }
                     Err(mpsc::RecvTimeoutError::Timeout) if raised.is_none() => {
-                        let (it, res) = latest.lock().map(|l| *l).unwrap_or((0, f64::NAN));
-                        let step = Python::attach(|py| {
-                            py.check_signals()?;
-                            match &progress {
-                                Some(cb) if it > shown => cb.call1(py, (it, res)).map(|_| ()),
-                                _ => Ok(()),
-                            }
-                        });
-                        shown = it;
-                        if let Err(e) = step {
+                        if let Err(e) = poll(true) {
                             raised = Some(e);
                             cancel.store(true, Ordering::Relaxed);
                         }
@@ -222,8 +234,9 @@ fn result_dict<'py>(py: Python<'py>, id: &Identified) -> PyResult<Bound<'py, PyD
 
 /// Matrix-free identification by preconditioned CG (DESIGN §4); the same dict as
 /// `identify_direct` plus iterations, relative_residual, converged. `progress`,
-/// if given, is called as progress(iteration, relative_residual) about every
-/// 0.1 s; Ctrl-C or an exception in `progress` stops the solve and propagates.
+/// if given, is called as progress(iteration, recursive relative residual) about
+/// every 0.1 s and after the last iteration; Ctrl-C or an exception in
+/// `progress` stops the solve and propagates.
 #[pyfunction]
 #[pyo3(signature = (u, f, omega, lam, symmetric, tol, max_iter, progress = None, threads = 0))]
 #[allow(clippy::too_many_arguments)]
