@@ -242,11 +242,12 @@ pub fn pcg(
     Ok((x, report))
 }
 
-/// Bytes of the solver's O(m²) working set: H̃ and one transform temporary
-/// (18m²), Z and Z·H̃ (6m²), five CG vectors and the preconditioner's factors.
+/// Bytes of the solver's O(m²) working set, an upper bound: H with the two
+/// 3m×3m matrices of its change of basis (27m²; afterwards H̃ alone, 9m²),
+/// Z and Z·H̃ (6m²), five CG vectors and the preconditioner's factors.
 pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
     let lay = Layout::new(m, symmetric);
-    let doubles = 24 * m * m + 5 * lay.len() + PairPrecond::doubles(lay);
+    let doubles = 33 * m * m + 5 * lay.len() + PairPrecond::doubles(lay);
     doubles as u128 * 8
 }
 

@@ -115,9 +115,17 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
 pub fn to_basis(h: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, par: Par) -> (Mat<f64>, Mat<f64>) {
     let m = q.nrows();
     // H̃ = ((H (I⊗Q))ᵀ (I⊗Q))ᵀ = (I⊗Q)ᵀ H (I⊗Q), using Hᵀ = H
-    let hq = right_blocks(h, q, false, par);
-    let qhq = right_blocks(hq.transpose(), q, false, par);
-    let ht = Mat::from_fn(3 * m, 3 * m, |i, j| 0.5 * (qhq[(i, j)] + qhq[(j, i)]));
+    let mut ht = {
+        let hq = right_blocks(h, q, false, par);
+        right_blocks(hq.transpose(), q, false, par)
+    };
+    for j in 0..3 * m {
+        for i in j + 1..3 * m {
+            let v = 0.5 * (ht[(i, j)] + ht[(j, i)]);
+            ht[(i, j)] = v;
+            ht[(j, i)] = v;
+        }
+    }
     let mut qb = Mat::zeros(m, 3 * m);
     matmul(qb.as_mut(), Accum::Replace, q.transpose(), b, 1.0, par);
     (ht, right_blocks(qb.as_ref(), q, false, par))
