@@ -130,11 +130,11 @@ def test_auto_rule():
     # unregularised: one 3m×3m system, direct at any size
     assert choose_solver(400, (0.0, 0.0, 0.0), False) == "direct"
     # up to AUTO_DIRECT_MAX_UNKNOWNS unknowns: direct
-    assert 3 * 25 * 25 <= AUTO_DIRECT_MAX_UNKNOWNS < 3 * 26 * 26
-    assert choose_solver(25, (1.0, 1.0, 1.0), False) == "direct"
-    assert choose_solver(26, (1.0, 1.0, 1.0), False) == "cg"
-    assert choose_solver(36, (0.0, 0.0, 0.0), True) == "direct"
-    assert choose_solver(37, (0.0, 0.0, 0.0), True) == "cg"
+    assert 3 * 18 * 18 <= AUTO_DIRECT_MAX_UNKNOWNS < 3 * 19 * 19
+    assert choose_solver(18, (1.0, 1.0, 1.0), False) == "direct"
+    assert choose_solver(19, (1.0, 1.0, 1.0), False) == "cg"
+    assert choose_solver(25, (0.0, 0.0, 0.0), True) == "direct"
+    assert choose_solver(26, (0.0, 0.0, 0.0), True) == "cg"
     _, U, F, omega = chain(30, "narrow")
     assert identify(U, F, omega, 100.0).method == "cg"
     assert identify(U, F, omega, 100.0, backend="numpy").method == "cholesky"
