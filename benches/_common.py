@@ -7,6 +7,7 @@ memory (``ru_maxrss``) is its own; the parent only collects JSON.
 from __future__ import annotations
 
 import json
+import os
 import resource
 import signal
 import subprocess
@@ -72,6 +73,58 @@ def gemm_gflops(n: int = 4000, repeat: int = 3) -> float:
     return 2 * n**3 / best / 1e9
 
 
+def load_average() -> float | None:
+    """One-minute load average (other processes share the cores), or None."""
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return None
+
+
+def chain_problem(
+    n: int,
+    band_hz: tuple[float, float] = (5.0, 200.0),
+    s: int = 400,
+    noise: float = 0.0,
+    seed: int = 0,
+):
+    """Full-order chain ``mass_spring_chain(n)`` (R = I), random complex forces on every
+    DOF at s lines evenly spaced over ``band_hz``; ``noise`` adds complex noise of that
+    RMS fraction of |U| to the responses.
+
+    The dynamic stiffness of the chain is tridiagonal, so each line is one banded
+    solve, O(n): the dense ``SecondOrderSystem.response`` would need s·n² complex
+    numbers (32 GB at n = 1000, s = 2000). Returns (system, U, F, omega).
+    """
+    import scipy.linalg
+
+    from podid_rs import mass_spring_chain
+
+    sys_ = mass_spring_chain(n)
+    omega = 2 * np.pi * np.linspace(band_hz[0], band_hz[1], s)
+    rng = np.random.default_rng(seed)
+    F = rng.standard_normal((s, n)) + 1j * rng.standard_normal((s, n))
+    # rows of the banded storage: super-, main and sub-diagonal of M, C, K
+    bands = [np.zeros((3, n)) for _ in range(3)]
+    for X, b in zip((sys_.M, sys_.C, sys_.K), bands, strict=True):
+        b[0, 1:], b[1], b[2, :-1] = np.diag(X, 1), np.diag(X), np.diag(X, -1)
+    U = np.empty_like(F)
+    for i, w in enumerate(omega):
+        ab = -(w**2) * bands[0] + 1j * w * bands[1] + bands[2]
+        U[i] = scipy.linalg.solve_banded((1, 1), ab, F[i])
+    if noise:
+        e = rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape)
+        U = U + noise * np.sqrt(np.mean(np.abs(U) ** 2) / 2) * e
+    return sys_, U, F, omega
+
+
+def rel_errors(res, sys_) -> tuple[float, float, float]:
+    """‖X − X_true‖_F / ‖X_true‖_F for X = M, C, K."""
+    pairs = ((res.M, sys_.M), (res.C, sys_.C), (res.K, sys_.K))
+    e = [float(np.linalg.norm(X - T) / np.linalg.norm(T)) for X, T in pairs]
+    return e[0], e[1], e[2]
+
+
 def scipy_cholesky(case: dict) -> dict:
     """scipy.linalg.cho_factor on an SPD matrix of order n (in place, lower)."""
     import scipy.linalg
@@ -84,23 +137,6 @@ def scipy_cholesky(case: dict) -> dict:
         lambda: scipy.linalg.cho_factor(A, lower=True, overwrite_a=True, check_finite=False)
     )
     return {"seconds": secs, "gflops": n**3 / 3 / secs / 1e9}
-
-
-def chain_problem(m: int, lines: int = 400, noise: float = 0.0, seed: int = 0):
-    """The full-order chain ``mass_spring_chain(m)`` (R = I), random complex forces on
-    every DOF, ``lines`` lines over 5–200 Hz; ``noise`` adds complex noise of that
-    RMS fraction of |U| to the responses. Returns (system, U, F, omega)."""
-    from podid_rs import mass_spring_chain
-
-    sys_ = mass_spring_chain(m)
-    omega = 2 * np.pi * np.linspace(5.0, 200.0, lines)
-    rng = np.random.default_rng(seed)
-    F = rng.standard_normal((lines, m)) + 1j * rng.standard_normal((lines, m))
-    U = sys_.response(omega, F)
-    if noise:
-        e = rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape)
-        U = U + noise * np.sqrt(np.mean(np.abs(U) ** 2) / 2) * e
-    return sys_, U, F, omega
 
 
 def val(r: dict | None, key: str) -> float | None:

@@ -46,7 +46,7 @@ def identify_case(case: dict) -> dict:
     from podid_rs import identify
     from podid_rs.reference import identify_kronecker
 
-    sys_, U, F, omega = chain_problem(case["m"], S_LINES)
+    sys_, U, F, omega = chain_problem(case["m"], s=S_LINES)
     sym = case["symmetric"]
     if case["kind"] == "oracle":
         res, secs = timed(lambda: identify_kronecker(U, F, omega, LAM, sym))

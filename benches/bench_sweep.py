@@ -41,7 +41,7 @@ N_POINTS = 50
 def sweep_case(case: dict) -> dict:
     from podid_rs import identify, lambda_curve
 
-    _, U, F, omega = chain_problem(case["m"], S_LINES, NOISE)
+    _, U, F, omega = chain_problem(case["m"], s=S_LINES, noise=NOISE)
     calls = {
         "solve": lambda: identify(U, F, omega, 100.0),
         "sweep": lambda: lambda_curve(U, F, omega, n=N_POINTS),

@@ -139,7 +139,7 @@ def test_matches_oracle_on_noisy_chain_with_paper_lambda(backend):
 def test_backends_agree_at_larger_order():
     _, U, F, omega = random_system_data(20, 60, 2, 8, 0.05)
     for lam, sym in [(0.0, False), (2.0, False), (0.0, True)]:
-        a = identify(U, F, omega, lam, sym, backend="rust")
+        a = identify(U, F, omega, lam, sym, backend="rust", solver="direct")
         b = identify(U, F, omega, lam, sym, backend="numpy")
         assert max_rel(a, b) < 1e-9
 
@@ -252,9 +252,11 @@ def test_memory_guard_refuses_impossible_size(monkeypatch):
     monkeypatch.setattr(ident, "available_memory_bytes", lambda: 10**9)
     _, U, F, omega = random_system_data(40, 70, 1, 0, 0.0)
     # 3·40² = 4800 unknowns → 184 MB normal matrix; pretend only 1 GB... fits
-    identify(U, F, omega, 1.0)
+    identify(U, F, omega, 1.0, solver="direct")
     monkeypatch.setattr(ident, "available_memory_bytes", lambda: 10**8)
     with pytest.raises(MemoryError, match="GB"):
-        identify(U, F, omega, 1.0)
+        identify(U, F, omega, 1.0, solver="direct")
     # the unregularised problem only needs the 3m×3m Gram matrix
     identify(U, F, omega, 0.0)
+    # solver="auto" does not try the dense matrix where it would not fit
+    assert identify(U, F, omega, 1.0).method == "cg"

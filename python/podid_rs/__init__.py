@@ -15,7 +15,12 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability.
 """
 
-from .identification import IdentificationResult, RankDeficientWarning, identify
+from .identification import (
+    ConvergenceWarning,
+    IdentificationResult,
+    RankDeficientWarning,
+    identify,
+)
 from .measurements import MeasuredData, load_data, load_model, read_uff, save_data, save_model
 from .physical import make_physical, modal_parameters
 from .pod import (
@@ -40,6 +45,7 @@ from .systems import SecondOrderSystem, mass_spring_chain
 __version__ = "0.1.0"
 
 __all__ = [
+    "ConvergenceWarning",
     "IdentificationResult",
     "LambdaCurve",
     "LambdaSelectionWarning",

@@ -16,6 +16,9 @@ pub enum Method {
     Cholesky,
     /// minimum-norm solution from the eigendecomposition (rank deficient G)
     EigenMinNorm,
+    /// matrix-free preconditioned conjugate gradients ([`crate::cg`]); the rank
+    /// is not measured
+    ConjugateGradient,
 }
 
 impl Method {
@@ -23,6 +26,7 @@ impl Method {
         match self {
             Method::Cholesky => "cholesky",
             Method::EigenMinNorm => "eigen-min-norm",
+            Method::ConjugateGradient => "cg",
         }
     }
 }

@@ -8,6 +8,8 @@ pub enum PodidError {
     Invalid(String),
     /// The dense system would not fit in memory (→ MemoryError).
     OutOfMemory { bytes: u128, what: String },
+    /// The caller's progress callback asked to stop (e.g. Ctrl-C).
+    Interrupted,
 }
 
 impl fmt::Display for PodidError {
@@ -19,6 +21,7 @@ impl fmt::Display for PodidError {
                 "{what} needs {:.2} GB, which could not be allocated",
                 *bytes as f64 / 1e9
             ),
+            PodidError::Interrupted => write!(f, "interrupted"),
         }
     }
 }

@@ -2,12 +2,13 @@
 //! the symmetric/skew basis, solve, map back to M, C, K in the caller's units.
 
 use crate::buffer::DenseBuf;
+use crate::cg::CgReport;
 use crate::data::{Columns, Scaling, Stacked};
 use crate::direct::{cholesky_solve, eigen_min_norm_solve, Method, Solution};
 use crate::error::PodidError;
 use crate::gram::{gram, Gram};
 use crate::normal::{n_unknowns, Basis};
-use faer::{Mat, Par};
+use faer::{Mat, MatRef, Par};
 use std::time::Instant;
 
 /// Identified M, C, K with what the solver saw.
@@ -20,8 +21,36 @@ pub struct Identified {
     pub n_unknowns: usize,
     pub min_pivot_ratio: f64,
     pub scaling: Scaling,
-    /// wall time per phase, seconds: gram, form (normal matrix), factor, total
+    /// wall time per phase, seconds (direct: gram, form, factor, total;
+    /// CG: gram, setup, iterate, gemm (the operator's GEMMs within iterate), total)
     pub timings: Vec<(&'static str, f64)>,
+    /// iterations and final residual of the matrix-free solver (None for direct)
+    pub cg: Option<CgReport>,
+}
+
+/// λ must be finite and non-negative.
+pub(crate) fn check_lam(lam: [f64; 3]) -> Result<(), PodidError> {
+    if lam.iter().all(|l| l.is_finite() && *l >= 0.0) {
+        Ok(())
+    } else {
+        Err(PodidError::Invalid(format!(
+            "lam must be finite and non-negative, got {lam:?}"
+        )))
+    }
+}
+
+/// Scale the columns (DESIGN §3) and form the Gram products H, B of the scaled data.
+pub(crate) fn scaled_gram(cols: &Columns, par: Par) -> (Scaling, Gram) {
+    let scaling = Scaling::of(cols);
+    let gm = gram(&Stacked::new(cols, &scaling), par);
+    (scaling, gm)
+}
+
+/// M, C, K in the caller's units from the scaled Z = [X_M X_C X_K] (m×3m).
+pub(crate) fn unscale(z: MatRef<f64>, scaling: &Scaling) -> [Mat<f64>; 3] {
+    let m = z.nrows();
+    let f = scaling.block_factors();
+    [0, 1, 2].map(|b| Mat::from_fn(m, m, |i, j| f[b] * z[(i, b * m + j)]))
 }
 
 /// True when no block is penalised: the problem splits into m rows sharing H.
@@ -112,25 +141,18 @@ pub fn identify(
     symmetric: bool,
     par: Par,
 ) -> Result<Identified, PodidError> {
-    if !lam.iter().all(|l| l.is_finite() && *l >= 0.0) {
-        return Err(PodidError::Invalid(format!(
-            "lam must be finite and non-negative, got {lam:?}"
-        )));
-    }
+    check_lam(lam)?;
     let start = Instant::now();
     let m = cols.m;
-    let scaling = Scaling::of(cols);
-    let gm = gram(&Stacked::new(cols, &scaling), par);
+    let (scaling, gm) = scaled_gram(cols, par);
     let gram_seconds = start.elapsed().as_secs_f64();
     let (z, sol, form_seconds) = if unregularised(lam, symmetric) {
         solve_rows(&gm, m, par)?
     } else {
         solve_coords(&gm, m, scaling.scaled_lam(lam), symmetric, par)?
     };
-    let f = scaling.block_factors();
-    let mck = [0, 1, 2].map(|b| Mat::from_fn(m, m, |i, j| f[b] * z[(i, b * m + j)]));
     Ok(Identified {
-        mck,
+        mck: unscale(z.as_ref(), &scaling),
         method: sol.method,
         rank: sol.rank,
         n_unknowns: n_unknowns(m, symmetric),
@@ -142,17 +164,18 @@ pub fn identify(
             ("factor", sol.factor_seconds),
             ("total", start.elapsed().as_secs_f64()),
         ],
+        cg: None,
     })
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use faer::c64;
     use faer::prelude::Solve;
 
     /// A small non-symmetric system with exact data: every mode recovers it.
-    fn truth(m: usize) -> [Mat<f64>; 3] {
+    pub(crate) fn truth(m: usize) -> [Mat<f64>; 3] {
         let mm = Mat::from_fn(m, m, |i, j| {
             if i == j {
                 1.0 + i as f64
@@ -180,7 +203,7 @@ mod tests {
     }
 
     /// u_i = D(ω_i)⁻¹ f_i for m load cases per line with unit forces.
-    fn data(t: &[Mat<f64>; 3], omegas: &[f64]) -> (Vec<c64>, Vec<c64>, Vec<f64>) {
+    pub(crate) fn data(t: &[Mat<f64>; 3], omegas: &[f64]) -> (Vec<c64>, Vec<c64>, Vec<f64>) {
         let m = t[0].nrows();
         let (mut u, mut f, mut w) = (Vec::new(), Vec::new(), Vec::new());
         for &om in omegas {
@@ -202,7 +225,7 @@ mod tests {
         (u, f, w)
     }
 
-    fn rel_err(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
+    pub(crate) fn rel_err(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
         (a - b).norm_l2() / b.norm_l2()
     }
 

@@ -8,17 +8,23 @@
 //! - [`direct`]: in-place Cholesky with a rank-revealing fallback;
 //! - [`identify`]: the whole solve, scaled in and out;
 //! - [`sweep`]: the λ-curves (L-curve, GCV, discrepancy) from one eigendecomposition;
-//! - [`tridiag`]: two-stage symmetric tridiagonalisation (for the sweep).
+//! - [`tridiag`]: two-stage symmetric tridiagonalisation (for the sweep);
+//! - [`cg`]: the matrix-free alternative for large m — preconditioned CG on the
+//!   packed sym/skew coordinates of [`pairs`], preconditioned by [`precond`].
 //!
 //! The Python bindings live in `python.rs` behind the `python` feature.
 
 pub mod buffer;
+pub mod cg;
 pub mod data;
 pub mod direct;
 pub mod error;
 pub mod gram;
 pub mod identify;
+pub mod joint;
 pub mod normal;
+pub mod pairs;
+pub mod precond;
 pub mod sweep;
 pub mod tridiag;
 

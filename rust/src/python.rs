@@ -2,8 +2,10 @@
 //! C-contiguous from `podid_rs.identification`; the GIL is released during the
 //! numerics; a Rust panic becomes a RuntimeError, never a PanicException.
 
+use crate::cg::{self, CgOptions};
 use crate::data::{Columns, Scaling, Stacked};
 use crate::error::PodidError;
+use crate::identify::Identified;
 use crate::sweep::Sweep;
 use crate::{identify, with_threads};
 use faer::{Mat, Par};
@@ -12,25 +14,27 @@ use numpy::{
     Complex64, IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2,
     PyUntypedArrayMethods,
 };
-use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::ops::ControlFlow;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Mutex};
+use std::time::Duration;
 
 fn to_py(e: PodidError) -> PyErr {
     match e {
         PodidError::Invalid(msg) => PyValueError::new_err(msg),
         e @ PodidError::OutOfMemory { .. } => PyMemoryError::new_err(e.to_string()),
+        PodidError::Interrupted => PyKeyboardInterrupt::new_err("interrupted"),
     }
 }
 
-/// Run the numerics without the GIL, on `threads` threads, turning panics into errors.
-fn run<T: Send>(
-    py: Python<'_>,
-    threads: usize,
-    f: impl FnOnce() -> Result<T, PodidError> + Send,
-) -> PyResult<T> {
-    let out = py.detach(|| catch_unwind(AssertUnwindSafe(|| with_threads(threads, f))));
+type Outcome<T> = std::thread::Result<Result<Result<T, PodidError>, PodidError>>;
+
+/// The Python error for the outcome of a job run under `catch_unwind(with_threads(..))`.
+fn outcome<T>(out: Outcome<T>) -> PyResult<T> {
     match out {
         Ok(Ok(Ok(v))) => Ok(v),
         Ok(Ok(Err(e))) | Ok(Err(e)) => Err(to_py(e)),
@@ -44,6 +48,98 @@ fn run<T: Send>(
                 "internal error in the Rust core: {msg}"
             )))
         }
+    }
+}
+
+/// Run the numerics without the GIL, on `threads` threads, turning panics into errors.
+fn run<T: Send>(
+    py: Python<'_>,
+    threads: usize,
+    f: impl FnOnce() -> Result<T, PodidError> + Send,
+) -> PyResult<T> {
+    outcome(py.detach(|| catch_unwind(AssertUnwindSafe(|| with_threads(threads, f)))))
+}
+
+/// How often the waiting thread looks at Ctrl-C and reports progress.
+const POLL: Duration = Duration::from_millis(100);
+
+/// Like [`run`] for an iterative job: it runs on a worker thread while this
+/// (Python's) thread polls for signals every [`POLL`] and passes the latest
+/// (iteration, residual) to `progress`, and once more at the end. Ctrl-C, or an
+/// exception raised by `progress`, stops the job at its next iteration and is
+/// re-raised here.
+fn run_iterative<T: Send>(
+    py: Python<'_>,
+    threads: usize,
+    progress: Option<Py<PyAny>>,
+    job: impl FnOnce(cg::Progress) -> Result<T, PodidError> + Send,
+) -> PyResult<T> {
+    let cancel = AtomicBool::new(false);
+    let latest = Mutex::new((0usize, f64::NAN));
+    let (out, raised) = py.detach(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = mpsc::channel();
+            let (latest, cancel) = (&latest, &cancel);
+            s.spawn(move || {
+                let mut report = |it: usize, res: f64| {
+                    if let Ok(mut l) = latest.lock() {
+                        *l = (it, res);
+                    }
+                    if cancel.load(Ordering::Relaxed) {
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
+                    }
+                };
+                let out = catch_unwind(AssertUnwindSafe(|| {
+                    with_threads(threads, || job(&mut report))
+                }));
+                // the receiver outlives this scope's threads: it cannot be gone
+                let _ = tx.send(out);
+            });
+            let mut raised: Option<PyErr> = None;
+            let mut shown = 0;
+            // check Ctrl-C, and show the latest iteration if it is new
+            let mut poll = |check_signals: bool| {
+                let (it, res) = latest.lock().map(|l| *l).unwrap_or((0, f64::NAN));
+                let step = Python::attach(|py| {
+                    if check_signals {
+                        py.check_signals()?;
+                    }
+                    match &progress {
+                        Some(cb) if it > shown => cb.call1(py, (it, res)).map(|_| ()),
+                        _ => Ok(()),
+                    }
+                });
+                shown = it;
+                step
+            };
+            loop {
+                match rx.recv_timeout(POLL) {
+                    Ok(out) => {
+                        if raised.is_none() {
+                            raised = poll(false).err();
+                        }
+                        return (out, raised);
+                    }
+                    Err(mpsc::RecvTimeoutError::Timeout) if raised.is_none() => {
+                        if let Err(e) = poll(true) {
+                            raised = Some(e);
+                            cancel.store(true, Ordering::Relaxed);
+                        }
+                    }
+                    Err(mpsc::RecvTimeoutError::Timeout) => {}
+                    Err(mpsc::RecvTimeoutError::Disconnected) => {
+                        let msg = "the solver thread ended without a result";
+                        return (Err(Box::new(msg) as Box<_>), raised);
+                    }
+                }
+            }
+        })
+    });
+    match raised {
+        Some(e) => Err(e),
+        None => outcome(out),
     }
 }
 
@@ -110,6 +206,13 @@ fn identify_direct<'py>(
     let id = run(py, threads, || {
         identify::identify(&cols, lam, symmetric, Par::rayon(0))
     })?;
+    result_dict(py, &id)
+}
+
+/// The identification as a dict: M, C, K, method, rank, n_unknowns,
+/// min_pivot_ratio, scaling, timings, and for CG iterations, relative_residual,
+/// converged.
+fn result_dict<'py>(py: Python<'py>, id: &Identified) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     for (name, x) in ["M", "C", "K"].iter().zip(&id.mck) {
         d.set_item(*name, mat_to_py(py, x))?;
@@ -125,7 +228,57 @@ fn identify_direct<'py>(
         t.set_item(*name, *secs)?;
     }
     d.set_item("timings", t)?;
+    if let Some(rep) = id.cg {
+        d.set_item("iterations", rep.iterations)?;
+        d.set_item("relative_residual", rep.relative_residual)?;
+        d.set_item("converged", rep.converged)?;
+    }
     Ok(d)
+}
+
+/// Matrix-free identification by preconditioned CG (DESIGN §4); the same dict as
+/// `identify_direct` plus iterations, relative_residual, converged. `progress`,
+/// if given, is called as progress(iteration, recursive relative residual) about
+/// every 0.1 s and after the last iteration; Ctrl-C or an exception in
+/// `progress` stops the solve and propagates.
+#[pyfunction]
+#[pyo3(signature = (u, f, omega, lam, symmetric, tol, max_iter, progress = None, threads = 0))]
+#[allow(clippy::too_many_arguments)]
+fn identify_cg<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray2<'py, Complex64>,
+    f: PyReadonlyArray2<'py, Complex64>,
+    omega: PyReadonlyArray1<'py, f64>,
+    lam: (f64, f64, f64),
+    symmetric: bool,
+    tol: f64,
+    max_iter: usize,
+    progress: Option<Py<PyAny>>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let cols = columns(&u, &f, &omega)?;
+    let lam = [lam.0, lam.1, lam.2];
+    let opts = CgOptions { tol, max_iter };
+    let id = run_iterative(py, threads, progress, |report| {
+        cg::identify_cg(&cols, lam, symmetric, opts, Some(report), Par::rayon(0))
+    })?;
+    result_dict(py, &id)
+}
+
+/// Bytes of the matrix-free solver's working set.
+#[pyfunction]
+fn cg_memory_bytes(m: usize, symmetric: bool) -> u128 {
+    cg::memory_bytes(m, symmetric)
+}
+
+/// GFLOP/s of faer's GEMM in the shape of one CG operator apply (m×3m by 3m×3m),
+/// best of `repeat`, on `threads` threads (0 = all): the benchmarks' floor.
+#[pyfunction]
+#[pyo3(signature = (m, repeat = 3, threads = 0))]
+fn operator_gemm_gflops(py: Python<'_>, m: usize, repeat: usize, threads: usize) -> PyResult<f64> {
+    run(py, threads, || {
+        Ok(cg::operator_gemm_gflops(m, repeat, Par::rayon(0)))
+    })
 }
 
 /// Bytes of the largest dense matrix the direct path would allocate.
@@ -286,6 +439,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lambda_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_memory_bytes, m)?)?;
     m.add_class::<PyLambdaSweep>()?;
+    m.add_function(wrap_pyfunction!(identify_cg, m)?)?;
+    m.add_function(wrap_pyfunction!(cg_memory_bytes, m)?)?;
+    m.add_function(wrap_pyfunction!(operator_gemm_gflops, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,0 +1,497 @@
+//! Matrix-free identification for large orders: preconditioned conjugate gradients
+//! on the normal equations, never forming the 3m²×3m² normal matrix (DESIGN §4).
+//!
+//! In the scaled problem the normal equations for Z = [X_M X_C X_K] (m×3m) are
+//!
+//! ```text
+//!   Z H + Σ_b 2λ̃_b² (X_b − X_bᵀ)[block b] = B          (penalty mode)
+//!   sym_b(Z H) = sym_b(B),  X_b = X_bᵀ                  (exact-symmetric mode)
+//! ```
+//!
+//! We iterate on the coordinates of [`crate::pairs`] in the basis of
+//! [`crate::precond`] (X̃_b = Qᵀ X_b Q): the operator is one m×3m by 3m×3m GEMM
+//! (≈ 18m³ flops) plus O(m²) packing, and in those coordinates it is exactly the
+//! direct path's normal matrix (the penalty is 4λ̃² on skew coordinates), so the
+//! two paths solve the same equations. Memory is O(m²).
+
+use crate::data::Columns;
+use crate::direct::Method;
+use crate::error::PodidError;
+use crate::identify::{check_lam, scaled_gram, unscale, Identified};
+use crate::normal::n_unknowns;
+use crate::pairs::Layout;
+use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef, Par};
+use rayon::prelude::*;
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+/// Stopping rule of the iteration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CgOptions {
+    /// stop when ‖b − A x‖ / ‖b‖ ≤ tol (scaled problem, true residual)
+    pub tol: f64,
+    pub max_iter: usize,
+}
+
+/// What the iteration achieved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CgReport {
+    pub iterations: usize,
+    /// true relative residual ‖b − A x‖ / ‖b‖ of the returned answer (scaled problem)
+    pub relative_residual: f64,
+    pub converged: bool,
+}
+
+/// Called after every iteration with (iteration, recursively updated relative
+/// residual); returning `Break` stops the solve with [`PodidError::Interrupted`].
+pub type Progress<'a> = &'a mut (dyn FnMut(usize, f64) -> ControlFlow<()> + Send);
+
+/// Chunk length of the vector reductions: fixed, so sums do not depend on the
+/// number of threads.
+const CHUNK: usize = 1 << 14;
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let parts: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(x, y)| x.iter().zip(y).map(|(u, v)| u * v).sum())
+        .collect();
+    parts.iter().sum()
+}
+
+/// p = z + beta·p
+fn xpby(z: &[f64], beta: f64, p: &mut [f64]) {
+    p.par_chunks_mut(CHUNK)
+        .zip(z.par_chunks(CHUNK))
+        .for_each(|(p, z)| p.iter_mut().zip(z).for_each(|(v, u)| *v = u + beta * *v));
+}
+
+/// The normal operator in the Q basis, on packed coordinates.
+pub struct Operator<'a> {
+    ht: MatRef<'a, f64>,
+    layout: Layout,
+    /// 4λ̃_b² on the skew coordinates of block b
+    pen: [f64; 3],
+    z: Mat<f64>,
+    y: Mat<f64>,
+    par: Par,
+    /// wall time spent in the GEMM so far (the rest of an apply is O(m²))
+    pub gemm_seconds: f64,
+}
+
+impl<'a> Operator<'a> {
+    pub fn new(ht: MatRef<'a, f64>, layout: Layout, pen: [f64; 3], par: Par) -> Self {
+        let m = layout.m;
+        Operator {
+            ht,
+            layout,
+            pen,
+            z: Mat::zeros(m, 3 * m),
+            y: Mat::zeros(m, 3 * m),
+            par,
+            gemm_seconds: 0.0,
+        }
+    }
+
+    /// out = A x; returns x·A x.
+    pub fn apply(&mut self, x: &[f64], out: &mut [f64]) -> f64 {
+        self.layout.unpack(x, self.z.as_mut());
+        let start = Instant::now();
+        matmul(
+            self.y.as_mut(),
+            Accum::Replace,
+            self.z.as_ref(),
+            self.ht,
+            1.0,
+            self.par,
+        );
+        self.gemm_seconds += start.elapsed().as_secs_f64();
+        self.layout.pack_apply(self.y.as_ref(), x, self.pen, out)
+    }
+}
+
+/// ‖b − A x‖ into r, returned relative to ‖b‖.
+fn true_residual(op: &mut Operator, x: &[f64], b: &[f64], bnorm: f64, r: &mut [f64]) -> f64 {
+    op.apply(x, r);
+    r.par_chunks_mut(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .for_each(|(r, b)| r.iter_mut().zip(b).for_each(|(v, u)| *v = u - *v));
+    dot(r, r).sqrt() / bnorm
+}
+
+/// x += α·p, r −= α·q in one pass; returns ‖r‖² (fixed chunking, as [`dot`]).
+fn step(alpha: f64, p: &[f64], q: &[f64], x: &mut [f64], r: &mut [f64]) -> f64 {
+    let parts: Vec<f64> = x
+        .par_chunks_mut(CHUNK)
+        .zip(r.par_chunks_mut(CHUNK))
+        .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK)))
+        .map(|((x, r), (p, q))| {
+            let mut rr = 0.0;
+            for (((xi, ri), pi), qi) in x.iter_mut().zip(r.iter_mut()).zip(p).zip(q) {
+                *xi += alpha * pi;
+                *ri -= alpha * qi;
+                rr += *ri * *ri;
+            }
+            rr
+        })
+        .collect();
+    parts.iter().sum()
+}
+
+/// The true residual is also checked each time the recursive one has fallen by
+/// this factor since the last check, to notice when it has stopped following.
+const CHECK_FACTOR: f64 = 1e-3;
+
+/// Preconditioned CG from x = 0, judged on the true residual. The recursively
+/// updated residual drifts from the true one once rounding dominates, so the
+/// true one is computed (one more operator apply) when the recursive one reaches
+/// `tol` — converged if it is there too, else CG restarts from it — and every
+/// time the recursive one has fallen by [`CHECK_FACTOR`]. If between two checks
+/// the true residual has not halved, it has reached the attainable accuracy of
+/// the problem in floating point and the iteration stops there, not converged.
+pub fn pcg(
+    op: &mut Operator,
+    pre: &PairPrecond,
+    b: &[f64],
+    opts: CgOptions,
+    progress: &mut Option<Progress>,
+) -> Result<(Vec<f64>, CgReport), PodidError> {
+    let n = b.len();
+    let mut x = vec![0.0; n];
+    let bnorm = dot(b, b).sqrt();
+    if bnorm == 0.0 {
+        let report = CgReport {
+            iterations: 0,
+            relative_residual: 0.0,
+            converged: true,
+        };
+        return Ok((x, report));
+    }
+    let mut r = b.to_vec();
+    let mut z = vec![0.0; n];
+    let mut q = vec![0.0; n];
+    let mut rz = pre.apply(&r, &mut z);
+    let mut p = z.clone();
+    let mut last_true = f64::INFINITY;
+    let mut next_check = CHECK_FACTOR;
+    let mut iterations = 0;
+    let mut true_res = None;
+    while iterations < opts.max_iter {
+        let pq = op.apply(&p, &mut q);
+        if !(pq > 0.0 && pq.is_finite() && rz.is_finite()) {
+            break; // breakdown: nothing more to gain from this direction
+        }
+        let alpha = rz / pq;
+        let res = step(alpha, &p, &q, &mut x, &mut r).sqrt() / bnorm;
+        iterations += 1;
+        if let Some(cb) = progress.as_mut() {
+            if cb(iterations, res).is_break() {
+                return Err(PodidError::Interrupted);
+            }
+        }
+        let reached = res <= opts.tol;
+        if reached || res <= next_check {
+            // q is free until the next apply
+            let t = true_residual(op, &x, b, bnorm, &mut q);
+            if t <= opts.tol || t > 0.5 * last_true {
+                true_res = Some(t);
+                break;
+            }
+            last_true = t;
+            next_check = res * CHECK_FACTOR;
+            if reached {
+                r.copy_from_slice(&q);
+                rz = pre.apply(&r, &mut z);
+                p.copy_from_slice(&z);
+                continue;
+            }
+        }
+        let rz_new = pre.apply(&r, &mut z);
+        xpby(&z, rz_new / rz, &mut p);
+        rz = rz_new;
+    }
+    let relative_residual = match true_res {
+        Some(t) => t,
+        None => true_residual(op, &x, b, bnorm, &mut r),
+    };
+    let report = CgReport {
+        iterations,
+        relative_residual,
+        converged: relative_residual <= opts.tol,
+    };
+    Ok((x, report))
+}
+
+/// Bytes of the solver's O(m²) working set, an upper bound: H with the two
+/// 3m×3m matrices of its change of basis (27m²; afterwards H̃ alone, 9m²),
+/// Z and Z·H̃ (6m²), five CG vectors and the preconditioner's factors.
+pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
+    let lay = Layout::new(m, symmetric);
+    let doubles = 33 * m * m + 5 * lay.len() + PairPrecond::doubles(lay);
+    doubles as u128 * 8
+}
+
+/// Identify M, C, K like [`crate::identify::identify`], by preconditioned CG.
+/// Non-convergence is not an error: the report says what was achieved.
+pub fn identify_cg(
+    cols: &Columns,
+    lam: [f64; 3],
+    symmetric: bool,
+    opts: CgOptions,
+    mut progress: Option<Progress>,
+    par: Par,
+) -> Result<Identified, PodidError> {
+    check_lam(lam)?;
+    if !(opts.tol > 0.0 && opts.tol < 1.0) {
+        return Err(PodidError::Invalid(format!(
+            "tol must lie in (0, 1), got {}",
+            opts.tol
+        )));
+    }
+    if opts.max_iter == 0 {
+        return Err(PodidError::Invalid("max_iter must be at least 1".into()));
+    }
+    let start = Instant::now();
+    let m = cols.m;
+    let (scaling, gm) = scaled_gram(cols, par);
+    let gram_seconds = start.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let q = basis_of(gm.h.as_ref(), par).map_err(PodidError::Invalid)?;
+    let (ht, bt) = to_basis(gm.h.as_ref(), gm.b.as_ref(), q.as_ref(), par);
+    drop(gm);
+    let layout = Layout::new(m, symmetric);
+    let pen = scaling.scaled_lam(lam).map(|l| 4.0 * l * l);
+    let pre = PairPrecond::new(ht.as_ref(), layout, pen);
+    let mut rhs = vec![0.0; layout.len()];
+    layout.pack(bt.as_ref(), &mut rhs);
+    let setup_seconds = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let mut op = Operator::new(ht.as_ref(), layout, pen, par);
+    let (x, report) = pcg(&mut op, &pre, &rhs, opts, &mut progress)?;
+    let iterate_seconds = t.elapsed().as_secs_f64();
+
+    let mut zt = Mat::zeros(m, 3 * m);
+    layout.unpack(&x, zt.as_mut());
+    let mut z = from_basis(zt.as_ref(), q.as_ref(), par);
+    if symmetric {
+        for b in 0..3 {
+            for j in 0..m {
+                for i in j + 1..m {
+                    let v = 0.5 * (z[(i, b * m + j)] + z[(j, b * m + i)]);
+                    z[(i, b * m + j)] = v;
+                    z[(j, b * m + i)] = v;
+                }
+            }
+        }
+    }
+    let nu = n_unknowns(m, symmetric);
+    Ok(Identified {
+        mck: unscale(z.as_ref(), &scaling),
+        method: Method::ConjugateGradient,
+        rank: nu,
+        n_unknowns: nu,
+        min_pivot_ratio: f64::NAN,
+        scaling,
+        timings: vec![
+            ("gram", gram_seconds),
+            ("setup", setup_seconds),
+            ("iterate", iterate_seconds),
+            ("gemm", op.gemm_seconds),
+            ("total", start.elapsed().as_secs_f64()),
+        ],
+        cg: Some(report),
+    })
+}
+
+/// GFLOP/s of one operator-shaped GEMM (m×3m by 3m×3m), best of `repeat`: the
+/// floor of a CG iteration is 18m³ flops at this rate.
+pub fn operator_gemm_gflops(m: usize, repeat: usize, par: Par) -> f64 {
+    let a = Mat::<f64>::from_fn(m, 3 * m, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
+    let h = Mat::<f64>::from_fn(3 * m, 3 * m, |i, j| ((i * 5 + j * 3) % 13) as f64 - 6.0);
+    let mut y = Mat::<f64>::zeros(m, 3 * m);
+    let mut best = f64::INFINITY;
+    for _ in 0..repeat.max(1) + 1 {
+        let t = Instant::now();
+        matmul(y.as_mut(), Accum::Replace, a.as_ref(), h.as_ref(), 1.0, par);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    18.0 * (m as f64).powi(3) / best / 1e9
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::Columns;
+    use crate::identify::identify;
+    use crate::identify::tests::{data, rel_err, truth};
+    use crate::normal::Basis;
+
+    const OPTS: CgOptions = CgOptions {
+        tol: 1e-13,
+        max_iter: 2000,
+    };
+
+    /// A symmetric positive definite 3m×3m matrix with every kind of coupling.
+    fn spd(m: usize) -> Mat<f64> {
+        let a = Mat::from_fn(3 * m, 3 * m, |i, j| {
+            (((i * 13 + j * 7) % 17) as f64 - 8.0) / 17.0 + if i == j { 1.5 } else { 0.0 }
+        });
+        &a * a.transpose()
+    }
+
+    /// The packed operator is the direct path's normal matrix G (with Q = I).
+    #[test]
+    fn operator_is_the_direct_normal_matrix() {
+        let m = 4;
+        let h = spd(m);
+        let lam = [0.7, 0.0, 2.0];
+        for symmetric in [false, true] {
+            let basis = Basis::new(m, symmetric);
+            let n = basis.len();
+            let mut g = vec![0.0; n * n];
+            basis.assemble(h.as_ref(), lam, &mut g);
+            let layout = Layout::new(m, symmetric);
+            let pen = lam.map(|l| 4.0 * l * l);
+            let mut op = Operator::new(h.as_ref(), layout, pen, Par::Seq);
+            for p in 0..n {
+                // G e_p as a matrix, against A applied to the same basis matrix
+                let mut e = vec![0.0; n];
+                e[p] = 1.0;
+                let gcol: Vec<f64> = (0..n)
+                    .map(|i| if i >= p { g[p * n + i] } else { g[i * n + p] })
+                    .collect();
+                let want = basis.to_blocks(&gcol);
+                let mut x = vec![0.0; layout.len()];
+                layout.pack(basis.to_blocks(&e).as_ref(), &mut x);
+                let mut out = vec![0.0; layout.len()];
+                op.apply(&x, &mut out);
+                let mut got = Mat::zeros(m, 3 * m);
+                layout.unpack(&out, got.as_mut());
+                assert!((&got - &want).norm_l2() < 1e-13, "sym={symmetric} p={p}");
+            }
+        }
+    }
+
+    /// When every block of H is diagonal in one basis the preconditioner is the
+    /// inverse: one iteration.
+    #[test]
+    fn preconditioner_is_exact_for_simultaneously_diagonal_blocks() {
+        let m = 5;
+        let mut h = Mat::zeros(3 * m, 3 * m);
+        for k in 0..m {
+            let d = [
+                [4.0 + k as f64, 0.0, -1.0],
+                [0.0, 2.0, 0.0],
+                [-1.0, 0.0, 1.0 + 0.3 * k as f64],
+            ];
+            for b in 0..3 {
+                for c in 0..3 {
+                    h[(b * m + k, c * m + k)] = d[b][c];
+                }
+            }
+        }
+        let rhs_z = Mat::from_fn(m, 3 * m, |i, j| ((i + 2 * j) % 5) as f64 - 2.0);
+        for (symmetric, pen) in [
+            (true, [0.0; 3]),
+            (false, [0.0; 3]),
+            (false, [3.0, 0.0, 1e6]),
+        ] {
+            let layout = Layout::new(m, symmetric);
+            let pre = PairPrecond::new(h.as_ref(), layout, pen);
+            let mut op = Operator::new(h.as_ref(), layout, pen, Par::Seq);
+            let mut b = vec![0.0; layout.len()];
+            layout.pack(rhs_z.as_ref(), &mut b);
+            let (_, rep) = pcg(&mut op, &pre, &b, OPTS, &mut None).unwrap();
+            assert!(
+                rep.converged && rep.iterations == 1,
+                "{symmetric} {pen:?}: {rep:?}"
+            );
+        }
+    }
+
+    fn chain_like_columns(m: usize, perturb: f64) -> (Vec<faer::c64>, Vec<faer::c64>, Vec<f64>) {
+        let t = truth(m);
+        let omegas: Vec<f64> = (0..12).map(|i| 3.0 + 2.0 * i as f64).collect();
+        let (mut u, f, w) = data(&t, &omegas);
+        for (i, z) in u.iter_mut().enumerate() {
+            *z *= 1.0 + perturb * (((i * 7919) % 13) as f64 / 6.0 - 1.0);
+        }
+        (u, f, w)
+    }
+
+    #[test]
+    fn cg_matches_direct_in_every_mode() {
+        for perturb in [0.0, 0.05] {
+            let m = 5;
+            let (u, f, w) = chain_like_columns(m, perturb);
+            let cols = Columns::new(&u, &f, &w, m).unwrap();
+            let modes = [
+                ([0.0; 3], false),
+                ([0.0; 3], true),
+                ([1e-3, 0.0, 0.2], false),
+                // a penalty 10¹⁵ above the data term: the pair blocks must not lose
+                // the data part next to it
+                ([1e5; 3], false),
+            ];
+            let mut iterations = vec![];
+            for (lam, sym) in modes {
+                let direct = identify(&cols, lam, sym, Par::Seq).unwrap();
+                let cg = identify_cg(&cols, lam, sym, OPTS, None, Par::Seq).unwrap();
+                let rep = cg.cg.unwrap();
+                assert!(rep.converged, "{rep:?}");
+                iterations.push(rep.iterations);
+                assert_eq!(cg.method, Method::ConjugateGradient);
+                for b in 0..3 {
+                    let e = rel_err(&cg.mck[b], &direct.mck[b]);
+                    assert!(
+                        e < 1e-9,
+                        "perturb={perturb} lam={lam:?} sym={sym} block {b}: {e}"
+                    );
+                }
+                if sym {
+                    for x in &cg.mck {
+                        assert_eq!(x, &x.transpose().to_owned());
+                    }
+                }
+            }
+            // λ → ∞ is the exact-symmetric problem, and so is its preconditioner
+            assert!(iterations[3] <= iterations[1] + 3, "{iterations:?}");
+        }
+    }
+
+    #[test]
+    fn iteration_limit_reports_non_convergence_and_callback_can_stop() {
+        let m = 4;
+        let (u, f, w) = chain_like_columns(m, 0.05);
+        let cols = Columns::new(&u, &f, &w, m).unwrap();
+        let opts = CgOptions {
+            tol: 1e-14,
+            max_iter: 2,
+        };
+        let mut seen = Vec::new();
+        let mut record = |it: usize, res: f64| {
+            seen.push((it, res));
+            ControlFlow::Continue(())
+        };
+        let id = identify_cg(&cols, [1.0; 3], false, opts, Some(&mut record), Par::Seq).unwrap();
+        let rep = id.cg.unwrap();
+        assert!(!rep.converged && rep.iterations == 2 && rep.relative_residual > 1e-14);
+        assert_eq!(seen.iter().map(|s| s.0).collect::<Vec<_>>(), vec![1, 2]);
+        let mut stop = |_: usize, _: f64| ControlFlow::Break(());
+        let err = identify_cg(&cols, [1.0; 3], false, OPTS, Some(&mut stop), Par::Seq);
+        assert_eq!(err.err(), Some(PodidError::Interrupted));
+        for bad in [0.0, 1.0, f64::NAN] {
+            let o = CgOptions { tol: bad, ..OPTS };
+            assert!(identify_cg(&cols, [1.0; 3], false, o, None, Par::Seq).is_err());
+        }
+        let o = CgOptions {
+            max_iter: 0,
+            ..OPTS
+        };
+        assert!(identify_cg(&cols, [1.0; 3], false, o, None, Par::Seq).is_err());
+    }
+}

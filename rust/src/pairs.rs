@@ -1,0 +1,274 @@
+//! The vector space of the matrix-free solver: the coordinates of Z = [X_M X_C X_K]
+//! (m×3m) in each block's orthonormal symmetric/skew basis (the basis of
+//! [`crate::normal`]), stored flat and pair-major so that the preconditioner's
+//! small solves read contiguous memory.
+//!
+//! Layout of a vector of [`Layout::len`] doubles:
+//!
+//! ```text
+//!   diag  3m   : X_b[j,j]                              at 3j + b
+//!   sym   3P   : σ = (X_b[j,k] + X_b[k,j])/√2, j < k    at 3m + 3p + b
+//!   skew  3P   : τ = (X_b[j,k] − X_b[k,j])/√2, j < k    at 3m + 3P + 3p + b   (penalty mode only)
+//! ```
+//!
+//! with P = m(m−1)/2 pairs, p(j,k) = k(k−1)/2 + j. The map between the entries
+//! (X[j,k], X[k,j]) and (σ, τ) is an orthogonal involution, so the Euclidean
+//! inner product of coordinates is the Frobenius inner product of the matrices,
+//! and [`Layout::pack`] of a dense m×3m matrix is the adjoint of [`Layout::unpack`].
+//! In the exact-symmetric mode the skew coordinates do not exist: pack projects
+//! onto block-symmetric matrices.
+
+use faer::{ColMut, MatMut, MatRef};
+use rayon::prelude::*;
+
+const RSQRT2: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// Columns per parallel task in pack/unpack: at small m a task per column costs
+/// more in scheduling than the column's work.
+const MIN_COLUMNS: usize = 32;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub m: usize,
+    pub symmetric: bool,
+}
+
+impl Layout {
+    pub fn new(m: usize, symmetric: bool) -> Layout {
+        Layout { m, symmetric }
+    }
+
+    /// Number of pairs j < k.
+    pub fn n_pairs(&self) -> usize {
+        self.m * self.m.saturating_sub(1) / 2
+    }
+
+    /// Number of coordinates: 3m(m+1)/2 (exact-symmetric) or 3m².
+    pub fn len(&self) -> usize {
+        let half = 3 * self.m + 3 * self.n_pairs();
+        if self.symmetric {
+            half
+        } else {
+            half + 3 * self.n_pairs()
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.m == 0
+    }
+
+    /// Split a vector into its (diag, sym, skew) parts; skew is empty when symmetric.
+    pub fn split<'a>(&self, x: &'a [f64]) -> (&'a [f64], &'a [f64], &'a [f64]) {
+        let (diag, rest) = x.split_at(3 * self.m);
+        let (sym, skew) = rest.split_at(3 * self.n_pairs());
+        (diag, sym, skew)
+    }
+
+    pub fn split_mut<'a>(&self, x: &'a mut [f64]) -> (&'a mut [f64], &'a mut [f64], &'a mut [f64]) {
+        let (diag, rest) = x.split_at_mut(3 * self.m);
+        let (sym, skew) = rest.split_at_mut(3 * self.n_pairs());
+        (diag, sym, skew)
+    }
+
+    /// Z (m×3m) from the coordinates x. Parallel over c, writing column c of all
+    /// three blocks at once so that each pair's three values are read together.
+    pub fn unpack(&self, x: &[f64], z: MatMut<f64>) {
+        let m = self.m;
+        assert!(x.len() == self.len() && z.nrows() == m && z.ncols() == 3 * m);
+        let (diag, sym, skew) = self.split(x);
+        let (z0, rest) = z.split_at_col_mut(m);
+        let (z1, z2) = rest.split_at_col_mut(m);
+        z0.par_col_iter_mut()
+            .zip(z1.par_col_iter_mut())
+            .zip(z2.par_col_iter_mut())
+            .enumerate()
+            .with_min_len(MIN_COLUMNS)
+            .for_each(|(c, ((a, b), d))| {
+                let mut cols = [a, b, d].map(dense);
+                // rows r < c: upper entry of pair (r, c), contiguous in p
+                let base = c * c.saturating_sub(1) / 2;
+                for r in 0..c {
+                    let i = 3 * (base + r);
+                    for (blk, col) in cols.iter_mut().enumerate() {
+                        let t = if self.symmetric { 0.0 } else { skew[i + blk] };
+                        col[r] = RSQRT2 * (sym[i + blk] + t);
+                    }
+                }
+                for (blk, col) in cols.iter_mut().enumerate() {
+                    col[c] = diag[3 * c + blk];
+                }
+                // rows r > c: lower entry of pair (c, r)
+                for r in c + 1..m {
+                    let i = 3 * (r * (r - 1) / 2 + c);
+                    for (blk, col) in cols.iter_mut().enumerate() {
+                        let t = if self.symmetric { 0.0 } else { skew[i + blk] };
+                        col[r] = RSQRT2 * (sym[i + blk] - t);
+                    }
+                }
+            });
+    }
+
+    /// Coordinates of Y (m×3m) into `out`; in the exact-symmetric mode only its
+    /// block-symmetric part is kept.
+    pub fn pack(&self, y: MatRef<f64>, out: &mut [f64]) {
+        self.pack_impl(y, None, out);
+    }
+
+    /// The tail of the CG operator, fused into one pass: `out` = the coordinates
+    /// of Y plus `pen[b]`·x on the skew coordinates of block b; returns x·out.
+    pub fn pack_apply(&self, y: MatRef<f64>, x: &[f64], pen: [f64; 3], out: &mut [f64]) -> f64 {
+        assert_eq!(x.len(), self.len());
+        self.pack_impl(y, Some((x, pen)), out)
+    }
+
+    /// Parallel over the columns k of the pairs (j, k); the dot product is summed
+    /// per column and then in column order, so it does not depend on the threads.
+    fn pack_impl(&self, y: MatRef<f64>, x: Option<(&[f64], [f64; 3])>, out: &mut [f64]) -> f64 {
+        let m = self.m;
+        assert!(out.len() == self.len() && y.nrows() == m && y.ncols() == 3 * m);
+        let symmetric = self.symmetric;
+        let (pen, (xd, xs, xt)) = match x {
+            Some((x, pen)) => (pen, self.split(x)),
+            None => ([0.0; 3], (&[][..], &[][..], &[][..])),
+        };
+        let with_x = x.is_some();
+        let (diag, sym, skew) = self.split_mut(out);
+        let mut total = 0.0;
+        for (j, d) in diag.chunks_exact_mut(3).enumerate() {
+            for (b, v) in d.iter_mut().enumerate() {
+                *v = y[(j, b * m + j)];
+                if with_x {
+                    total += xd[3 * j + b] * *v;
+                }
+            }
+        }
+        let sym_cols = split_by_column(sym, m, 3);
+        let skew_cols = if symmetric {
+            (0..m).map(|_| &mut [][..]).collect()
+        } else {
+            split_by_column(skew, m, 3)
+        };
+        let parts: Vec<f64> = sym_cols
+            .into_par_iter()
+            .zip(skew_cols)
+            .enumerate()
+            .with_min_len(MIN_COLUMNS)
+            .map(|(k, (sk, tk))| {
+                let base = 3 * (k * k.saturating_sub(1) / 2);
+                let mut acc = 0.0;
+                for j in 0..k {
+                    for b in 0..3 {
+                        let i = 3 * j + b;
+                        let (up, lo) = (y[(j, b * m + k)], y[(k, b * m + j)]);
+                        let s = RSQRT2 * (up + lo);
+                        sk[i] = s;
+                        if symmetric {
+                            if with_x {
+                                acc += xs[base + i] * s;
+                            }
+                            continue;
+                        }
+                        let mut t = RSQRT2 * (up - lo);
+                        if with_x {
+                            t += pen[b] * xt[base + i];
+                            acc += xs[base + i] * s + xt[base + i] * t;
+                        }
+                        tk[i] = t;
+                    }
+                }
+                acc
+            })
+            .collect();
+        total + parts.iter().sum::<f64>()
+    }
+}
+
+/// A column of a column-major matrix as a slice.
+fn dense(col: ColMut<'_, f64>) -> &mut [f64] {
+    col.try_as_col_major_mut()
+        .expect("dense column")
+        .as_slice_mut()
+}
+
+/// Split a pair-major array (`width` values per pair) into the runs of the pairs
+/// (j, k), j < k, of each column k = 0..m (the run of column k has width·k values).
+pub fn split_by_column(mut a: &mut [f64], m: usize, width: usize) -> Vec<&mut [f64]> {
+    let mut out = Vec::with_capacity(m);
+    for k in 0..m {
+        let (head, tail) = std::mem::take(&mut a).split_at_mut(width * k);
+        out.push(head);
+        a = tail;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::normal::Basis;
+    use faer::Mat;
+
+    fn z_of(m: usize, seed: u64) -> Mat<f64> {
+        Mat::from_fn(m, 3 * m, |i, j| {
+            (((i * 31 + j * 17) as u64 * 2654435761 + seed) % 1000) as f64 / 500.0 - 1.0
+        })
+    }
+
+    #[test]
+    fn unpack_of_pack_is_identity_in_penalty_mode() {
+        for m in 1..7 {
+            let lay = Layout::new(m, false);
+            assert_eq!(lay.len(), 3 * m * m);
+            let z = z_of(m, 3);
+            let mut x = vec![0.0; lay.len()];
+            lay.pack(z.as_ref(), &mut x);
+            // orthogonal: same norm
+            let nx: f64 = x.iter().map(|v| v * v).sum();
+            assert!((nx - z.norm_l2().powi(2)).abs() < 1e-12);
+            let mut back = Mat::zeros(m, 3 * m);
+            lay.unpack(&x, back.as_mut());
+            assert!((&back - &z).norm_l2() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn symmetric_pack_projects_onto_block_symmetric_matrices() {
+        let m = 5;
+        let lay = Layout::new(m, true);
+        assert_eq!(lay.len(), 3 * m * (m + 1) / 2);
+        let z = z_of(m, 7);
+        let mut x = vec![0.0; lay.len()];
+        lay.pack(z.as_ref(), &mut x);
+        let mut back = Mat::zeros(m, 3 * m);
+        lay.unpack(&x, back.as_mut());
+        for b in 0..3 {
+            for i in 0..m {
+                for j in 0..m {
+                    let want = 0.5 * (z[(i, b * m + j)] + z[(j, b * m + i)]);
+                    assert!((back[(i, b * m + j)] - want).abs() < 1e-14);
+                }
+            }
+        }
+    }
+
+    /// The coordinates are those of `normal::Basis` (same basis matrices, another order).
+    #[test]
+    fn coordinates_match_the_direct_paths_basis() {
+        let m = 4;
+        for symmetric in [false, true] {
+            let lay = Layout::new(m, symmetric);
+            let basis = Basis::new(m, symmetric);
+            let z = z_of(m, 11);
+            let mut x = vec![0.0; lay.len()];
+            lay.pack(z.as_ref(), &mut x);
+            let from_basis = basis.rhs(z.as_ref());
+            let mut a: Vec<f64> = x.clone();
+            let mut b = from_basis.clone();
+            a.sort_by(f64::total_cmp);
+            b.sort_by(f64::total_cmp);
+            for (u, v) in a.iter().zip(&b) {
+                assert!((u - v).abs() < 1e-14, "symmetric={symmetric}");
+            }
+        }
+    }
+}

@@ -1,0 +1,332 @@
+//! The preconditioner of the matrix-free solver (DESIGN §4), and the basis it lives in.
+//!
+//! Let Q be the eigenvectors of S = H_MM + H_CC + H_KK (m×m), refined to
+//! diagonalise the three blocks together ([`crate::joint`]). In the variables
+//! X̃_b = Qᵀ X_b Q the data term is still a row operator, Z̃ ↦ Z̃ H̃ with
+//! H̃ = (I₃⊗Q)ᵀ H (I₃⊗Q), and the penalty and the symmetric projection are
+//! unchanged (Q is orthogonal, so X̃ − X̃ᵀ = Qᵀ(X − Xᵀ)Q). The approximation:
+//! keep of every block H̃_bb' only its diagonal. Then column k of every row sees
+//! the 3×3 matrix D(k)[b][b'] = H̃[bm+k, b'm+k], and the operator decouples
+//! into independent systems per entry pair: in the pair's sym/skew coordinates
+//! (σ, τ) of [`crate::pairs`],
+//!
+//! ```text
+//!   [ A    C     ] [σ]        A = (D(j) + D(k))/2
+//!   [ C    A + Λ ] [τ]        C = (D(k) − D(j))/2,   Λ = diag(4λ̃_b²)
+//! ```
+//!
+//! (6×6; the exact-symmetric mode keeps the 3×3 A, a diagonal entry j = k the
+//! 3×3 D(j)). It is exact when Q diagonalises every block of H at once. The
+//! skew blocks ±T₁, ±T₃ of H have zero diagonal in any orthonormal basis, so
+//! their coupling is the part always left out. The solver works in the Q basis
+//! throughout, so each preconditioner application costs O(m²), not O(m³).
+
+use crate::joint;
+use crate::pairs::{split_by_column, Layout};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef, Par};
+use rayon::prelude::*;
+
+/// Orthonormal eigenvectors (columns) of the symmetric m×m matrix `s` (lower triangle read).
+pub fn eigenvectors(s: MatRef<f64>, par: Par) -> Result<Mat<f64>, String> {
+    let m = s.nrows();
+    let mut u = Mat::zeros(m, m);
+    let mut w = faer::diag::Diag::<f64>::zeros(m);
+    let params = Default::default();
+    let mut mem = MemBuffer::new(self_adjoint_evd_scratch::<f64>(
+        m,
+        ComputeEigenvectors::Yes,
+        par,
+        params,
+    ));
+    self_adjoint_evd(
+        s,
+        w.as_mut(),
+        Some(u.as_mut()),
+        par,
+        MemStack::new(&mut mem),
+        params,
+    )
+    .map_err(|e| format!("eigendecomposition for the preconditioner failed: {e:?}"))?;
+    Ok(u)
+}
+
+/// Block-Jacobi sweeps of the joint diagonalisation refining Q.
+pub const JOINT_SWEEPS: usize = 1;
+
+/// Q: eigenvectors of the sum of the three diagonal blocks of H (3m×3m), refined
+/// by [`joint::refine`] to diagonalise the three blocks (each scaled to unit
+/// trace) together.
+pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<Mat<f64>, String> {
+    let m = h.nrows() / 3;
+    let block = |b: usize| h.submatrix(b * m, b * m, m, m);
+    let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block(b)[(i, j)]).sum::<f64>());
+    let mut q = eigenvectors(sum.as_ref(), par)?;
+    let mut mats: Vec<Mat<f64>> = (0..3)
+        .map(|b| {
+            let trace: f64 = (0..m).map(|i| block(b)[(i, i)]).sum();
+            let scale = if trace > 0.0 { 1.0 / trace } else { 1.0 };
+            let mut sq = Mat::zeros(m, m);
+            matmul(
+                sq.as_mut(),
+                Accum::Replace,
+                block(b),
+                q.as_ref(),
+                scale,
+                par,
+            );
+            let mut qsq = Mat::zeros(m, m);
+            matmul(
+                qsq.as_mut(),
+                Accum::Replace,
+                q.transpose(),
+                sq.as_ref(),
+                1.0,
+                par,
+            );
+            qsq
+        })
+        .collect();
+    joint::refine(&mut mats, &mut q, JOINT_SWEEPS, par);
+    Ok(q)
+}
+
+/// a ↦ a·(I₃⊗Q) for a with 3m columns (one GEMM per block column).
+fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Mat<f64> {
+    let m = q.nrows();
+    let q = if transpose { q.transpose() } else { q };
+    let mut out = Mat::zeros(a.nrows(), a.ncols());
+    for b in 0..3 {
+        matmul(
+            out.as_mut().subcols_mut(b * m, m),
+            Accum::Replace,
+            a.subcols(b * m, m),
+            q,
+            1.0,
+            par,
+        );
+    }
+    out
+}
+
+/// (H̃, B̃) = ((I⊗Q)ᵀ H (I⊗Q), Qᵀ B (I⊗Q)); H̃ is symmetrised exactly.
+pub fn to_basis(h: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, par: Par) -> (Mat<f64>, Mat<f64>) {
+    let m = q.nrows();
+    // H̃ = ((H (I⊗Q))ᵀ (I⊗Q))ᵀ = (I⊗Q)ᵀ H (I⊗Q), using Hᵀ = H
+    let mut ht = {
+        let hq = right_blocks(h, q, false, par);
+        right_blocks(hq.transpose(), q, false, par)
+    };
+    for j in 0..3 * m {
+        for i in j + 1..3 * m {
+            let v = 0.5 * (ht[(i, j)] + ht[(j, i)]);
+            ht[(i, j)] = v;
+            ht[(j, i)] = v;
+        }
+    }
+    let mut qb = Mat::zeros(m, 3 * m);
+    matmul(qb.as_mut(), Accum::Replace, q.transpose(), b, 1.0, par);
+    (ht, right_blocks(qb.as_ref(), q, false, par))
+}
+
+/// X_b = Q X̃_b Qᵀ for every block of Z̃ (m×3m).
+pub fn from_basis(zt: MatRef<f64>, q: MatRef<f64>, par: Par) -> Mat<f64> {
+    let m = q.nrows();
+    let mut qz = Mat::zeros(m, 3 * m);
+    matmul(qz.as_mut(), Accum::Replace, q, zt, 1.0, par);
+    right_blocks(qz.as_ref(), q, true, par)
+}
+
+/// Index of (i, j), j ≤ i, in a packed lower triangle stored row by row.
+#[inline]
+fn tri(i: usize, j: usize) -> usize {
+    i * (i + 1) / 2 + j
+}
+
+/// In-place Cholesky L Lᵀ of a packed n×n SPD matrix, storing 1/L_ii on the
+/// diagonal (the solves then multiply instead of divide). A pivot that is not
+/// above `1e3·ε` times its diagonal entry (or a non-positive diagonal entry) is
+/// replaced by that floor (by 1 if the entry is not positive), so the result
+/// always defines an SPD approximate inverse: the preconditioner must stay SPD
+/// even for degenerate data. The floor is relative to each entry's own diagonal,
+/// since penalty rows can exceed data rows by 10¹⁵.
+fn small_cholesky(a: &mut [f64], n: usize) {
+    for i in 0..n {
+        for j in 0..=i {
+            let mut s = a[tri(i, j)];
+            for k in 0..j {
+                s -= a[tri(i, k)] * a[tri(j, k)];
+            }
+            a[tri(i, j)] = if i == j {
+                let d = a[tri(i, i)];
+                let floor = if d > 0.0 && d.is_finite() {
+                    1e3 * f64::EPSILON * d
+                } else {
+                    1.0
+                };
+                1.0 / s.max(floor).sqrt()
+            } else {
+                s * a[tri(j, j)]
+            };
+        }
+    }
+}
+
+/// Solve L Lᵀ x = r in place with a packed N×N factor from [`small_cholesky`]
+/// (N is a constant, so the loops unroll: this runs once per pair per iteration).
+#[inline]
+fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
+    for i in 0..N {
+        let mut s = x[i];
+        for k in 0..i {
+            s -= l[tri(i, k)] * x[k];
+        }
+        x[i] = s * l[tri(i, i)];
+    }
+    for i in (0..N).rev() {
+        let mut s = x[i];
+        for k in i + 1..N {
+            s -= l[tri(k, i)] * x[k];
+        }
+        x[i] = s * l[tri(i, i)];
+    }
+}
+
+/// x = (L Lᵀ)⁻¹ r for an N-vector in slices; returns r·x.
+#[inline]
+fn solve_into<const N: usize>(l: &[f64], r: &[f64], x: &mut [f64]) -> f64 {
+    let mut v = [0.0; N];
+    v.copy_from_slice(r);
+    small_solve::<N>(l, &mut v);
+    x.copy_from_slice(&v);
+    r.iter().zip(&v).map(|(a, b)| a * b).sum()
+}
+
+/// Factor a small SPD block given as its packed lower triangle.
+fn factor(mut a: Vec<f64>, n: usize) -> Vec<f64> {
+    small_cholesky(&mut a, n);
+    a
+}
+
+/// The pair-block preconditioner in the Q basis.
+pub struct PairPrecond {
+    layout: Layout,
+    /// factor of D(j), 6 doubles per j
+    diag: Vec<f64>,
+    /// factor of the pair block, 6 (symmetric: A) or 21 (6×6) doubles per pair
+    pairs: Vec<f64>,
+}
+
+impl PairPrecond {
+    /// From H̃ (3m×3m, in the Q basis) and the squared penalty weights Λ_b = 4λ̃_b².
+    pub fn new(ht: MatRef<f64>, layout: Layout, pen: [f64; 3]) -> PairPrecond {
+        let m = layout.m;
+        let d: Vec<[[f64; 3]; 3]> = (0..m)
+            .map(|k| {
+                let mut dk = [[0.0; 3]; 3];
+                for (b, row) in dk.iter_mut().enumerate() {
+                    for (c, v) in row.iter_mut().enumerate() {
+                        *v = ht[(b * m + k, c * m + k)];
+                    }
+                }
+                dk
+            })
+            .collect();
+        let packed3 = |f: &dyn Fn(usize, usize) -> f64| {
+            (0..3)
+                .flat_map(|i| (0..=i).map(move |j| (i, j)))
+                .map(|(i, j)| f(i, j))
+                .collect::<Vec<f64>>()
+        };
+        let diag = d
+            .iter()
+            .flat_map(|dk| factor(packed3(&|i, j| dk[i][j]), 3))
+            .collect();
+        let width = if layout.symmetric { 6 } else { 21 };
+        let mut pairs = vec![0.0; width * layout.n_pairs()];
+        let cols = split_by_column(&mut pairs, m, width);
+        cols.into_par_iter().enumerate().for_each(|(k, run)| {
+            for (j, out) in run.chunks_exact_mut(width).enumerate() {
+                let a = |i: usize, c: usize| 0.5 * (d[j][i][c] + d[k][i][c]);
+                let block = if layout.symmetric {
+                    factor(packed3(&|i, c| a(i, c)), 3)
+                } else {
+                    let cc = |i: usize, c: usize| 0.5 * (d[k][i][c] - d[j][i][c]);
+                    let full = |i: usize, c: usize| match (i < 3, c < 3) {
+                        (true, true) => a(i, c),
+                        (false, true) => cc(i - 3, c),
+                        (true, false) => cc(i, c - 3),
+                        (false, false) => a(i - 3, c - 3) + if i == c { pen[i - 3] } else { 0.0 },
+                    };
+                    let packed = (0..6)
+                        .flat_map(|i| (0..=i).map(move |c| (i, c)))
+                        .map(|(i, c)| full(i, c))
+                        .collect();
+                    factor(packed, 6)
+                };
+                out.copy_from_slice(&block);
+            }
+        });
+        PairPrecond {
+            layout,
+            diag,
+            pairs,
+        }
+    }
+
+    /// Doubles held by the factors (for the memory estimate).
+    pub fn doubles(layout: Layout) -> usize {
+        6 * layout.m + if layout.symmetric { 6 } else { 21 } * layout.n_pairs()
+    }
+
+    /// z = P⁻¹ r; returns r·z (summed per fixed chunk of pairs, then in order,
+    /// so it does not depend on the number of threads).
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        const PAIRS: usize = 1024;
+        let lay = self.layout;
+        let (rd, rs, rk) = lay.split(r);
+        let (zd, zs, zk) = lay.split_mut(z);
+        let mut total = 0.0;
+        for ((x, rr), l) in zd
+            .chunks_exact_mut(3)
+            .zip(rd.chunks_exact(3))
+            .zip(self.diag.chunks_exact(6))
+        {
+            total += solve_into::<3>(l, rr, x);
+        }
+        let parts: Vec<f64> = if lay.symmetric {
+            zs.par_chunks_mut(3 * PAIRS)
+                .zip(rs.par_chunks(3 * PAIRS))
+                .zip(self.pairs.par_chunks(6 * PAIRS))
+                .map(|((zs, rs), ls)| {
+                    let it = zs.chunks_exact_mut(3).zip(rs.chunks_exact(3));
+                    it.zip(ls.chunks_exact(6))
+                        .map(|((x, rr), l)| solve_into::<3>(l, rr, x))
+                        .sum()
+                })
+                .collect()
+        } else {
+            zs.par_chunks_mut(3 * PAIRS)
+                .zip(zk.par_chunks_mut(3 * PAIRS))
+                .zip(rs.par_chunks(3 * PAIRS).zip(rk.par_chunks(3 * PAIRS)))
+                .zip(self.pairs.par_chunks(21 * PAIRS))
+                .map(|(((zs, zk), (rs, rk)), ls)| {
+                    let mut acc = 0.0;
+                    let z3 = zs.chunks_exact_mut(3).zip(zk.chunks_exact_mut(3));
+                    let r3 = rs.chunks_exact(3).zip(rk.chunks_exact(3));
+                    for (((s, t), (rs, rt)), l) in z3.zip(r3).zip(ls.chunks_exact(21)) {
+                        let rr = [rs[0], rs[1], rs[2], rt[0], rt[1], rt[2]];
+                        let mut x = [0.0; 6];
+                        acc += solve_into::<6>(l, &rr, &mut x);
+                        s.copy_from_slice(&x[..3]);
+                        t.copy_from_slice(&x[3..]);
+                    }
+                    acc
+                })
+                .collect()
+        };
+        total + parts.iter().sum::<f64>()
+    }
+}

@@ -1,0 +1,178 @@
+"""solver="cg": the matrix-free path gives the direct path's answer, and says when it cannot.
+
+The chain at full order (R = I) with random forces on every DOF and s = 2m lines
+is the benchmark's problem; "narrow" is the paper's 20 % band, "wide" 50–150 Hz.
+The direct answer is the reference: CG must match it to 1e-8 relative at the
+default tol (the tol was chosen for that with a margin, see ``CG_TOL``).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from podid_rs import ConvergenceWarning, identify, mass_spring_chain
+from podid_rs.identification import AUTO_DIRECT_MAX_UNKNOWNS, CG_TOL, choose_solver
+
+BANDS = {"narrow": (102.8, 122.8), "wide": (50.0, 150.0)}
+
+
+def chain(m: int, band: str, noise: float = 0.0, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    sys_ = mass_spring_chain(m)
+    omega = 2 * np.pi * np.linspace(*BANDS[band], 2 * m)
+    F = rng.standard_normal((2 * m, m)) + 1j * rng.standard_normal((2 * m, m))
+    U = sys_.response(omega, F)
+    if noise:
+        scale = noise * np.sqrt(np.mean(np.abs(U) ** 2, axis=0, keepdims=True))
+        U = U + scale * (rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape))
+    return sys_, U, F, omega
+
+
+def max_rel(a, b) -> float:
+    return max(
+        float(np.linalg.norm(getattr(a, k) - getattr(b, k)) / np.linalg.norm(getattr(b, k)))
+        for k in "MCK"
+    )
+
+
+# (m, lam, symmetric): exact-symmetric up to m = 60; the penalty form (3m² unknowns,
+# a dense matrix of 0.9 GB at m = 60) up to 40, at the paper's λ and at a λ small
+# enough that the penalty and the data term are of one size.
+MODES = [
+    (10, 0.0, True),
+    (30, 0.0, True),
+    (60, 0.0, True),
+    (12, 100.0, False),
+    (25, 1e-3, False),
+    (40, 100.0, False),
+]
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.05], ids=["noise-free", "noisy"])
+@pytest.mark.parametrize("band", list(BANDS))
+@pytest.mark.parametrize("m,lam,symmetric", MODES, ids=lambda v: str(v))
+def test_cg_equals_direct(m, lam, symmetric, band, noise):
+    _, U, F, omega = chain(m, band, noise, seed=m)
+    direct = identify(U, F, omega, lam, symmetric, solver="direct")
+    cg = identify(U, F, omega, lam, symmetric, solver="cg")
+    assert direct.method == "cholesky" and cg.method == "cg"
+    assert cg.relative_residual <= CG_TOL and cg.info["converged"]
+    assert 0 < cg.iterations < 2000
+    assert max_rel(cg, direct) < 1e-8
+    # noise-free, both misfits are rounding: compare them on the scale of F
+    fit = pytest.approx(direct.residual_norm, rel=1e-6, abs=1e-8 * np.linalg.norm(F))
+    assert cg.residual_norm == fit
+    if symmetric:
+        for X in (cg.M, cg.C, cg.K):
+            assert np.array_equal(X, X.T)
+
+
+def test_noise_free_chain_is_recovered():
+    sys_, U, F, omega = chain(50, "narrow")
+    res = identify(U, F, omega, symmetric=True, solver="cg")
+    for X, T in ((res.M, sys_.M), (res.C, sys_.C), (res.K, sys_.K)):
+        assert np.linalg.norm(X - T) / np.linalg.norm(T) < 1e-7
+
+
+def test_threads_do_not_change_the_answer():
+    _, U, F, omega = chain(30, "wide", 0.05)
+    a = identify(U, F, omega, 100.0, solver="cg", threads=1)
+    b = identify(U, F, omega, 100.0, solver="cg", threads=2)
+    assert a.iterations == b.iterations
+    assert max_rel(a, b) < 1e-10
+
+
+def test_iteration_limit_warns_with_the_achieved_residual():
+    _, U, F, omega = chain(20, "wide", 0.05)
+    with pytest.warns(ConvergenceWarning, match=r"after 3 iterations at relative residual") as w:
+        res = identify(U, F, omega, 100.0, solver="cg", max_iter=3)
+    assert res.iterations == 3 and res.relative_residual > CG_TOL
+    assert not res.info["converged"]
+    assert f"{res.relative_residual:.2e}" in str(w[0].message)
+    assert np.all(np.isfinite(res.M))
+
+
+def test_converged_solve_does_not_warn():
+    _, U, F, omega = chain(15, "narrow")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        identify(U, F, omega, symmetric=True, solver="cg")
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        ({"tol": 0.0}, "tol"),
+        ({"tol": 1.0}, "tol"),
+        ({"tol": -1e-8}, "tol"),
+        ({"tol": float("nan")}, "tol"),
+        ({"tol": "small"}, "tol"),
+        ({"max_iter": 0}, "max_iter"),
+        ({"max_iter": -5}, "max_iter"),
+        ({"max_iter": 2.5}, "max_iter"),
+        ({"max_iter": True}, "max_iter"),
+        ({"solver": "gmres"}, "solver"),
+        ({"progress": "yes"}, "progress"),
+        ({"backend": "numpy", "solver": "cg"}, "backend='rust'"),
+    ],
+)
+def test_bad_cg_options_raise(kwargs, match):
+    _, U, F, omega = chain(6, "narrow")
+    with pytest.raises(ValueError, match=match):
+        identify(U, F, omega, 1.0, **kwargs)
+
+
+def test_auto_rule():
+    # unregularised: one 3m×3m system, direct at any size
+    assert choose_solver(400, (0.0, 0.0, 0.0), False) == "direct"
+    # up to AUTO_DIRECT_MAX_UNKNOWNS unknowns: direct
+    assert 3 * 18 * 18 <= AUTO_DIRECT_MAX_UNKNOWNS < 3 * 19 * 19
+    assert choose_solver(18, (1.0, 1.0, 1.0), False) == "direct"
+    assert choose_solver(19, (1.0, 1.0, 1.0), False) == "cg"
+    assert choose_solver(25, (0.0, 0.0, 0.0), True) == "direct"
+    assert choose_solver(26, (0.0, 0.0, 0.0), True) == "cg"
+    _, U, F, omega = chain(30, "narrow")
+    assert identify(U, F, omega, 100.0).method == "cg"
+    assert identify(U, F, omega, 100.0, backend="numpy").method == "cholesky"
+    assert identify(U, F, omega, 0.0).method == "cholesky"
+
+
+def test_progress_bar_is_drawn_on_stderr(capsys):
+    _, U, F, omega = chain(20, "narrow")
+    res = identify(U, F, omega, symmetric=True, solver="cg", progress=True)
+    err = capsys.readouterr().err
+    assert "CG [" in err and f"iteration {res.iterations}," in err and err.endswith("\n")
+
+
+def test_progress_callback_sees_the_last_iteration():
+    _, U, F, omega = chain(20, "wide")
+    calls = []
+    res = identify(U, F, omega, symmetric=True, solver="cg", progress=lambda *a: calls.append(a))
+    assert calls and calls[-1][0] == res.iterations
+    assert [c[0] for c in calls] == sorted({c[0] for c in calls})
+    assert all(np.isfinite(r) and r > 0 for _, r in calls)
+
+
+def test_exception_in_progress_callback_propagates():
+    _, U, F, omega = chain(20, "wide")
+
+    def callback(iteration: int, residual: float) -> None:
+        raise ZeroDivisionError("from the callback")
+
+    with pytest.raises(ZeroDivisionError, match="from the callback"):
+        identify(U, F, omega, symmetric=True, solver="cg", progress=callback)
+
+
+def test_unattainable_tol_stops_at_the_attainable_accuracy():
+    # the true residual stops following the recursive one near 1e-14: CG notices
+    # and stops there instead of running to max_iter
+    _, U, F, omega = chain(30, "wide")
+    start = time.perf_counter()
+    with pytest.warns(ConvergenceWarning, match="above tol"):
+        res = identify(U, F, omega, symmetric=True, solver="cg", tol=1e-300, max_iter=10**9)
+    assert time.perf_counter() - start < 30
+    assert res.iterations < 5000 and res.relative_residual < 1e-11
