@@ -59,24 +59,23 @@ def _energy(text: str) -> float:
     return k
 
 
-def _seed(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text}")
-    return n
+def _integer_at_least(lo: int, kind: str):
+    """argparse type: an integer ≥ ``lo``; ``kind`` names it in the error message."""
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if n < lo:
+            raise argparse.ArgumentTypeError(f"must be {kind}, got {text}")
+        return n
+
+    return parse
 
 
-def _order(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
-    return n
+_seed = _integer_at_least(0, "a non-negative integer")
+_order = _integer_at_least(1, "a positive integer")
 
 
 def _run_paper(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
