@@ -480,11 +480,10 @@ def identify(
         solver = "direct"
     elif solver == "auto":
         solver = choose_solver(data.m, lam_t, symmetric)
-    nthreads = int(threads or 0)
     if solver == "cg":
-        out = _identify_cg(data, lam_t, symmetric, nthreads, tol, max_iter, progress)
+        out = _identify_cg(data, lam_t, symmetric, threads, tol, max_iter, progress)
     elif backend == "rust":
-        out = _identify_rust(data, lam_t, symmetric, nthreads)
+        out = _identify_rust(data, lam_t, symmetric, threads)
     else:
         out = _identify_numpy(data, lam_t, symmetric)
 
