@@ -95,8 +95,8 @@ impl<'a> Operator<'a> {
         }
     }
 
-    /// out = A x; returns x·A x.
-    pub fn apply(&mut self, x: &[f64], out: &mut [f64]) -> f64 {
+    /// out = A x
+    pub fn apply(&mut self, x: &[f64], out: &mut [f64]) {
         self.layout.unpack(x, self.z.as_mut());
         let start = Instant::now();
         matmul(
@@ -108,7 +108,21 @@ impl<'a> Operator<'a> {
             self.par,
         );
         self.gemm_seconds += start.elapsed().as_secs_f64();
-        self.layout.pack_apply(self.y.as_ref(), x, self.pen, out)
+        self.layout.pack(self.y.as_ref(), out);
+        if !self.layout.symmetric {
+            let (_, _, xk) = self.layout.split(x);
+            let (_, _, ok) = self.layout.split_mut(out);
+            let pen = self.pen;
+            ok.par_chunks_mut(3 * CHUNK)
+                .zip(xk.par_chunks(3 * CHUNK))
+                .for_each(|(o, x)| {
+                    for (o3, x3) in o.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
+                        for b in 0..3 {
+                            o3[b] += pen[b] * x3[b];
+                        }
+                    }
+                });
+        }
     }
 }
 
@@ -172,14 +186,16 @@ pub fn pcg(
     let mut r = b.to_vec();
     let mut z = vec![0.0; n];
     let mut q = vec![0.0; n];
-    let mut rz = pre.apply(&r, &mut z);
+    pre.apply(&r, &mut z);
     let mut p = z.clone();
+    let mut rz = dot(&r, &z);
     let mut last_true = f64::INFINITY;
     let mut next_check = CHECK_FACTOR;
     let mut iterations = 0;
     let mut true_res = None;
     while iterations < opts.max_iter {
-        let pq = op.apply(&p, &mut q);
+        op.apply(&p, &mut q);
+        let pq = dot(&p, &q);
         if !(pq > 0.0 && pq.is_finite() && rz.is_finite()) {
             break; // breakdown: nothing more to gain from this direction
         }
@@ -203,12 +219,14 @@ pub fn pcg(
             next_check = res * CHECK_FACTOR;
             if reached {
                 r.copy_from_slice(&q);
-                rz = pre.apply(&r, &mut z);
+                pre.apply(&r, &mut z);
                 p.copy_from_slice(&z);
+                rz = dot(&r, &z);
                 continue;
             }
         }
-        let rz_new = pre.apply(&r, &mut z);
+        pre.apply(&r, &mut z);
+        let rz_new = dot(&r, &z);
         xpby(&z, rz_new / rz, &mut p);
         rz = rz_new;
     }

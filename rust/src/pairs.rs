@@ -23,10 +23,6 @@ use rayon::prelude::*;
 
 const RSQRT2: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
-/// Columns per parallel task in pack/unpack: at small m a task per column costs
-/// more in scheduling than the column's work.
-const MIN_COLUMNS: usize = 32;
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub m: usize,
@@ -82,7 +78,6 @@ impl Layout {
             .zip(z1.par_col_iter_mut())
             .zip(z2.par_col_iter_mut())
             .enumerate()
-            .with_min_len(MIN_COLUMNS)
             .for_each(|(c, ((a, b), d))| {
                 let mut cols = [a, b, d].map(dense);
                 // rows r < c: upper entry of pair (r, c), contiguous in p
@@ -108,38 +103,16 @@ impl Layout {
             });
     }
 
-    /// Coordinates of Y (m×3m) into `out`; in the exact-symmetric mode only its
-    /// block-symmetric part is kept.
-    pub fn pack(&self, y: MatRef<f64>, out: &mut [f64]) {
-        self.pack_impl(y, None, out);
-    }
-
-    /// The tail of the CG operator, fused into one pass: `out` = the coordinates
-    /// of Y plus `pen[b]`·x on the skew coordinates of block b; returns x·out.
-    pub fn pack_apply(&self, y: MatRef<f64>, x: &[f64], pen: [f64; 3], out: &mut [f64]) -> f64 {
-        assert_eq!(x.len(), self.len());
-        self.pack_impl(y, Some((x, pen)), out)
-    }
-
-    /// Parallel over the columns k of the pairs (j, k); the dot product is summed
-    /// per column and then in column order, so it does not depend on the threads.
-    fn pack_impl(&self, y: MatRef<f64>, x: Option<(&[f64], [f64; 3])>, out: &mut [f64]) -> f64 {
+    /// Coordinates of Y (m×3m) into x; in the exact-symmetric mode only its
+    /// block-symmetric part is kept. Parallel over the columns k of each pair.
+    pub fn pack(&self, y: MatRef<f64>, x: &mut [f64]) {
         let m = self.m;
-        assert!(out.len() == self.len() && y.nrows() == m && y.ncols() == 3 * m);
+        assert!(x.len() == self.len() && y.nrows() == m && y.ncols() == 3 * m);
         let symmetric = self.symmetric;
-        let (pen, (xd, xs, xt)) = match x {
-            Some((x, pen)) => (pen, self.split(x)),
-            None => ([0.0; 3], (&[][..], &[][..], &[][..])),
-        };
-        let with_x = x.is_some();
-        let (diag, sym, skew) = self.split_mut(out);
-        let mut total = 0.0;
+        let (diag, sym, skew) = self.split_mut(x);
         for (j, d) in diag.chunks_exact_mut(3).enumerate() {
             for (b, v) in d.iter_mut().enumerate() {
                 *v = y[(j, b * m + j)];
-                if with_x {
-                    total += xd[3 * j + b] * *v;
-                }
             }
         }
         let sym_cols = split_by_column(sym, m, 3);
@@ -148,38 +121,21 @@ impl Layout {
         } else {
             split_by_column(skew, m, 3)
         };
-        let parts: Vec<f64> = sym_cols
+        sym_cols
             .into_par_iter()
             .zip(skew_cols)
             .enumerate()
-            .with_min_len(MIN_COLUMNS)
-            .map(|(k, (sk, tk))| {
-                let base = 3 * (k * k.saturating_sub(1) / 2);
-                let mut acc = 0.0;
+            .for_each(|(k, (sk, tk))| {
                 for j in 0..k {
                     for b in 0..3 {
-                        let i = 3 * j + b;
                         let (up, lo) = (y[(j, b * m + k)], y[(k, b * m + j)]);
-                        let s = RSQRT2 * (up + lo);
-                        sk[i] = s;
-                        if symmetric {
-                            if with_x {
-                                acc += xs[base + i] * s;
-                            }
-                            continue;
+                        sk[3 * j + b] = RSQRT2 * (up + lo);
+                        if !symmetric {
+                            tk[3 * j + b] = RSQRT2 * (up - lo);
                         }
-                        let mut t = RSQRT2 * (up - lo);
-                        if with_x {
-                            t += pen[b] * xt[base + i];
-                            acc += xs[base + i] * s + xt[base + i] * t;
-                        }
-                        tk[i] = t;
                     }
                 }
-                acc
-            })
-            .collect();
-        total + parts.iter().sum::<f64>()
+            });
     }
 }
 

@@ -194,14 +194,12 @@ fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
     }
 }
 
-/// x = (L Lᵀ)⁻¹ r for an N-vector in slices; returns r·x.
+/// [`small_solve`] of a 3-vector stored in a slice.
 #[inline]
-fn solve_into<const N: usize>(l: &[f64], r: &[f64], x: &mut [f64]) -> f64 {
-    let mut v = [0.0; N];
-    v.copy_from_slice(r);
-    small_solve::<N>(l, &mut v);
+fn solve3(l: &[f64], x: &mut [f64]) {
+    let mut v = [x[0], x[1], x[2]];
+    small_solve::<3>(l, &mut v);
     x.copy_from_slice(&v);
-    r.iter().zip(&v).map(|(a, b)| a * b).sum()
 }
 
 /// Factor a small SPD block given as its packed lower triangle.
@@ -281,52 +279,35 @@ impl PairPrecond {
         6 * layout.m + if layout.symmetric { 6 } else { 21 } * layout.n_pairs()
     }
 
-    /// z = P⁻¹ r; returns r·z (summed per fixed chunk of pairs, then in order,
-    /// so it does not depend on the number of threads).
-    pub fn apply(&self, r: &[f64], z: &mut [f64]) -> f64 {
-        const PAIRS: usize = 1024;
+    /// z = P⁻¹ r.
+    pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         let lay = self.layout;
-        let (rd, rs, rk) = lay.split(r);
+        z.copy_from_slice(r);
         let (zd, zs, zk) = lay.split_mut(z);
-        let mut total = 0.0;
-        for ((x, rr), l) in zd
-            .chunks_exact_mut(3)
-            .zip(rd.chunks_exact(3))
-            .zip(self.diag.chunks_exact(6))
-        {
-            total += solve_into::<3>(l, rr, x);
+        for (x, l) in zd.chunks_exact_mut(3).zip(self.diag.chunks_exact(6)) {
+            solve3(l, x);
         }
-        let parts: Vec<f64> = if lay.symmetric {
-            zs.par_chunks_mut(3 * PAIRS)
-                .zip(rs.par_chunks(3 * PAIRS))
-                .zip(self.pairs.par_chunks(6 * PAIRS))
-                .map(|((zs, rs), ls)| {
-                    let it = zs.chunks_exact_mut(3).zip(rs.chunks_exact(3));
-                    it.zip(ls.chunks_exact(6))
-                        .map(|((x, rr), l)| solve_into::<3>(l, rr, x))
-                        .sum()
-                })
-                .collect()
+        if lay.symmetric {
+            zs.par_chunks_mut(3 * 1024)
+                .zip(self.pairs.par_chunks(6 * 1024))
+                .for_each(|(xs, ls)| {
+                    for (x, l) in xs.chunks_exact_mut(3).zip(ls.chunks_exact(6)) {
+                        solve3(l, x);
+                    }
+                });
         } else {
-            zs.par_chunks_mut(3 * PAIRS)
-                .zip(zk.par_chunks_mut(3 * PAIRS))
-                .zip(rs.par_chunks(3 * PAIRS).zip(rk.par_chunks(3 * PAIRS)))
-                .zip(self.pairs.par_chunks(21 * PAIRS))
-                .map(|(((zs, zk), (rs, rk)), ls)| {
-                    let mut acc = 0.0;
-                    let z3 = zs.chunks_exact_mut(3).zip(zk.chunks_exact_mut(3));
-                    let r3 = rs.chunks_exact(3).zip(rk.chunks_exact(3));
-                    for (((s, t), (rs, rt)), l) in z3.zip(r3).zip(ls.chunks_exact(21)) {
-                        let rr = [rs[0], rs[1], rs[2], rt[0], rt[1], rt[2]];
-                        let mut x = [0.0; 6];
-                        acc += solve_into::<6>(l, &rr, &mut x);
+            zs.par_chunks_mut(3 * 1024)
+                .zip(zk.par_chunks_mut(3 * 1024))
+                .zip(self.pairs.par_chunks(21 * 1024))
+                .for_each(|((xs, xk), ls)| {
+                    let it = xs.chunks_exact_mut(3).zip(xk.chunks_exact_mut(3));
+                    for ((s, t), l) in it.zip(ls.chunks_exact(21)) {
+                        let mut x = [s[0], s[1], s[2], t[0], t[1], t[2]];
+                        small_solve::<6>(l, &mut x);
                         s.copy_from_slice(&x[..3]);
                         t.copy_from_slice(&x[3..]);
                     }
-                    acc
-                })
-                .collect()
-        };
-        total + parts.iter().sum::<f64>()
+                });
+        }
     }
 }
