@@ -148,6 +148,27 @@ def test_uff_band_and_quantity_override(tmp_path, chain6):
     assert rel(to_receptance(raw.U, raw.omega, "velocity"), data.U) < 1e-14
 
 
+@pytest.mark.parametrize("fixed_dir", [1, -1])
+def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
+    """One fixed accelerometer, the hammer roving over every DOF: H(j, k) = H(k, j)."""
+    system, freq, H = chain6
+    fixed = 2
+    dofs = [(k + 1, 3) for k in range(6)]
+    # the file holds the row H(fixed, k) of the FRF matrix: response fixed, reference roves;
+    # write_uff stores it in the signed directions (−3 = −Z flips the sign)
+    rsp = [(fixed + 1, 3 * fixed_dir)]
+    path = write_uff(tmp_path / "roving.uff", freq, H[:, [fixed], :], rsp, dofs)
+    data = read_uff(path)
+    assert data.n == 6 and data.p == 1 and data.inputs.tolist() == [fixed]
+    assert data.dofs.tolist() == [[k + 1, 3] for k in range(6)]
+    assert data.notes and "reciprocity" in data.notes[0]
+    # the column of a force at the fixed DOF, in the positive direction whatever the sign code
+    assert rel(data.U[:, :, 0], H[1:, :, fixed]) < 1e-10
+    # the note survives a round trip through save_data / load_data
+    back = load_data(save_data(tmp_path / "roving.npz", data))
+    assert back.notes == data.notes and rel(back.U, data.U) == 0.0
+
+
 @pytest.mark.parametrize(
     "case,match",
     [

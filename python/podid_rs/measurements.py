@@ -141,8 +141,9 @@ class MeasuredData:
     displacements on the n measured DOFs (receptances for FRF data); ``F``
     ``(s, n_in, p)`` complex forces on the driven DOFs, ``inputs`` ``(n_in,)``
     their indices among the measured DOFs; ``dofs`` ``(n, 2)`` the (node,
-    direction) label of each measured DOF. The constructor checks and copies
-    everything; ``(s, n)`` / ``(s, n_in)`` arrays mean one load case.
+    direction) label of each measured DOF; ``notes`` what reading the data
+    assumed (e.g. reciprocity for a roving-hammer file). The constructor checks and
+    copies everything; ``(s, n)`` / ``(s, n_in)`` arrays mean one load case.
     """
 
     omega: np.ndarray
@@ -150,6 +151,7 @@ class MeasuredData:
     F: np.ndarray
     dofs: np.ndarray | None = None
     inputs: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         w = as_omega(self.omega)
@@ -170,6 +172,7 @@ class MeasuredData:
         object.__setattr__(self, "F", F)
         object.__setattr__(self, "dofs", _dof_labels(self.dofs, n))
         object.__setattr__(self, "inputs", _input_indices(self.inputs, n, n_in))
+        object.__setattr__(self, "notes", tuple(str(v) for v in self.notes))
 
     @property
     def s(self) -> int:
@@ -372,13 +375,17 @@ def read_uff(
     """FRFs from the dataset-58 records (func_type 4) of a Universal File.
 
     Each record is one FRF, response (node, direction) over reference (node,
-    direction); a negative direction flips the sign. DOFs are ordered by (node,
-    direction), response DOFs and driven DOFs alike; every reference must also be
-    a response (driving point) and every response/reference pair must be present
-    once. Numerator type 8/11/12 (displacement/velocity/acceleration; ``quantity``
-    overrides it) is converted to receptance; the abscissa is frequency in Hz,
-    shared by all records. Other records (coherence, time data, other datasets)
-    are ignored. The 0 Hz line is dropped, and lines outside ``band_hz``.
+    direction); a negative direction code (−3 = −Z) flips the sign, so that every
+    FRF is in the positive directions. DOFs are ordered by (node, direction),
+    response DOFs and driven DOFs alike; every reference must also be a response
+    (driving point) and every response/reference pair must be present once. A
+    roving-hammer file (fixed response, roving references, the response among the
+    references) is read by reciprocity as the FRF column of a force at the fixed
+    DOF, and says so in ``notes``. Numerator type 8/11/12 (displacement, velocity,
+    acceleration; ``quantity`` overrides it) is converted to receptance; the
+    abscissa is frequency in Hz, shared by all records. Other records (coherence,
+    time data, other datasets) are ignored. The 0 Hz line is dropped, and lines
+    outside ``band_hz``.
     """
     path = Path(path)
     sets = _uff_sets(path)
@@ -422,14 +429,9 @@ def read_uff(
         entries[key] = (sign * y, q)
     if np.any(np.diff(freq) <= 0):
         raise ValueError(f"{path}: the frequency lines are not strictly increasing")
+    entries, notes = _driving_point_layout(entries, path)
     outs = sorted({k[0] for k in entries})
     refs = sorted({k[1] for k in entries})
-    missing_refs = [r for r in refs if r not in outs]
-    if missing_refs:
-        raise ValueError(
-            f"{path}: reference DOF(s) {missing_refs} are not among the measured responses; "
-            "the force must be known on a measured DOF (driving point) to be projected"
-        )
     missing = [(o, r) for o in outs for r in refs if (o, r) not in entries]
     if missing:
         raise ValueError(
@@ -447,7 +449,38 @@ def read_uff(
         inputs=[outs.index(r) for r in refs],
         dofs=np.asarray(outs, dtype=np.int64),
     )
+    data = replace(data, notes=notes)
     return data if band_hz is None else data.band(band_hz)
+
+
+def _driving_point_layout(entries: dict, path: Path) -> tuple[dict, tuple[str, ...]]:
+    """The FRF grid with every reference among the responses, by reciprocity if need be.
+
+    A shaker test measures the driving point: its references are responses too. A
+    roving-hammer test fixes the response and roves the reference, so its references
+    are not responses; Maxwell–Betti reciprocity, H(j, k) = H(k, j), turns it into
+    the column of the FRF matrix for a force at the fixed response DOF, which must
+    then be among the hit points. Returns the entries keyed (response, reference)
+    and a note saying what was done (empty when nothing was).
+    """
+    outs = sorted({k[0] for k in entries})
+    refs = sorted({k[1] for k in entries})
+    missing_refs = [r for r in refs if r not in outs]
+    if not missing_refs:
+        return entries, ()
+    if all(o in refs for o in outs):
+        note = (
+            f"{path.name}: the {len(refs)} reference DOFs are not all among the "
+            f"{len(outs)} response DOF(s) (a roving-hammer test): read by reciprocity, "
+            "H(j, k) = H(k, j), as the FRFs of the hit DOFs for a force at the response "
+            f"DOF(s) {outs}"
+        )
+        return {(r, o): v for (o, r), v in entries.items()}, (note,)
+    raise ValueError(
+        f"{path}: reference DOF(s) {missing_refs} are not among the measured responses, "
+        "and not every response is a reference either, so reciprocity cannot supply "
+        "the driving point; the force must be known on a measured DOF to be projected"
+    )
 
 
 # --------------------------------------------------------------------------- .npz
@@ -467,6 +500,7 @@ def save_data(path: str | Path, data: MeasuredData) -> Path:
             F=data.F,
             dofs=data.dofs,
             inputs=data.inputs,
+            notes=np.array(data.notes, dtype=str),
         )
     return path
 
@@ -518,7 +552,8 @@ def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -
             **opts,
         )
     _need(z, ("omega", "U", "F"), path, "a measured data set")
-    data = MeasuredData(z["omega"], z["U"], z["F"], z.get("dofs"), z.get("inputs"))
+    notes = tuple(str(v) for v in z["notes"]) if "notes" in z else ()
+    data = MeasuredData(z["omega"], z["U"], z["F"], z.get("dofs"), z.get("inputs"), notes)
     return data if band_hz is None else data.band(band_hz)
 
 
