@@ -25,6 +25,7 @@ pub mod joint;
 pub mod normal;
 pub mod pairs;
 pub mod precond;
+pub mod refine;
 pub mod sweep;
 pub mod tridiag;
 

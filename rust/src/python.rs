@@ -431,6 +431,95 @@ fn sweep_memory_bytes(m: usize) -> u128 {
     crate::sweep::sweep_bytes(m)
 }
 
+/// Output-error refinement (`crate::refine`, DESIGN §6) of the start model (M, C, K)
+/// on reduced data: u, f complex (s·p, m) rows (line-major, load cases inner),
+/// omega (s,), p load cases; weights either `weights` (s·p,) scalars or
+/// `weight_matrices` (s·p, m·m) row-major T_ij. Returns a dict with M, C, K,
+/// cost_start, cost, iterations, accepted, stop, converged, history, scaling,
+/// timings. `progress(iteration, cost)` is called about every 0.1 s; Ctrl-C or an
+/// exception in it stops the iteration and propagates.
+#[pyfunction]
+#[pyo3(signature = (u, f, omega, p, start, weights = None, weight_matrices = None,
+    max_iter = 200, ftol = 1e-10, xtol = 1e-12, log_diagonal = true, progress = None,
+    threads = 0))]
+#[allow(clippy::too_many_arguments)]
+fn refine_output_error<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray2<'py, Complex64>,
+    f: PyReadonlyArray2<'py, Complex64>,
+    omega: PyReadonlyArray1<'py, f64>,
+    p: usize,
+    start: (
+        PyReadonlyArray2<'py, f64>,
+        PyReadonlyArray2<'py, f64>,
+        PyReadonlyArray2<'py, f64>,
+    ),
+    weights: Option<PyReadonlyArray1<'py, f64>>,
+    weight_matrices: Option<PyReadonlyArray2<'py, f64>>,
+    max_iter: usize,
+    ftol: f64,
+    xtol: f64,
+    log_diagonal: bool,
+    progress: Option<Py<PyAny>>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    use crate::refine::{OeData, OeOptions, Weights};
+    let err = |_| PyValueError::new_err("arrays must be C-contiguous");
+    let (us, fs, ws) = (
+        u.as_slice().map_err(err)?,
+        f.as_slice().map_err(err)?,
+        omega.as_slice().map_err(err)?,
+    );
+    let m = u.shape()[1];
+    let weights = match (&weights, &weight_matrices) {
+        (Some(w), None) => Weights::Scalar(w.as_slice().map_err(err)?),
+        (None, Some(t)) => Weights::Matrix(t.as_slice().map_err(err)?),
+        _ => {
+            return Err(PyValueError::new_err(
+                "give exactly one of weights and weight_matrices",
+            ))
+        }
+    };
+    let data = OeData {
+        omega: ws,
+        u: us,
+        f: fs,
+        weights,
+        m,
+        p,
+    };
+    let to_mat = |a: &PyReadonlyArray2<'py, f64>| -> PyResult<Mat<f64>> {
+        let sh = a.shape();
+        let sl = a.as_slice().map_err(err)?;
+        Ok(Mat::from_fn(sh[0], sh[1], |i, j| sl[i * sh[1] + j]))
+    };
+    let start = [to_mat(&start.0)?, to_mat(&start.1)?, to_mat(&start.2)?];
+    let opts = OeOptions {
+        max_iter,
+        ftol,
+        xtol,
+        log_diagonal,
+    };
+    let rep = run_iterative(py, threads, progress, |report| {
+        crate::refine::refine(data, &start, opts, Par::rayon(0), Some(report))
+    })?;
+    let d = PyDict::new(py);
+    for (name, x) in ["M", "C", "K"].iter().zip(&rep.mck) {
+        d.set_item(*name, mat_to_py(py, x))?;
+    }
+    d.set_item("cost_start", rep.cost_start)?;
+    d.set_item("cost", rep.cost)?;
+    d.set_item("iterations", rep.iterations)?;
+    d.set_item("accepted", rep.accepted)?;
+    d.set_item("stop", rep.stop.name())?;
+    d.set_item("converged", rep.stop.converged())?;
+    d.set_item("history", rep.history.clone())?;
+    let sc = rep.scaling;
+    d.set_item("scaling", (sc.omega0, sc.su, sc.sf))?;
+    d.set_item("timings", timings_dict(py, &rep.timings)?)?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(py_gram, m)?)?;
@@ -442,6 +531,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(identify_cg, m)?)?;
     m.add_function(wrap_pyfunction!(cg_memory_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(operator_gemm_gflops, m)?)?;
+    m.add_function(wrap_pyfunction!(refine_output_error, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,0 +1,1158 @@
+//! Output-error refinement (DESIGN §6): the model that reproduces the measurement.
+//!
+//! The paper's estimator (eq. 49) minimises the *equation error* Σ‖D(ω_i)u_i − f_i‖²,
+//! D = −ω²M + iωC + K. Here we minimise the *output error*
+//!
+//! ```text
+//!     Σ_ij ‖T_ij (x_ij − u_ij)‖²,    x_ij = D(ω_i)⁻¹ f_ij   (the model's response)
+//! ```
+//!
+//! over every line i and load case j, with a weight T_ij per column: a scalar w_ij
+//! (relative, uniform, the user's) or a real m×m matrix (per-entry weights on the
+//! measured DOFs, reduced by the caller). The matrices are parametrised by their
+//! Cholesky factors, M = L_M L_Mᵀ, C = L_C L_Cᵀ, K = L_K L_Kᵀ (L lower triangular),
+//! so every model is symmetric with M, K, C ⪰ 0 by construction; with the
+//! `log_diagonal` option the diagonals of L_M and L_K are exp(θ), which makes
+//! M and K positive definite for every θ.
+//!
+//! Levenberg–Marquardt with the analytic Jacobian: with v̂ = [−ω²x; iωx; x] and
+//! δZ = [δM δC δK],
+//!
+//! ```text
+//!     δx = −D⁻¹ (δZ v̂),     δX = δL Lᵀ + L δLᵀ.
+//! ```
+//!
+//! One complex LU of D(ω_i) per line and evaluation, in parallel over lines.
+//! In the entry coordinates of Z (row-major, index (r, c)) the Gauss–Newton matrix
+//! is a sum of Kronecker products over the columns,
+//!
+//! ```text
+//!     N_Z = Re Σ G ⊗ V̄,      G = Aᴴ A (m×m),  V̄ = conj(v̂) v̂ᵀ (3m×3m),  A = T D⁻¹,
+//! ```
+//!
+//! formed by one real GEMM over all lines; the chain rule to the factors is a
+//! congruence N_θ = Pᵀ N_Z P with the sparse tangent map P of δL ↦ δX. Everything is
+//! done on data scaled as in DESIGN §3 (ω by its RMS, u and f by theirs).
+
+use crate::cg::Progress;
+use crate::data::Scaling;
+use crate::error::PodidError;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt;
+use faer::linalg::lu::partial_pivoting::{factor as lu_factor, solve as lu_solve};
+use faer::linalg::matmul::matmul;
+use faer::{c64, Accum, Mat, MatMut, MatRef, Par, Side};
+use rayon::prelude::*;
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+/// Weight of each column (line i, load case j), in the order of the data.
+#[derive(Clone, Copy)]
+pub enum Weights<'a> {
+    /// one scalar w_ij ≥ 0 per column: s·p values
+    Scalar(&'a [f64]),
+    /// one real m×m matrix T_ij per column, row-major: s·p·m·m values
+    Matrix(&'a [f64]),
+}
+
+/// Measured reduced data: s lines, p load cases, order m.
+#[derive(Clone, Copy)]
+pub struct OeData<'a> {
+    /// angular frequency of each line (s)
+    pub omega: &'a [f64],
+    /// target responses u_ij, index ((i·p + j)·m + r)
+    pub u: &'a [c64],
+    /// forces f_ij, same layout
+    pub f: &'a [c64],
+    pub weights: Weights<'a>,
+    pub m: usize,
+    pub p: usize,
+}
+
+impl OeData<'_> {
+    pub fn s(&self) -> usize {
+        self.omega.len()
+    }
+
+    fn validate(&self) -> Result<(), PodidError> {
+        let (s, p, m) = (self.s(), self.p, self.m);
+        let bad = |msg: String| Err(PodidError::Invalid(msg));
+        if s == 0 || p == 0 || m == 0 {
+            return bad(format!("empty data: s = {s} lines, p = {p}, m = {m}"));
+        }
+        if self.u.len() != s * p * m || self.f.len() != s * p * m {
+            return bad(format!(
+                "u and f must hold s·p·m = {} values, got {} and {}",
+                s * p * m,
+                self.u.len(),
+                self.f.len()
+            ));
+        }
+        let finite = |z: &c64| z.re.is_finite() && z.im.is_finite();
+        if !self.u.iter().all(finite) || !self.f.iter().all(finite) {
+            return bad("u or f contains NaN or inf".into());
+        }
+        if !self.omega.iter().all(|w| w.is_finite() && *w > 0.0) {
+            return bad("omega must be finite and strictly positive".into());
+        }
+        match self.weights {
+            Weights::Scalar(w) => {
+                if w.len() != s * p {
+                    return bad(format!("scalar weights: expected s·p = {} values", s * p));
+                }
+                if !w.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                    return bad("weights must be finite and non-negative".into());
+                }
+                if w.iter().all(|v| *v == 0.0) {
+                    return bad("every weight is zero: there is nothing to fit".into());
+                }
+            }
+            Weights::Matrix(t) => {
+                if t.len() != s * p * m * m {
+                    return bad(format!(
+                        "matrix weights: expected s·p·m² = {} values",
+                        s * p * m * m
+                    ));
+                }
+                if !t.iter().all(|v| v.is_finite()) {
+                    return bad("weights must be finite".into());
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Options of the Levenberg–Marquardt iteration.
+#[derive(Clone, Copy, Debug)]
+pub struct OeOptions {
+    /// most Gauss–Newton steps (accepted or not)
+    pub max_iter: usize,
+    /// converged when an accepted step lowers the cost by less than `ftol` relative
+    pub ftol: f64,
+    /// converged when ‖δθ‖ ≤ xtol·(‖θ‖ + xtol)
+    pub xtol: f64,
+    /// diagonals of L_M and L_K as exp(θ): M, K positive definite for every θ
+    pub log_diagonal: bool,
+}
+
+impl Default for OeOptions {
+    fn default() -> Self {
+        OeOptions {
+            max_iter: 200,
+            ftol: 1e-10,
+            xtol: 1e-12,
+            log_diagonal: true,
+        }
+    }
+}
+
+/// Why the iteration stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// relative cost decrease below ftol
+    CostConverged,
+    /// step below xtol
+    StepConverged,
+    /// the gradient vanished (an exact fit)
+    GradientZero,
+    /// no step lowered the cost even with the damping at its ceiling
+    NoDescent,
+    /// max_iter reached
+    MaxIter,
+}
+
+impl Stop {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Stop::CostConverged => "cost converged",
+            Stop::StepConverged => "step converged",
+            Stop::GradientZero => "gradient zero",
+            Stop::NoDescent => "no further descent",
+            Stop::MaxIter => "max_iter reached",
+        }
+    }
+
+    pub fn converged(&self) -> bool {
+        !matches!(self, Stop::MaxIter)
+    }
+}
+
+/// The refined model and what the iteration did.
+pub struct OeReport {
+    /// [M, C, K] in the caller's units
+    pub mck: [Mat<f64>; 3],
+    /// cost Σ‖T(x − u)‖² of the start and of the answer, caller's units
+    pub cost_start: f64,
+    pub cost: f64,
+    /// Gauss–Newton steps taken (accepted or rejected) and accepted
+    pub iterations: usize,
+    pub accepted: usize,
+    pub stop: Stop,
+    /// (iteration, cost) after every accepted step, caller's units
+    pub history: Vec<(usize, f64)>,
+    pub scaling: Scaling,
+    /// wall time per phase, seconds: evaluate, normal, solve, total
+    pub timings: Vec<(&'static str, f64)>,
+}
+
+/// Unknowns per block: the lower triangle of L.
+pub fn n_per_block(m: usize) -> usize {
+    m * (m + 1) / 2
+}
+
+/// Index of L[j][k] (j ≥ k) in a block's parameters.
+#[inline]
+fn tri(j: usize, k: usize) -> usize {
+    j * (j + 1) / 2 + k
+}
+
+/// Lower-triangular factor of a symmetric matrix, with eigenvalues below `floor`
+/// raised to it first (so a PSD matrix with zero eigenvalues still factors).
+pub fn psd_factor(x: MatRef<f64>, floor: f64) -> Result<Mat<f64>, PodidError> {
+    let m = x.nrows();
+    let sym = Mat::from_fn(m, m, |i, j| 0.5 * (x[(i, j)] + x[(j, i)]));
+    let evd = sym
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|e| PodidError::Invalid(format!("eigendecomposition failed: {e:?}")))?;
+    let (q, d) = (evd.U(), evd.S().column_vector());
+    let raised = Mat::from_fn(m, m, |i, j| {
+        (0..m)
+            .map(|k| q[(i, k)] * d[k].max(floor) * q[(j, k)])
+            .sum::<f64>()
+    });
+    let sym = Mat::from_fn(m, m, |i, j| 0.5 * (raised[(i, j)] + raised[(j, i)]));
+    let l = sym.llt(Side::Lower).map_err(|_| {
+        PodidError::Invalid(
+            "the start model could not be factored: it is not positive semidefinite".into(),
+        )
+    })?;
+    Ok(l.L().to_owned())
+}
+
+/// Parameters θ of three factors (scaled units).
+struct Params {
+    m: usize,
+    log_diagonal: bool,
+}
+
+impl Params {
+    fn len(&self) -> usize {
+        3 * n_per_block(self.m)
+    }
+
+    /// θ from the factors [L_M, L_C, L_K].
+    fn pack(&self, l: &[Mat<f64>; 3]) -> Vec<f64> {
+        let nb = n_per_block(self.m);
+        let mut th = vec![0.0; 3 * nb];
+        for (b, lb) in l.iter().enumerate() {
+            for j in 0..self.m {
+                for k in 0..=j {
+                    let v = lb[(j, k)];
+                    th[b * nb + tri(j, k)] = if j == k && self.logged(b) {
+                        // the sign of a column of L is free: log|L_jj|
+                        v.abs().max(f64::MIN_POSITIVE).ln()
+                    } else {
+                        v
+                    };
+                }
+            }
+        }
+        th
+    }
+
+    fn logged(&self, b: usize) -> bool {
+        self.log_diagonal && b != 1
+    }
+
+    /// The factors from θ.
+    fn unpack(&self, th: &[f64]) -> [Mat<f64>; 3] {
+        let (m, nb) = (self.m, n_per_block(self.m));
+        [0, 1, 2].map(|b| {
+            Mat::from_fn(m, m, |j, k| {
+                if k > j {
+                    0.0
+                } else {
+                    let v = th[b * nb + tri(j, k)];
+                    if j == k && self.logged(b) {
+                        v.exp()
+                    } else {
+                        v
+                    }
+                }
+            })
+        })
+    }
+}
+
+fn gram_lower(l: &Mat<f64>) -> Mat<f64> {
+    let m = l.nrows();
+    Mat::from_fn(m, m, |i, j| {
+        (0..=i.min(j)).map(|k| l[(i, k)] * l[(j, k)]).sum()
+    })
+}
+
+/// Per-line LU of D(ω_i), the responses x and the cost.
+struct Evaluation {
+    /// LU factors of every line, column-major m×m each
+    lu: Vec<c64>,
+    /// row permutation of every line
+    perm: Vec<usize>,
+    /// model responses x_ij, layout of the data
+    x: Vec<c64>,
+    cost: f64,
+}
+
+fn dynamic_stiffness(mck: &[Mat<f64>; 3], w: f64, out: &mut [c64]) {
+    let m = mck[0].nrows();
+    for c in 0..m {
+        for r in 0..m {
+            out[c * m + r] = c64::new(mck[2][(r, c)] - w * w * mck[0][(r, c)], w * mck[1][(r, c)]);
+        }
+    }
+}
+
+/// Weighted residual r = T (x − u) of one column, and ‖r‖².
+fn weighted_residual(t: Option<&[f64]>, w: f64, x: &[c64], u: &[c64], r: &mut [c64]) -> f64 {
+    let m = x.len();
+    match t {
+        None => {
+            for k in 0..m {
+                r[k] = (x[k] - u[k]) * w;
+            }
+        }
+        Some(t) => {
+            for a in 0..m {
+                let mut acc = c64::new(0.0, 0.0);
+                for k in 0..m {
+                    acc += (x[k] - u[k]) * t[a * m + k];
+                }
+                r[a] = acc;
+            }
+        }
+    }
+    r.iter().map(|z| z.norm_sqr()).sum()
+}
+
+struct Problem<'a> {
+    data: OeData<'a>,
+    /// scaled ω, u, f
+    w: Vec<f64>,
+    u: Vec<c64>,
+    f: Vec<c64>,
+}
+
+impl Problem<'_> {
+    fn column_weight(&self, col: usize) -> (Option<&[f64]>, f64) {
+        let m = self.data.m;
+        match self.data.weights {
+            Weights::Scalar(w) => (None, w[col]),
+            Weights::Matrix(t) => (Some(&t[col * m * m..(col + 1) * m * m]), 1.0),
+        }
+    }
+
+    /// LU of every line, the model responses and the cost (scaled units).
+    fn evaluate(&self, mck: &[Mat<f64>; 3]) -> Result<Evaluation, PodidError> {
+        let (s, p, m) = (self.data.s(), self.data.p, self.data.m);
+        let mut lu = vec![c64::new(0.0, 0.0); s * m * m];
+        let mut perm = vec![0usize; s * m];
+        let mut x = self.f.clone();
+        let costs: Vec<Option<f64>> = lu
+            .par_chunks_mut(m * m)
+            .zip(perm.par_chunks_mut(m))
+            .zip(x.par_chunks_mut(p * m))
+            .enumerate()
+            .map(|(i, ((a, pr), xi))| {
+                dynamic_stiffness(mck, self.w[i], a);
+                let mut pinv = vec![0usize; m];
+                let mut amat = MatMut::from_column_major_slice_mut(a, m, m);
+                let mut mem = MemBuffer::new(lu_factor::lu_in_place_scratch::<usize, c64>(
+                    m,
+                    m,
+                    Par::Seq,
+                    Default::default(),
+                ));
+                let (info, _) = lu_factor::lu_in_place(
+                    amat.as_mut(),
+                    pr,
+                    &mut pinv,
+                    Par::Seq,
+                    MemStack::new(&mut mem),
+                    Default::default(),
+                );
+                let _ = info;
+                // a zero (or non-finite) pivot: D(ω_i) is singular, the model has a pole on the line
+                let diag_ok = (0..m).all(|k| {
+                    let d = amat[(k, k)];
+                    d.norm_sqr() > 0.0 && d.re.is_finite() && d.im.is_finite()
+                });
+                if !diag_ok {
+                    return None;
+                }
+                solve_lines(amat.as_ref(), pr, xi, m, p);
+                let mut r = vec![c64::new(0.0, 0.0); m];
+                let mut cost = 0.0;
+                for j in 0..p {
+                    let col = i * p + j;
+                    let (t, wt) = self.column_weight(col);
+                    cost += weighted_residual(
+                        t,
+                        wt,
+                        &xi[j * m..(j + 1) * m],
+                        &self.u[col * m..(col + 1) * m],
+                        &mut r,
+                    );
+                }
+                Some(cost)
+            })
+            .collect();
+        let mut cost = 0.0;
+        for c in costs {
+            match c {
+                Some(v) if v.is_finite() => cost += v,
+                _ => cost = f64::INFINITY,
+            }
+        }
+        Ok(Evaluation { lu, perm, x, cost })
+    }
+}
+
+/// Solve D x_j = f_j in place for the p columns of one line (x holds f on entry).
+fn solve_lines(lu: MatRef<c64>, perm: &[usize], x: &mut [c64], m: usize, p: usize) {
+    let pinv = inverse_perm(perm);
+    let permref = faer::perm::PermRef::new_checked(perm, &pinv, m);
+    let rhs = MatMut::from_column_major_slice_mut(x, m, p);
+    let mut mem = MemBuffer::new(lu_solve::solve_in_place_scratch::<usize, c64>(
+        m,
+        p,
+        Par::Seq,
+    ));
+    lu_solve::solve_in_place(lu, lu, permref, rhs, Par::Seq, MemStack::new(&mut mem));
+}
+
+fn inverse_perm(perm: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; perm.len()];
+    for (i, &p) in perm.iter().enumerate() {
+        inv[p] = i;
+    }
+    inv
+}
+
+/// D⁻¹ of one line from its LU (column-major m×m).
+fn inverse_of(lu: MatRef<c64>, perm: &[usize], m: usize) -> Vec<c64> {
+    let mut inv = vec![c64::new(0.0, 0.0); m * m];
+    for k in 0..m {
+        inv[k * m + k] = c64::new(1.0, 0.0);
+    }
+    solve_lines(lu, perm, &mut inv, m, m);
+    inv
+}
+
+/// Lines processed together when forming the normal matrix (bounds memory).
+const NORMAL_CHUNK: usize = 256;
+
+/// Gauss–Newton matrix N_θ (column-major, n×n) and gradient g_θ = Jᵀr at the
+/// current point (scaled units).
+fn normal_equations(
+    pb: &Problem,
+    params: &Params,
+    l: &[Mat<f64>; 3],
+    ev: &Evaluation,
+    par: Par,
+) -> (Vec<f64>, Vec<f64>) {
+    let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+    let mm = m * m;
+    let m3 = 3 * m;
+    let vv = m3 * m3;
+    // pairs r ≤ r' of the row index of G
+    let pairs: Vec<(usize, usize)> = (0..m).flat_map(|r| (r..m).map(move |q| (r, q))).collect();
+    let np = pairs.len();
+    let matrix_weights = matches!(pb.data.weights, Weights::Matrix(_));
+    // one "term" (G, V̄) per line (scalar weights: G shared by its load cases) or per column
+    let terms_per_line = if matrix_weights { p } else { 1 };
+
+    let mut s_mat = Mat::<f64>::zeros(np, vv); // S[(r≤r'), (c,c')]
+    let mut grad_z = Mat::<f64>::zeros(m, m3);
+
+    for start in (0..s).step_by(NORMAL_CHUNK) {
+        let lines = NORMAL_CHUNK.min(s - start);
+        let k = lines * terms_per_line;
+        // columns: [Re G_1 … Re G_k, −Im G_1 … −Im G_k] and [Re V̄ …, Im V̄ …]
+        let mut xg = Mat::<f64>::zeros(np, 2 * k);
+        let mut yv = Mat::<f64>::zeros(vv, 2 * k);
+        let per_line: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = (start..start + lines)
+            .into_par_iter()
+            .map(|i| {
+                let lu = MatRef::from_column_major_slice(&ev.lu[i * mm..(i + 1) * mm], m, m);
+                let dinv = inverse_of(lu, &ev.perm[i * m..(i + 1) * m], m);
+                let w = pb.w[i];
+                let mut gvals = Vec::with_capacity(terms_per_line * 2 * np);
+                let mut vvals = Vec::with_capacity(terms_per_line * 2 * vv);
+                let mut grad = vec![0.0; m * m3];
+                let mut vbar = vec![c64::new(0.0, 0.0); vv];
+                let mut g = vec![c64::new(0.0, 0.0); mm];
+                let mut a = vec![c64::new(0.0, 0.0); mm];
+                let mut r = vec![c64::new(0.0, 0.0); m];
+                let mut ahr = vec![c64::new(0.0, 0.0); m];
+                let mut vhat = vec![c64::new(0.0, 0.0); m3];
+                let push = |g: &[c64], vbar: &[c64], gvals: &mut Vec<f64>, vvals: &mut Vec<f64>| {
+                    gvals.extend(pairs.iter().map(|&(r1, r2)| g[r1 * m + r2].re));
+                    gvals.extend(pairs.iter().map(|&(r1, r2)| -g[r1 * m + r2].im));
+                    vvals.extend(vbar.iter().map(|z| z.re));
+                    vvals.extend(vbar.iter().map(|z| z.im));
+                };
+                // G = Aᴴ A (row-major); with scalar weights the line's G is (D⁻¹)ᴴ D⁻¹ and
+                // each column's w² goes into the line's V̄
+                let gram_of = |a: &[c64], g: &mut [c64], row_major: bool| {
+                    for r1 in 0..m {
+                        for r2 in 0..m {
+                            g[r1 * m + r2] = (0..m)
+                                .map(|row| {
+                                    let (x1, x2) = if row_major {
+                                        (a[row * m + r1], a[row * m + r2])
+                                    } else {
+                                        (a[r1 * m + row], a[r2 * m + row])
+                                    };
+                                    x1.conj() * x2
+                                })
+                                .sum();
+                        }
+                    }
+                };
+                if !matrix_weights {
+                    gram_of(&dinv, &mut g, false);
+                }
+                for j in 0..p {
+                    let col = i * p + j;
+                    let (t, wt) = pb.column_weight(col);
+                    let x = &ev.x[col * m..(col + 1) * m];
+                    weighted_residual(t, wt, x, &pb.u[col * m..(col + 1) * m], &mut r);
+                    // A = T D⁻¹ (row-major a[row·m + k]); dinv is column-major
+                    for row in 0..m {
+                        for kk in 0..m {
+                            a[row * m + kk] = match t {
+                                None => dinv[kk * m + row] * wt,
+                                Some(t) => (0..m).map(|q| dinv[kk * m + q] * t[row * m + q]).sum(),
+                            };
+                        }
+                    }
+                    for kk in 0..m {
+                        ahr[kk] = (0..m).map(|row| a[row * m + kk].conj() * r[row]).sum();
+                    }
+                    for q in 0..m {
+                        vhat[q] = x[q] * (-w * w);
+                        vhat[m + q] = x[q] * c64::new(0.0, w);
+                        vhat[2 * m + q] = x[q];
+                    }
+                    // gradient in Z: −Re((Aᴴ r) v̂ᴴ)
+                    for row in 0..m {
+                        for c in 0..m3 {
+                            grad[row * m3 + c] -= (ahr[row] * vhat[c].conj()).re;
+                        }
+                    }
+                    let scale = if matrix_weights { 1.0 } else { wt * wt };
+                    if matrix_weights {
+                        gram_of(&a, &mut g, true);
+                        vbar.iter_mut().for_each(|z| *z = c64::new(0.0, 0.0));
+                    }
+                    for c1 in 0..m3 {
+                        let a1 = vhat[c1].conj() * scale;
+                        for c2 in 0..m3 {
+                            vbar[c1 * m3 + c2] += a1 * vhat[c2];
+                        }
+                    }
+                    if matrix_weights {
+                        push(&g, &vbar, &mut gvals, &mut vvals);
+                    }
+                }
+                if !matrix_weights {
+                    push(&g, &vbar, &mut gvals, &mut vvals);
+                }
+                (gvals, vvals, grad)
+            })
+            .collect();
+        for (li, (gvals, vvals, grad)) in per_line.iter().enumerate() {
+            for t in 0..terms_per_line {
+                let col = li * terms_per_line + t;
+                let gv = &gvals[t * 2 * np..(t + 1) * 2 * np];
+                let vvv = &vvals[t * 2 * vv..(t + 1) * 2 * vv];
+                for q in 0..np {
+                    xg[(q, col)] = gv[q];
+                    xg[(q, k + col)] = gv[np + q];
+                }
+                for q in 0..vv {
+                    yv[(q, col)] = vvv[q];
+                    yv[(q, k + col)] = vvv[vv + q];
+                }
+            }
+            for row in 0..m {
+                for c in 0..m3 {
+                    grad_z[(row, c)] += grad[row * m3 + c];
+                }
+            }
+        }
+        matmul(
+            s_mat.as_mut(),
+            Accum::Add,
+            xg.as_ref(),
+            yv.as_ref().transpose(),
+            1.0,
+            par,
+        );
+    }
+
+    // pair index of (r, r'), and whether it is transposed
+    let mut pair_of = vec![0usize; mm];
+    for (q, &(r1, r2)) in pairs.iter().enumerate() {
+        pair_of[r1 * m + r2] = q;
+        pair_of[r2 * m + r1] = q;
+    }
+    // N_Z block (b, b'), row-major entry index (r·m + col): S[(r,r'),(bm+col, b'm+col')],
+    // read as S[(r',r),(b'm+col', bm+col)] when r > r'
+    let nz_block = |b: usize, bp: usize| -> Mat<f64> {
+        Mat::from_fn(mm, mm, |row, colp| {
+            let (r1, c1) = (row / m, row % m);
+            let (r2, c2) = (colp / m, colp % m);
+            let q = pair_of[r1 * m + r2];
+            if r1 <= r2 {
+                s_mat[(q, (b * m + c1) * m3 + bp * m + c2)]
+            } else {
+                s_mat[(q, (bp * m + c2) * m3 + b * m + c1)]
+            }
+        })
+    };
+    // tangent maps P_b (m² × n_b): vec_rowmajor(δX_b) = P_b δθ_b
+    let nb = n_per_block(m);
+    let tangents: Vec<Mat<f64>> = (0..3)
+        .map(|b| {
+            let lb = &l[b];
+            let mut pm = Mat::<f64>::zeros(mm, nb);
+            for j in 0..m {
+                for k in 0..=j {
+                    let col = tri(j, k);
+                    let scale = if j == k && params.logged(b) {
+                        lb[(j, j)]
+                    } else {
+                        1.0
+                    };
+                    for c in 0..m {
+                        pm[(j * m + c, col)] += scale * lb[(c, k)];
+                        pm[(c * m + j, col)] += scale * lb[(c, k)];
+                    }
+                }
+            }
+            pm
+        })
+        .collect();
+    let n = params.len();
+    let mut nth = vec![0.0; n * n];
+    for b in 0..3 {
+        for bp in b..3 {
+            let blk = nz_block(b, bp);
+            let mut tmp = Mat::<f64>::zeros(mm, nb);
+            matmul(
+                tmp.as_mut(),
+                Accum::Replace,
+                blk.as_ref(),
+                tangents[bp].as_ref(),
+                1.0,
+                par,
+            );
+            let mut out = Mat::<f64>::zeros(nb, nb);
+            matmul(
+                out.as_mut(),
+                Accum::Replace,
+                tangents[b].as_ref().transpose(),
+                tmp.as_ref(),
+                1.0,
+                par,
+            );
+            for jc in 0..nb {
+                for ir in 0..nb {
+                    let (gi, gj) = (b * nb + ir, bp * nb + jc);
+                    nth[gj * n + gi] = out[(ir, jc)];
+                    nth[gi * n + gj] = out[(ir, jc)];
+                }
+            }
+        }
+    }
+    // g_θ,b[(j,k)] = ((g_b + g_bᵀ) L_b)[j,k] (times L_jj for a logged diagonal)
+    let mut gth = vec![0.0; n];
+    for b in 0..3 {
+        let lb = &l[b];
+        for j in 0..m {
+            for k in 0..=j {
+                let mut acc = 0.0;
+                for c in 0..m {
+                    acc += (grad_z[(j, b * m + c)] + grad_z[(c, b * m + j)]) * lb[(c, k)];
+                }
+                if j == k && params.logged(b) {
+                    acc *= lb[(j, j)];
+                }
+                gth[b * nb + tri(j, k)] = acc;
+            }
+        }
+    }
+    (nth, gth)
+}
+
+/// Solve (N + μ diag(N)) δ = −g by Cholesky; None if it is not positive definite.
+fn damped_step(nth: &[f64], g: &[f64], mu: f64, floor: f64, par: Par) -> Option<Vec<f64>> {
+    let n = g.len();
+    let mut a = nth.to_vec();
+    for i in 0..n {
+        a[i * n + i] += mu * nth[i * n + i].max(floor);
+    }
+    let mut am = MatMut::from_column_major_slice_mut(&mut a, n, n);
+    let params = Default::default();
+    let mut mem = MemBuffer::new(llt::factor::cholesky_in_place_scratch::<f64>(
+        n, par, params,
+    ));
+    llt::factor::cholesky_in_place(
+        am.as_mut(),
+        Default::default(),
+        par,
+        MemStack::new(&mut mem),
+        params,
+    )
+    .ok()?;
+    let mut x: Vec<f64> = g.iter().map(|v| -v).collect();
+    let rhs = MatMut::from_column_major_slice_mut(&mut x, n, 1);
+    let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, 1, par));
+    llt::solve::solve_in_place(am.as_ref(), rhs, par, MemStack::new(&mut mem));
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+fn quad(nth: &[f64], x: &[f64]) -> f64 {
+    let n = x.len();
+    (0..n)
+        .map(|j| x[j] * (0..n).map(|i| nth[j * n + i] * x[i]).sum::<f64>())
+        .sum()
+}
+
+/// Scaling of the data (DESIGN §3): ω0 = RMS ω, s_u = RMS |u|, s_f = RMS |f|.
+fn scaling_of(data: &OeData) -> Scaling {
+    let nz = |x: f64| if x > 0.0 && x.is_finite() { x } else { 1.0 };
+    let rms = |z: &[c64]| {
+        let top = z
+            .iter()
+            .map(|v| v.re.abs().max(v.im.abs()))
+            .fold(0.0, f64::max);
+        if top == 0.0 {
+            return 0.0;
+        }
+        top * (z.iter().map(|v| (v / top).norm_sqr()).sum::<f64>() / z.len() as f64).sqrt()
+    };
+    let w2 = data.omega.iter().map(|w| w * w).sum::<f64>() / data.s() as f64;
+    Scaling {
+        omega0: nz(w2.sqrt()),
+        su: nz(rms(data.u)),
+        sf: nz(rms(data.f)),
+    }
+}
+
+/// Refine the start model [M, C, K] (caller's units; symmetric, M, K ≻ 0, C ⪰ 0 —
+/// eigenvalues below a tiny floor are raised to it) by Levenberg–Marquardt on the
+/// output error. `progress` is called after every step with (iteration, cost).
+pub fn refine(
+    data: OeData,
+    start: &[Mat<f64>; 3],
+    opts: OeOptions,
+    par: Par,
+    mut progress: Option<Progress>,
+) -> Result<OeReport, PodidError> {
+    data.validate()?;
+    let m = data.m;
+    for (b, x) in start.iter().enumerate() {
+        if x.nrows() != m || x.ncols() != m {
+            return Err(PodidError::Invalid(format!(
+                "start matrix {} must be {m}×{m}",
+                ["M", "C", "K"][b]
+            )));
+        }
+        if !(0..m).all(|i| (0..m).all(|j| x[(i, j)].is_finite())) {
+            return Err(PodidError::Invalid(format!(
+                "start matrix {} contains NaN or inf",
+                ["M", "C", "K"][b]
+            )));
+        }
+    }
+    let t_total = Instant::now();
+    let scaling = scaling_of(&data);
+    let fac = scaling.block_factors();
+    let pb = Problem {
+        data,
+        w: data.omega.iter().map(|w| w / scaling.omega0).collect(),
+        u: data.u.iter().map(|z| z / scaling.su).collect(),
+        f: data.f.iter().map(|z| z / scaling.sf).collect(),
+    };
+    let params = Params {
+        m,
+        log_diagonal: opts.log_diagonal,
+    };
+    // start factors, scaled units; a tiny floor keeps a singular C factorable
+    let scaled: Vec<Mat<f64>> = (0..3)
+        .map(|b| Mat::from_fn(m, m, |i, j| start[b][(i, j)] / fac[b]))
+        .collect();
+    let top = |x: &Mat<f64>| {
+        (0..m)
+            .flat_map(|i| (0..m).map(move |j| (i, j)))
+            .map(|(i, j)| x[(i, j)].abs())
+            .fold(0.0, f64::max)
+    };
+    let ref_scale = top(&scaled[0]).max(top(&scaled[2])).max(f64::MIN_POSITIVE);
+    let mut l = [0, 1, 2].map(|b| {
+        let floor = if b == 1 { 1e-10 } else { 1e-12 } * ref_scale;
+        psd_factor(scaled[b].as_ref(), floor)
+    });
+    for (b, lb) in l.iter().enumerate() {
+        if let Err(e) = lb {
+            return Err(PodidError::Invalid(format!(
+                "{} of the start: {e}",
+                ["M", "C", "K"][b]
+            )));
+        }
+    }
+    let l0: [Mat<f64>; 3] =
+        [0, 1, 2].map(|b| std::mem::replace(&mut l[b], Ok(Mat::zeros(0, 0))).unwrap());
+    let mut theta = params.pack(&l0);
+    let mut lf = params.unpack(&theta);
+    let mut mck = lf.clone().map(|x| gram_lower(&x));
+
+    let (mut t_eval, mut t_normal, mut t_solve) = (0.0, 0.0, 0.0);
+    let t0 = Instant::now();
+    let mut ev = pb.evaluate(&mck)?;
+    t_eval += t0.elapsed().as_secs_f64();
+    if !ev.cost.is_finite() {
+        return Err(PodidError::Invalid(
+            "the start model has a pole on a measured frequency line (D(ω) singular)".into(),
+        ));
+    }
+    let su2 = scaling.su * scaling.su;
+    let cost_start = ev.cost;
+    let mut history = vec![(0usize, cost_start * su2)];
+    let mut mu = 0.0;
+    let mut nu = 2.0;
+    let mut iterations = 0;
+    let mut accepted = 0;
+    let mut stop = Stop::MaxIter;
+    let mut fresh = true; // normal equations must be (re)formed
+    let (mut nth, mut gth) = (Vec::new(), Vec::new());
+    while iterations < opts.max_iter {
+        if fresh {
+            let t0 = Instant::now();
+            (nth, gth) = normal_equations(&pb, &params, &lf, &ev, par);
+            t_normal += t0.elapsed().as_secs_f64();
+            fresh = false;
+            let gmax = gth.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            if gmax == 0.0 || ev.cost == 0.0 {
+                stop = Stop::GradientZero;
+                break;
+            }
+        }
+        let n = gth.len();
+        let dmax = (0..n).map(|i| nth[i * n + i]).fold(0.0f64, f64::max);
+        if mu == 0.0 {
+            mu = 1e-3;
+        }
+        let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
+        iterations += 1;
+        let t0 = Instant::now();
+        let step = damped_step(&nth, &gth, mu, floor, par);
+        t_solve += t0.elapsed().as_secs_f64();
+        let Some(step) = step else {
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e16 {
+                stop = Stop::NoDescent;
+                break;
+            }
+            continue;
+        };
+        let trial: Vec<f64> = theta.iter().zip(&step).map(|(a, b)| a + b).collect();
+        let lt = params.unpack(&trial);
+        let mckt = lt.clone().map(|x| gram_lower(&x));
+        let t0 = Instant::now();
+        let evt = pb.evaluate(&mckt)?;
+        t_eval += t0.elapsed().as_secs_f64();
+        let gd: f64 = gth.iter().zip(&step).map(|(a, b)| a * b).sum();
+        let predicted = -2.0 * gd - quad(&nth, &step);
+        let actual = ev.cost - evt.cost;
+        let snorm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let tnorm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if evt.cost.is_finite() && actual > 0.0 {
+            let rho = actual / predicted.max(f64::MIN_POSITIVE);
+            let rel = actual / ev.cost;
+            theta = trial;
+            lf = lt;
+            mck = mckt;
+            ev = evt;
+            accepted += 1;
+            fresh = true;
+            mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+            nu = 2.0;
+            history.push((iterations, ev.cost * su2));
+            if let Some(cb) = progress.as_mut() {
+                if cb(iterations, ev.cost * su2).is_break() {
+                    return Err(PodidError::Interrupted);
+                }
+            }
+            if rel < opts.ftol {
+                stop = Stop::CostConverged;
+                break;
+            }
+            if snorm <= opts.xtol * (tnorm + opts.xtol) {
+                stop = Stop::StepConverged;
+                break;
+            }
+        } else {
+            if snorm <= opts.xtol * (tnorm + opts.xtol) {
+                stop = Stop::StepConverged;
+                break;
+            }
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e16 {
+                stop = Stop::NoDescent;
+                break;
+            }
+            if let Some(cb) = progress.as_mut() {
+                if cb(iterations, ev.cost * su2) == ControlFlow::Break(()) {
+                    return Err(PodidError::Interrupted);
+                }
+            }
+        }
+    }
+    let out = [0, 1, 2].map(|b| Mat::from_fn(m, m, |i, j| mck[b][(i, j)] * fac[b]));
+    Ok(OeReport {
+        mck: out,
+        cost_start: cost_start * su2,
+        cost: ev.cost * su2,
+        iterations,
+        accepted,
+        stop,
+        history,
+        scaling,
+        timings: vec![
+            ("evaluate", t_eval),
+            ("normal", t_normal),
+            ("solve", t_solve),
+            ("total", t_total.elapsed().as_secs_f64()),
+        ],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic pseudo-random generator (no dev-dependencies).
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((self.0 >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        }
+    }
+
+    /// A stable symmetric system of order m (M, K ≻ 0, C ≻ 0), O(1) entries.
+    fn system(m: usize, rng: &mut Lcg) -> [Mat<f64>; 3] {
+        let spd = |rng: &mut Lcg, shift: f64| {
+            let a = Mat::from_fn(m, m, |_, _| rng.next());
+            Mat::from_fn(m, m, |i, j| {
+                (0..m).map(|k| a[(i, k)] * a[(j, k)]).sum::<f64>()
+                    + if i == j { shift } else { 0.0 }
+            })
+        };
+        let mm = spd(rng, 1.0);
+        let kk = spd(rng, 2.0);
+        let cc = Mat::from_fn(m, m, |i, j| 0.05 * mm[(i, j)] + 0.02 * kk[(i, j)]);
+        [mm, cc, kk]
+    }
+
+    /// Exact responses u = D⁻¹ f for random forces.
+    fn exact_data(
+        mck: &[Mat<f64>; 3],
+        omega: &[f64],
+        p: usize,
+        rng: &mut Lcg,
+    ) -> (Vec<c64>, Vec<c64>) {
+        let m = mck[0].nrows();
+        let s = omega.len();
+        let f: Vec<c64> = (0..s * p * m)
+            .map(|_| c64::new(rng.next(), rng.next()))
+            .collect();
+        let mut u = f.clone();
+        for i in 0..s {
+            let mut d = vec![c64::new(0.0, 0.0); m * m];
+            dynamic_stiffness(mck, omega[i], &mut d);
+            let dm = MatRef::from_column_major_slice(&d, m, m);
+            let lu = dm.partial_piv_lu();
+            let mut x = Mat::from_fn(m, p, |r, j| u[(i * p + j) * m + r]);
+            use faer::linalg::solvers::Solve;
+            lu.solve_in_place(x.as_mut());
+            for j in 0..p {
+                for r in 0..m {
+                    u[(i * p + j) * m + r] = x[(r, j)];
+                }
+            }
+        }
+        (u, f)
+    }
+
+    fn residual_vector(pb: &Problem, mck: &[Mat<f64>; 3]) -> Vec<f64> {
+        let ev = pb.evaluate(mck).unwrap();
+        let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+        let mut out = Vec::new();
+        let mut r = vec![c64::new(0.0, 0.0); m];
+        for col in 0..s * p {
+            let (t, w) = pb.column_weight(col);
+            weighted_residual(
+                t,
+                w,
+                &ev.x[col * m..(col + 1) * m],
+                &pb.u[col * m..(col + 1) * m],
+                &mut r,
+            );
+            out.extend(r.iter().map(|z| z.re));
+            out.extend(r.iter().map(|z| z.im));
+        }
+        out
+    }
+
+    fn problem<'a>(data: OeData<'a>) -> Problem<'a> {
+        Problem {
+            data,
+            w: data.omega.to_vec(),
+            u: data.u.to_vec(),
+            f: data.f.to_vec(),
+        }
+    }
+
+    #[test]
+    fn gauss_newton_matrix_and_gradient_match_finite_differences() {
+        let mut rng = Lcg(7);
+        let m = 3;
+        let p = 2;
+        let truth = system(m, &mut rng);
+        let omega: Vec<f64> = (0..9).map(|i| 0.3 + 0.25 * i as f64).collect();
+        let (u0, f) = exact_data(&truth, &omega, p, &mut rng);
+        // noisy targets so that the residual is not zero
+        let u: Vec<c64> = u0.iter().map(|z| z * (1.0 + 0.1 * rng.next())).collect();
+        let wscal: Vec<f64> = (0..omega.len() * p).map(|_| 0.5 + rng.next()).collect();
+        let wmat: Vec<f64> = (0..omega.len() * p * m * m).map(|_| rng.next()).collect();
+        for (weights, log_diagonal) in [
+            (Weights::Scalar(&wscal), false),
+            (Weights::Scalar(&wscal), true),
+            (Weights::Matrix(&wmat), true),
+        ] {
+            let data = OeData {
+                omega: &omega,
+                u: &u,
+                f: &f,
+                weights,
+                m,
+                p,
+            };
+            let pb = problem(data);
+            let params = Params { m, log_diagonal };
+            let start = system(m, &mut rng);
+            let l = start.clone().map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
+            let theta = params.pack(&l);
+            let lf = params.unpack(&theta);
+            let mck = lf.clone().map(|x| gram_lower(&x));
+            let ev = pb.evaluate(&mck).unwrap();
+            let (nth, gth) = normal_equations(&pb, &params, &lf, &ev, Par::Seq);
+            let n = theta.len();
+            let r0 = residual_vector(&pb, &mck);
+            let h = 1e-6;
+            let jac: Vec<Vec<f64>> = (0..n)
+                .map(|q| {
+                    let mut tp = theta.clone();
+                    let mut tm = theta.clone();
+                    tp[q] += h;
+                    tm[q] -= h;
+                    let rp = residual_vector(&pb, &params.unpack(&tp).map(|x| gram_lower(&x)));
+                    let rm = residual_vector(&pb, &params.unpack(&tm).map(|x| gram_lower(&x)));
+                    rp.iter()
+                        .zip(&rm)
+                        .map(|(a, b)| (a - b) / (2.0 * h))
+                        .collect()
+                })
+                .collect();
+            let scale = (0..n).map(|i| nth[i * n + i].abs()).fold(0.0, f64::max);
+            for a in 0..n {
+                let g_fd: f64 = jac[a].iter().zip(&r0).map(|(x, y)| x * y).sum();
+                assert!(
+                    (g_fd - gth[a]).abs() < 1e-6 * scale.sqrt() * (1.0 + g_fd.abs()),
+                    "g[{a}]: {g_fd} vs {}",
+                    gth[a]
+                );
+                for b in 0..n {
+                    let n_fd: f64 = jac[a].iter().zip(&jac[b]).map(|(x, y)| x * y).sum();
+                    assert!(
+                        (n_fd - nth[b * n + a]).abs() < 1e-6 * scale,
+                        "N[{a},{b}]: {n_fd} vs {}",
+                        nth[b * n + a]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn noise_free_data_give_the_exact_model_back() {
+        let mut rng = Lcg(11);
+        for (m, p, log_diagonal) in [(2, 1, true), (4, 2, true), (5, 3, false)] {
+            let truth = system(m, &mut rng);
+            // lines around the modes: scaled frequencies 0.2 … 3
+            let omega: Vec<f64> = (0..40).map(|i| 100.0 * (0.2 + 0.07 * i as f64)).collect();
+            // physical units: M ~ 1, K ~ 1e4 (ω ~ 100)
+            let truth = [
+                truth[0].clone(),
+                Mat::from_fn(m, m, |i, j| 100.0 * truth[1][(i, j)]),
+                Mat::from_fn(m, m, |i, j| 1e4 * truth[2][(i, j)]),
+            ];
+            let (u, f) = exact_data(&truth, &omega, p, &mut rng);
+            let w = vec![1.0; omega.len() * p];
+            let data = OeData {
+                omega: &omega,
+                u: &u,
+                f: &f,
+                weights: Weights::Scalar(&w),
+                m,
+                p,
+            };
+            // start 5 % off in every entry, kept symmetric
+            let start = truth.clone().map(|x| {
+                let d = Mat::from_fn(m, m, |_, _| 0.05 * rng.next());
+                Mat::from_fn(m, m, |i, j| x[(i, j)] * (1.0 + d[(i, j)] + d[(j, i)]))
+            });
+            let opts = OeOptions {
+                log_diagonal,
+                ..Default::default()
+            };
+            let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
+            assert!(rep.stop.converged(), "{:?}", rep.stop);
+            for b in 0..3 {
+                let num: f64 = (0..m)
+                    .flat_map(|i| (0..m).map(move |j| (i, j)))
+                    .map(|(i, j)| (rep.mck[b][(i, j)] - truth[b][(i, j)]).powi(2))
+                    .sum();
+                let den: f64 = (0..m)
+                    .flat_map(|i| (0..m).map(move |j| (i, j)))
+                    .map(|(i, j)| truth[b][(i, j)].powi(2))
+                    .sum();
+                assert!(
+                    (num / den).sqrt() < 1e-8,
+                    "m {m} block {b}: {}",
+                    (num / den).sqrt()
+                );
+            }
+            assert!(rep.cost < 1e-20 * rep.cost_start.max(1e-300) || rep.cost < 1e-24);
+        }
+    }
+}
