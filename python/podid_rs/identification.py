@@ -112,6 +112,19 @@ class IdentificationResult:
 
         return SecondOrderSystem(self.M, self.C, self.K)
 
+    def to_state_space(self, basis: np.ndarray | None = None):
+        """The model as a continuous ``scipy.signal.StateSpace``, state x = [q; q̇].
+
+        With a basis R ``(n, m)`` the inputs are forces on the n measured DOFs and
+        the outputs their displacements R q, so the transfer function is
+        ``R H_m(ω) Rᵀ`` (eq. 19); without it, reduced forces and displacements q.
+        See :mod:`podid_rs.statespace`; ``ValueError`` for a basis of the wrong
+        shape or a singular M.
+        """
+        from .statespace import state_space
+
+        return state_space(self.M, self.C, self.K, basis)
+
 
 # ---------------------------------------------------------------------------
 # helpers shared by the backends
