@@ -17,7 +17,7 @@ import numpy as np
 import scipy.linalg
 import scipy.signal
 
-from ._arrays import as_array
+from ._arrays import as_array, as_basis
 
 #: M is refused as singular when its 2-norm condition number exceeds this
 #: (M⁻¹ would carry no correct digit).
@@ -39,14 +39,7 @@ def state_space_matrices(
         if X.shape != (m, m) or m == 0:
             raise ValueError(f"{name} must be a non-empty ({m}, {m}) matrix, got {X.shape}")
     Mm, Cm, Km = mats
-    if basis is None:
-        R = np.eye(m)
-    else:
-        R = as_array(basis, "basis", real=True)
-        if R.ndim != 2 or R.shape[1] != m or R.shape[0] == 0:
-            raise ValueError(
-                f"basis must have shape (n, m) with m = {m} (the model's order), got {R.shape}"
-            )
+    R = as_basis(basis, m)
     cond = np.linalg.cond(Mm)
     if not np.isfinite(cond) or cond > MAX_MASS_CONDITION:
         raise ValueError(
