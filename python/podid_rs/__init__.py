@@ -14,6 +14,7 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.measurements` — measured data in: UFF 58 FRFs, time histories, ``.npz``;
 - :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability;
 - :mod:`podid_rs.modes` — mode shapes on the measured DOFs, the MAC;
+- :mod:`podid_rs.stabilisation` — stabilisation chart over the POD order;
 - :mod:`podid_rs.uff` — the model out as a Universal File (datasets 15, 55, 58);
 - :mod:`podid_rs.statespace` — the model as a ``scipy.signal.StateSpace``.
 """
@@ -44,6 +45,12 @@ from .regularisation import (
     plot_lambda_curve,
 )
 from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
+from .stabilisation import (
+    StabilisationChart,
+    is_physical,
+    plot_stabilisation,
+    stabilisation_chart,
+)
 from .systems import SecondOrderSystem, mass_spring_chain
 from .uff import read_uff_geometry, read_uff_modes, write_uff
 
@@ -61,12 +68,14 @@ __all__ = [
     "RankDeficientWarning",
     "SecondOrderSystem",
     "Simulation",
+    "StabilisationChart",
     "add_noise",
     "choose_lambda",
     "correlation_from_frf",
     "correlation_from_snapshots",
     "frf_h1",
     "identify",
+    "is_physical",
     "lambda_curve",
     "load_data",
     "load_model",
@@ -77,6 +86,7 @@ __all__ = [
     "mode_shapes",
     "plot_lambda_curve",
     "plot_mac",
+    "plot_stabilisation",
     "pod",
     "pod_from_correlation",
     "pod_from_frf",
@@ -88,5 +98,6 @@ __all__ = [
     "shape_mac",
     "simulate_white_noise",
     "spectra",
+    "stabilisation_chart",
     "write_uff",
 ]
