@@ -126,3 +126,5 @@ def test_plot_mac_against_another_model(full_order, tmp_path):
     path = plot_mac(ident, mode_shapes(chain, dofs=data.dofs), tmp_path / "mac.png",
                     names=("identified", "FE model"), band_hz=(0.0, 60.0))
     assert path.read_bytes()[:8] == PNG
+    upper = ident.in_band((30.0, 1e3))
+    assert upper.mode_numbers[0] == 1 + np.sum(ident.frequencies_hz < 30.0)

@@ -82,6 +82,7 @@ def test_dataset_55_matches_the_modal_table_and_the_shapes(written):
         assert abs(d["modal_b"] + lam * d["modal_a"]) < 2e-5 * abs(lam * d["modal_a"])
     back = read_uff_modes(written[4])
     assert back.dofs.tolist() == data.dofs.tolist()
+    assert back.mode_numbers.tolist() == [r["mode"] for r in rows]
     assert np.max(np.abs(back.shapes - modes.shapes)) < 1e-5
     assert np.allclose(back.eigenvalues, modes.eigenvalues, rtol=1e-5)
 

@@ -42,13 +42,22 @@ class ModeShapes:
     scaled shapes of a symmetric model, so that the receptance is
     ``Σ_j φ_j φ_jᵀ / (a_j (iω − λ_j))`` (plus the conjugate of every complex
     mode); None when the model is not symmetric or the shapes were read from a
-    file without it.
+    file without it. ``numbers`` ``(k,)``: the modes' numbers (1-based, as in the
+    modal table or the file), kept when modes are selected; None means 1 … k.
     """
 
     eigenvalues: np.ndarray
     shapes: np.ndarray
     dofs: np.ndarray | None = None
     modal_a: np.ndarray | None = None
+    numbers: np.ndarray | None = None
+
+    @property
+    def mode_numbers(self) -> np.ndarray:
+        """1-based mode numbers (``numbers``, or 1 … k)."""
+        if self.numbers is None:
+            return np.arange(1, self.n_modes + 1)
+        return np.asarray(self.numbers)
 
     @property
     def frequencies_hz(self) -> np.ndarray:
@@ -75,6 +84,7 @@ class ModeShapes:
             eigenvalues=self.eigenvalues[keep],
             shapes=self.shapes[:, keep],
             modal_a=None if self.modal_a is None else self.modal_a[keep],
+            numbers=self.mode_numbers[keep],
         )
 
 
@@ -163,7 +173,7 @@ def shape_mac(a: ModeShapes, b: ModeShapes) -> tuple[np.ndarray, np.ndarray | No
 
 
 def _mode_labels(s: ModeShapes) -> list[str]:
-    return [f"{j + 1}: {f:.4g} Hz" for j, f in enumerate(s.frequencies_hz)]
+    return [f"{j}: {f:.4g} Hz" for j, f in zip(s.mode_numbers, s.frequencies_hz, strict=True)]
 
 
 def plot_mac(

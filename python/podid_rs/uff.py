@@ -108,8 +108,9 @@ def read_uff_modes(path: str | Path) -> ModeShapes:
             f"{path}: its dataset-55 sets are not modes (analysis type {', '.join(kinds)}; "
             "modes are 2, 3 or 7)"
         )
-    eig, columns = [], []
+    eig, columns, numbers = [], [], []
     for d in modes:
+        numbers.append(int(d.get("mode_n", len(numbers) + 1)))
         if d["analysis_type"] == 2:
             w, z = 2 * np.pi * float(d["freq"]), float(d.get("modal_damp_vis", 0.0))
             eig.append(w * complex(-z, np.sqrt(max(1.0 - z * z, 0.0))))
@@ -124,7 +125,8 @@ def read_uff_modes(path: str | Path) -> ModeShapes:
     if not dofs:
         raise ValueError(f"{path}: every dataset-55 mode shape is zero")
     shapes = np.array([[col.get(key, 0.0) for col in columns] for key in dofs])
-    return ModeShapes(np.asarray(eig), shapes, np.asarray(dofs, dtype=np.int64))
+    return ModeShapes(np.asarray(eig), shapes, np.asarray(dofs, dtype=np.int64),
+                      numbers=np.asarray(numbers))
 
 
 def _receptance_to(quantity: str, omega: np.ndarray) -> np.ndarray:
