@@ -64,17 +64,18 @@ def is_physical(model: IdentificationResult, rtol: float = PHYSICAL_RTOL) -> boo
 class StabilisationOrder:
     """One order of the chart: the model's modes and how each is marked.
 
-    ``modes`` as :func:`podid_rs.modal_parameters` (sorted by |λ|);
-    ``stable``, ``consistent_f``, ``consistent`` are ``(k,)`` flags per mode;
-    ``physical`` the model's; ``notes`` the warnings its fit raised.
+    ``model`` is what ``fit(m)`` returned; ``modes`` its
+    :func:`podid_rs.modal_parameters` (sorted by |λ|); ``stable``,
+    ``consistent_f``, ``consistent`` are ``(k,)`` flags per mode; ``physical``
+    the model's; ``notes`` the warnings its fit raised.
     """
 
     m: int
+    model: IdentificationResult
     modes: ModalParameters
     physical: bool
     consistent_f: np.ndarray
     consistent: np.ndarray
-    residual_norm: float
     notes: tuple[str, ...] = ()
 
     @property
@@ -130,6 +131,7 @@ class StabilisationChart:
                     "im_lambda": float(lam.imag),
                     "stable": bool(o.stable[k]),
                     "physical": o.physical,
+                    "residual_norm": o.model.residual_norm,
                     "consistent_f": bool(o.consistent_f[k]),
                     "consistent": bool(o.consistent[k]),
                     "real_pole": bool(lam.imag == 0),
@@ -165,13 +167,21 @@ def _match_previous(
     return cf, c
 
 
-def pod_fit(data: MeasuredData) -> Callable[[int], IdentificationResult]:
-    """The default model of order m: eq. 49, exactly symmetric, on the first m POD modes."""
+def pod_fit(
+    data: MeasuredData,
+    lam: float | tuple[float, float, float] | str = 0.0,
+    symmetric: bool = True,
+) -> Callable[[int], IdentificationResult]:
+    """The model of order m by eq. 49 on the first m POD modes of ``data``.
+
+    Default: the exactly symmetric limit; ``lam``/``symmetric`` as in
+    :func:`podid_rs.identify`.
+    """
     basis = data.pod()
 
     def fit(m: int) -> IdentificationResult:
         U_m, F_m = data.project(basis.basis(m))
-        return identify(U_m, F_m, data.omega, symmetric=True)
+        return identify(U_m, F_m, data.omega, lam, symmetric)
 
     return fit
 
@@ -228,7 +238,7 @@ def stabilisation_chart(
             modes = modal_parameters(model)
             cf, c = _match_previous(modes, prev, f_tol, zeta_tol)
             orders.append(StabilisationOrder(
-                m, modes, is_physical(model), cf, c, float(model.residual_norm),
+                m, model, modes, is_physical(model), cf, c,
                 tuple(str(w.message) for w in caught),
             ))
             prev = modes
