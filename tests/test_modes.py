@@ -128,3 +128,4 @@ def test_plot_mac_against_another_model(full_order, tmp_path):
     assert path.read_bytes()[:8] == PNG
     upper = ident.in_band((30.0, 1e3))
     assert upper.mode_numbers[0] == 1 + np.sum(ident.frequencies_hz < 30.0)
+    assert ident.oscillatory().n_modes == 6  # the chain has no overdamped root

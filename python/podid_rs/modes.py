@@ -78,7 +78,14 @@ class ModeShapes:
     def in_band(self, band_hz: tuple[float, float]) -> ModeShapes:
         """The modes with natural frequency in ``[lo, hi]`` Hz."""
         f = self.frequencies_hz
-        keep = (f >= band_hz[0]) & (f <= band_hz[1])
+        return self.select((f >= band_hz[0]) & (f <= band_hz[1]))
+
+    def oscillatory(self) -> ModeShapes:
+        """The complex modes (``Im λ > 0``), without the real (overdamped) roots."""
+        return self.select(self.eigenvalues.imag > 0)
+
+    def select(self, keep: np.ndarray) -> ModeShapes:
+        """The modes where the boolean ``(k,)`` mask ``keep`` is true, numbers kept."""
         return replace(
             self,
             eigenvalues=self.eigenvalues[keep],

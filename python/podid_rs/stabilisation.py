@@ -131,7 +131,6 @@ class StabilisationChart:
                     "im_lambda": float(lam.imag),
                     "stable": bool(o.stable[k]),
                     "physical": o.physical,
-                    "residual_norm": o.model.residual_norm,
                     "consistent_f": bool(o.consistent_f[k]),
                     "consistent": bool(o.consistent[k]),
                     "real_pole": bool(lam.imag == 0),
