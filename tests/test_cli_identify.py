@@ -47,7 +47,8 @@ def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
     stdout = capsys.readouterr().out
     assert "exactly symmetric" in stdout and "stable: yes" in stdout
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["frf_input1.png", "frf_input2.png", "model.npz", "modes.csv", "modes.md"]
+    assert names == ["frf_input1.png", "frf_input2.png", "mac.png", "model.npz", "model.uff",
+                     "modes.csv", "modes.md", "stabilisation.csv", "stabilisation.png"]
     for png in ("frf_input1.png", "frf_input2.png"):
         assert (out / png).read_bytes()[:8] == PNG
 
