@@ -264,7 +264,7 @@ def plot_stabilisation(
 
     Markers: ○ new pole, △ frequency consistent with order m − 1, ● frequency
     and damping consistent; green for a physical model, blue otherwise, red ×
-    for an unstable pole. The chosen order is shaded. ``quantity`` draws the
+    for an unstable pole. The chosen order is shaded (and named in the legend). ``quantity`` draws the
     background FRF as receptance, mobility or accelerance (as the test measured).
     """
     from .plotting import _new_figure, _save
@@ -328,10 +328,9 @@ def plot_stabilisation(
     handles.append(ax.scatter([], [], marker="s", color="tab:blue", s=22,
                               label="model not physical"))
     if chart.chosen_m is not None:
-        ax.axhspan(chart.chosen_m - 0.45, chart.chosen_m + 0.45, color="gold", alpha=0.35, lw=0)
-        ax.text(0.004, chart.chosen_m, f"chosen m = {chart.chosen_m}", va="center", ha="left",
-                fontsize=8, transform=ax.get_yaxis_transform(),
-                bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.8))
+        # marked by a band and in the legend: a label on the axes would hide poles
+        handles.append(ax.axhspan(chart.chosen_m - 0.45, chart.chosen_m + 0.45, color="gold",
+                                  alpha=0.35, lw=0, label=f"chosen order m = {chart.chosen_m}"))
     ms = [o.m for o in chart.orders]
     ax.set_ylim(min(ms) - 0.7, max(ms) + 0.7)
     ax.set_xlim(lo, hi)
