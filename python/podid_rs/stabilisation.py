@@ -264,8 +264,9 @@ def plot_stabilisation(
 
     Markers: ○ new pole, △ frequency consistent with order m − 1, ● frequency
     and damping consistent; green for a physical model, blue otherwise, red ×
-    for an unstable pole. The chosen order is shaded (and named in the legend). ``quantity`` draws the
-    background FRF as receptance, mobility or accelerance (as the test measured).
+    for an unstable pole. The chosen order is shaded (and named in the legend).
+    ``quantity`` draws the background FRF as receptance, mobility or accelerance
+    (as the test measured).
     """
     from .plotting import _new_figure, _save
 
