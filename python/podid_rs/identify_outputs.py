@@ -27,6 +27,7 @@ from .identification import IdentificationResult
 from .measurements import MeasuredData
 from .modes import mode_shapes, plot_mac
 from .physical import make_physical
+from .pod import PODResult
 from .stabilisation import plot_stabilisation, pod_fit, stabilisation_chart
 from .uff import read_uff_geometry, uff_quantity, write_uff
 
@@ -62,13 +63,13 @@ def command_fit(
     data: MeasuredData,
     lam: float | tuple[float, float, float] | str | None,
     physical: bool,
+    basis: PODResult,
 ) -> Callable[[int], IdentificationResult]:
-    """fit(m) as ``run_identify`` fits: eq. 49 on the POD basis, λ or exactly
-    symmetric (``lam=None``), made physical when asked."""
-    plain = pod_fit(data, 0.0 if lam is None else lam, lam is None)
+    """fit(m) as ``run_identify`` fits: eq. 49 on the POD ``basis`` of ``data``, λ or
+    exactly symmetric (``lam=None``), made physical when asked."""
+    plain = pod_fit(data, 0.0 if lam is None else lam, lam is None, basis)
     if not physical:
         return plain
-    basis = data.pod()
 
     def fit(m: int) -> IdentificationResult:
         return make_physical(plain(m), *data.project(basis.basis(m)), data.omega)
@@ -95,8 +96,9 @@ def write_identify_outputs(
                   geometry=source_geometry(source), name=source.name)
     ]
     m = result.m
+    pod = data.pod()
     chart = stabilisation_chart(
-        data, stabilisation_orders(m, data.n), fit=command_fit(data, lam, physical),
+        data, stabilisation_orders(m, data.n), fit=command_fit(data, lam, physical, pod),
         chosen_m=m, progress=progress,
     )
     files.append(chart.to_csv(out / "stabilisation.csv"))
@@ -110,7 +112,7 @@ def write_identify_outputs(
     if other >= 1:
         shapes = mode_shapes(result, basis, data.dofs).in_band((lo, hi)).oscillatory()
         neighbour = mode_shapes(
-            chart.order(other).model, data.pod().basis(other), data.dofs
+            chart.order(other).model, pod.basis(other), data.dofs
         ).in_band((lo, hi)).oscillatory()
         if shapes.n_modes and neighbour.n_modes:
             files.append(plot_mac(

@@ -37,6 +37,7 @@ from ._arrays import as_count, as_scalar
 from .identification import IdentificationResult, identify
 from .measurements import MeasuredData
 from .physical import ModalParameters, modal_parameters
+from .pod import PODResult
 
 #: consistency between successive orders: |Δf| / f ≤ F_TOL, |Δζ| / ζ ≤ ZETA_TOL
 F_TOL = 0.01
@@ -170,13 +171,14 @@ def pod_fit(
     data: MeasuredData,
     lam: float | tuple[float, float, float] | str = 0.0,
     symmetric: bool = True,
+    basis: PODResult | None = None,
 ) -> Callable[[int], IdentificationResult]:
     """The model of order m by eq. 49 on the first m POD modes of ``data``.
 
     Default: the exactly symmetric limit; ``lam``/``symmetric`` as in
-    :func:`podid_rs.identify`.
+    :func:`podid_rs.identify`. ``basis``: ``data.pod()`` if already computed.
     """
-    basis = data.pod()
+    basis = data.pod() if basis is None else basis
 
     def fit(m: int) -> IdentificationResult:
         U_m, F_m = data.project(basis.basis(m))
