@@ -88,6 +88,8 @@ def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
         assert np.array_equal(X, X.T)
     assert np.linalg.eigvalsh(model.M).min() > 0 and np.linalg.eigvalsh(model.K).min() > 0
     assert (out / "frf_input2.png").read_bytes()[:8] == PNG
+    # the stabilisation chart fits as the command does: every order made physical
+    assert {r["physical"] for r in read_rows(out / "stabilisation.csv")} == {"True"}
 
 
 @pytest.mark.parametrize(
