@@ -8,6 +8,8 @@ default tol (the tol was chosen for that with a margin, see ``CG_TOL``).
 
 from __future__ import annotations
 
+import io
+import sys
 import time
 import warnings
 
@@ -141,11 +143,21 @@ def test_auto_rule():
     assert identify(U, F, omega, 0.0).method == "cholesky"
 
 
-def test_progress_bar_is_drawn_on_stderr(capsys):
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_is_drawn_on_a_terminal_and_quiet_elsewhere(monkeypatch, capsys):
     _, U, F, omega = chain(20, "narrow")
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
     res = identify(U, F, omega, symmetric=True, solver="cg", progress=True)
-    err = capsys.readouterr().err
-    assert "CG [" in err and f"iteration {res.iterations}," in err and err.endswith("\n")
+    err = term.getvalue()
+    assert "CG: 100%" in err and f"iteration {res.iterations}," in err and err.endswith("\n")
+    monkeypatch.undo()
+    identify(U, F, omega, symmetric=True, solver="cg", progress=True)
+    assert capsys.readouterr().err == ""  # not a terminal: no bar
 
 
 def test_progress_callback_sees_the_last_iteration():

@@ -47,7 +47,8 @@ def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
     stdout = capsys.readouterr().out
     assert "exactly symmetric" in stdout and "stable: yes" in stdout
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["frf_input1.png", "frf_input2.png", "model.npz", "modes.csv", "modes.md"]
+    assert names == ["frf_input1.png", "frf_input2.png", "mac.png", "model.npz", "model.uff",
+                     "modes.csv", "modes.md", "stabilisation.csv", "stabilisation.png"]
     for png in ("frf_input1.png", "frf_input2.png"):
         assert (out / png).read_bytes()[:8] == PNG
 
@@ -87,6 +88,8 @@ def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
         assert np.array_equal(X, X.T)
     assert np.linalg.eigvalsh(model.M).min() > 0 and np.linalg.eigvalsh(model.K).min() > 0
     assert (out / "frf_input2.png").read_bytes()[:8] == PNG
+    # the stabilisation chart fits as the command does: every order made physical
+    assert {r["physical"] for r in read_rows(out / "stabilisation.csv")} == {"True"}
 
 
 @pytest.mark.parametrize(

@@ -12,7 +12,11 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.regularisation` — choosing λ: L-curve, GCV, discrepancy (§4.2);
 - :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle);
 - :mod:`podid_rs.measurements` — measured data in: UFF 58 FRFs, time histories, ``.npz``;
-- :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability.
+- :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability;
+- :mod:`podid_rs.modes` — mode shapes on the measured DOFs, the MAC;
+- :mod:`podid_rs.stabilisation` — stabilisation chart over the POD order;
+- :mod:`podid_rs.uff` — the model out as a Universal File (datasets 15, 55, 58);
+- :mod:`podid_rs.statespace` — the model as a ``scipy.signal.StateSpace``.
 """
 
 from .identification import (
@@ -22,6 +26,7 @@ from .identification import (
     identify,
 )
 from .measurements import MeasuredData, load_data, load_model, read_uff, save_data, save_model
+from .modes import ModeShapes, mac, mode_shapes, plot_mac, shape_mac
 from .physical import make_physical, modal_parameters
 from .pod import (
     PODResult,
@@ -40,7 +45,14 @@ from .regularisation import (
     plot_lambda_curve,
 )
 from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
+from .stabilisation import (
+    StabilisationChart,
+    is_physical,
+    plot_stabilisation,
+    stabilisation_chart,
+)
 from .systems import SecondOrderSystem, mass_spring_chain
+from .uff import read_uff_geometry, read_uff_modes, write_uff
 
 __version__ = "0.1.0"
 
@@ -50,30 +62,42 @@ __all__ = [
     "LambdaCurve",
     "LambdaSelectionWarning",
     "MeasuredData",
+    "ModeShapes",
     "NoCornerWarning",
     "PODResult",
     "RankDeficientWarning",
     "SecondOrderSystem",
     "Simulation",
+    "StabilisationChart",
     "add_noise",
     "choose_lambda",
     "correlation_from_frf",
     "correlation_from_snapshots",
     "frf_h1",
     "identify",
+    "is_physical",
     "lambda_curve",
     "load_data",
     "load_model",
+    "mac",
     "make_physical",
     "mass_spring_chain",
     "modal_parameters",
+    "mode_shapes",
     "plot_lambda_curve",
+    "plot_mac",
+    "plot_stabilisation",
     "pod",
     "pod_from_correlation",
     "pod_from_frf",
     "read_uff",
+    "read_uff_geometry",
+    "read_uff_modes",
     "save_data",
     "save_model",
+    "shape_mac",
     "simulate_white_noise",
     "spectra",
+    "stabilisation_chart",
+    "write_uff",
 ]

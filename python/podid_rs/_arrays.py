@@ -59,3 +59,15 @@ def as_count(x: object, name: str, lo: int, hi: int | None = None) -> int:
         bounds = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
         raise ValueError(f"{name} must be {bounds}, got {x}")
     return int(x)
+
+
+def as_basis(basis: object, m: int) -> np.ndarray:
+    """A real ``(n, m)`` basis R mapping an order-m model to n DOFs; None → I_m."""
+    if basis is None:
+        return np.eye(m)
+    R = as_array(basis, "basis", real=True)
+    if R.ndim != 2 or R.shape[1] != m or R.shape[0] == 0:
+        raise ValueError(
+            f"basis must have shape (n, m) with m = {m} (the model's order), got {R.shape}"
+        )
+    return R

@@ -1,55 +1,63 @@
-"""A tiny progress line on stderr for long runs (no dependency on tqdm)."""
+"""Progress bars for long runs: tqdm on stderr, quiet off a terminal or when disabled."""
 
 from __future__ import annotations
 
 import sys
-import time
 from typing import TextIO
+
+from tqdm import tqdm
+
+
+def progress_bar(
+    total: int | None,
+    *,
+    enabled: bool = True,
+    desc: str | None = None,
+    unit: str = "it",
+    stream: TextIO | None = None,
+    **kwargs: object,
+) -> tqdm:
+    """A tqdm bar on ``stream`` (stderr at call time by default).
+
+    Drawn only when ``enabled`` and the stream is a terminal (tqdm's
+    ``disable=None``): pipes, logs and CI stay quiet.
+    """
+    return tqdm(
+        total=total,
+        desc=desc,
+        unit=unit,
+        file=sys.stderr if stream is None else stream,
+        disable=None if enabled else True,
+        dynamic_ncols=True,
+        **kwargs,
+    )
 
 
 class Progress:
-    """Step counter ``[i/N] label (elapsed)`` written to a stream (stderr by default).
-
-    On a terminal the line is redrawn in place with a bar; elsewhere (pipes, logs,
-    CI) one plain line is printed per step. ``enabled=False`` prints nothing.
-    Call :meth:`step` as each step starts and :meth:`close` at the end.
-    """
+    """Named steps of a long run on a tqdm bar: call :meth:`step` as each step
+    starts (its label is shown after the bar) and :meth:`close` at the end."""
 
     def __init__(
-        self, total: int, enabled: bool = True, stream: TextIO | None = None, width: int = 24
+        self,
+        total: int,
+        enabled: bool = True,
+        stream: TextIO | None = None,
+        desc: str | None = None,
     ) -> None:
         self.total = max(int(total), 1)
-        self.enabled = bool(enabled)
-        self.stream = sys.stderr if stream is None else stream
-        self.width = width
         self.count = 0
-        self.start = time.perf_counter()
-        isatty = getattr(self.stream, "isatty", None)
-        self.tty = bool(isatty and isatty())
+        self.bar = progress_bar(self.total, enabled=enabled, desc=desc, unit="step",
+                                stream=stream)
 
     def step(self, label: str) -> None:
-        """Announce the start of the next step."""
+        """Mark the previous step done and announce the next."""
+        if self.count:
+            self.bar.update(1)
         self.count += 1
-        if not self.enabled:
-            return
-        elapsed = time.perf_counter() - self.start
-        head = f"[{self.count}/{self.total}]"
-        if self.tty:
-            done = round(self.width * (self.count - 1) / self.total)
-            bar = "#" * done + "-" * (self.width - done)
-            self.stream.write(f"\r\033[K{head} |{bar}| {elapsed:6.1f} s  {label}")
-        else:
-            self.stream.write(f"{head} {elapsed:6.1f} s  {label}\n")
-        self.stream.flush()
+        self.bar.set_postfix_str(label)
 
     def close(self) -> None:
-        """Finish the line (terminal) and report the total time."""
-        if not self.enabled:
-            return
-        elapsed = time.perf_counter() - self.start
-        if self.tty:
-            head, bar = f"[{self.total}/{self.total}]", "#" * self.width
-            self.stream.write(f"\r\033[K{head} |{bar}| {elapsed:6.1f} s  done\n")
-        else:
-            self.stream.write(f"done in {elapsed:.1f} s\n")
-        self.stream.flush()
+        """Complete the bar and finish its line."""
+        self.bar.set_postfix_str("done", refresh=False)
+        self.bar.update(self.total - self.bar.n)
+        self.bar.close()

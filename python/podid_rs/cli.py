@@ -143,7 +143,7 @@ def _run_identify(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
     try:
         run = run_identify(
             args.data, args.out, band_hz=(lo, hi), m=args.m, energy=args.energy, lam=lam,
-            physical=args.physical,
+            physical=args.physical, progress=not args.no_progress,
         )
     except (ValueError, MemoryError, OSError) as exc:
         print(f"podid-rs identify: error: {exc}", file=sys.stderr)
@@ -163,7 +163,9 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
             ".npz with time histories (arrays forces, responses, dt, inputs; FRFs by H1 with "
             "Welch averaging) or a data set saved by podid_rs.save_data. Builds the POD basis "
             "of the responses in the band, identifies M, C, K and writes model.npz, FRF "
-            "overlays (frf_input<k>.png) and the modal table (modes.csv, modes.md)."
+            "overlays (frf_input<k>.png), the modal table (modes.csv, modes.md), the model "
+            "as a Universal File (model.uff), the stabilisation chart over the POD order "
+            "(stabilisation.png, .csv) and the MAC between two orders (mac.png)."
         ),
     )
     p.add_argument("data", metavar="DATA", help="measured data file (.uff, .unv or .npz)")
@@ -182,6 +184,8 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
                    "matrices), reporting the change in residual")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder (created if missing)")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar on stderr (none is drawn off a terminal anyway)")
     p.set_defaults(handler=functools.partial(_run_identify, parser=p))
 
 

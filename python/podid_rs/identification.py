@@ -17,7 +17,6 @@ memory and one m×3m by 3m×3m GEMM per iteration.
 from __future__ import annotations
 
 import math
-import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -111,6 +110,19 @@ class IdentificationResult:
         from .systems import SecondOrderSystem
 
         return SecondOrderSystem(self.M, self.C, self.K)
+
+    def to_state_space(self, basis: np.ndarray | None = None):
+        """The model as a continuous ``scipy.signal.StateSpace``, state x = [q; q̇].
+
+        With a basis R ``(n, m)`` the inputs are forces on the n measured DOFs and
+        the outputs their displacements R q, so the transfer function is
+        ``R H_m(ω) Rᵀ`` (eq. 19); without it, reduced forces and displacements q.
+        See :mod:`podid_rs.statespace`; ``ValueError`` for a basis of the wrong
+        shape or a singular M.
+        """
+        from .statespace import state_space
+
+        return state_space(self.M, self.C, self.K, basis)
 
 
 # ---------------------------------------------------------------------------
@@ -299,27 +311,28 @@ def _identify_rust(data: FrequencyData, lam: Triple, symmetric: bool, threads: i
 
 
 class _ProgressBar:
-    """A one-line progress bar on stderr: the fraction is log(residual)/log(tol)."""
+    """CG progress as a tqdm bar on stderr: the fraction done is log(residual)/log(tol)."""
 
-    def __init__(self, tol: float, width: int = 30) -> None:
-        self.tol, self.width, self.shown = tol, width, False
+    def __init__(self, tol: float) -> None:
+        from ._progress import progress_bar
+
+        self.tol = tol
+        self.bar = progress_bar(100, desc="CG", unit="%", leave=True)
 
     def __call__(self, iteration: int, residual: float) -> None:
         done = 0.0
         if residual > 0 and math.isfinite(residual):
             done = min(max(math.log(residual) / math.log(self.tol), 0.0), 1.0)
-        bar = "#" * round(done * self.width)
-        sys.stderr.write(
-            f"\rCG [{bar:<{self.width}}] iteration {iteration}, "
-            f"relative residual {residual:.2e} (tol {self.tol:.0e})"
+        self.bar.n = round(100 * done)
+        self.bar.set_postfix_str(
+            f"iteration {iteration}, relative residual {residual:.2e} (tol {self.tol:.0e})",
+            refresh=False,
         )
-        sys.stderr.flush()
-        self.shown = True
+        self.bar.refresh()
 
     def close(self, iteration: int, residual: float) -> None:
         self(iteration, residual)
-        sys.stderr.write("\n")
-        sys.stderr.flush()
+        self.bar.close()
 
 
 def _identify_cg(
@@ -337,7 +350,12 @@ def _identify_cg(
     U, F, w = data.columns()
     bar = _ProgressBar(tol) if progress is True else None
     callback = bar if bar is not None else (progress if callable(progress) else None)
-    out = _core.identify_cg(U, F, w, lam, symmetric, tol, max_iter, callback, threads)
+    try:
+        out = _core.identify_cg(U, F, w, lam, symmetric, tol, max_iter, callback, threads)
+    except BaseException:
+        if bar is not None:
+            bar.bar.close()
+        raise
     if bar is not None:
         bar.close(out["iterations"], out["relative_residual"])
     return out
@@ -423,11 +441,11 @@ def identify(
         ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to
         3e-9 in our tests).
     max_iter : CG iteration limit (default 10 000).
-    progress : CG only: ``True`` draws a progress bar (iterations, residual) on
-        stderr; a callable is called as ``progress(iteration, residual)`` about
-        every 0.1 s and after the last iteration (residual: the iteration's
-        recursively updated one). Ctrl-C, or an exception raised by the
-        callable, stops the solve and propagates.
+    progress : CG only: ``True`` draws a tqdm progress bar (iterations, residual)
+        on stderr when it is a terminal; a callable is called as
+        ``progress(iteration, residual)`` about every 0.1 s and after the last
+        iteration (residual: the iteration's recursively updated one). Ctrl-C,
+        or an exception raised by the callable, stops the solve and propagates.
 
     Raises ``ValueError`` for malformed data or options or a problem with fewer
     equations than unknowns, ``MemoryError`` when the chosen solver's memory would

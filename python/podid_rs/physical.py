@@ -143,22 +143,38 @@ def _matrices(model: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
-def modal_parameters(model: IdentificationResult | SecondOrderSystem) -> ModalParameters:
-    """Natural frequencies, damping ratios and stability of ``M ü + C u̇ + K u = 0``.
+def companion_modes(
+    model: IdentificationResult | SecondOrderSystem, vectors: bool = False
+) -> tuple[np.ndarray, np.ndarray | None, int]:
+    """One eigenvalue per mode of the pencil, sorted by ``|λ|``, and its vector φ.
 
     Generalised eigenvalues of ``A z = λ B z``, ``A = [[0, I], [−K, −C]]``,
-    ``B = [[I, 0], [0, M]]`` (``scipy.linalg.eig``), z = [φ; λφ].
+    ``B = [[I, 0], [0, M]]`` (``scipy.linalg.eig``), z = [φ; λφ]: the one with
+    ``Im λ > 0`` of each complex pair and every real one. Returns the eigenvalues
+    ``(k,)``, the vectors φ ``(m, k)`` (None unless ``vectors``) and the number of
+    infinite eigenvalues.
     """
     M, C, K = (np.asarray(X, dtype=np.float64) for X in _matrices(model))
     n = M.shape[0]
     eye, zero = np.eye(n), np.zeros((n, n))
     A = np.block([[zero, eye], [-K, -C]])
     B = np.block([[eye, zero], [zero, M]])
-    lam = scipy.linalg.eig(A, B, right=False)
+    if vectors:
+        lam, Z = scipy.linalg.eig(A, B)
+    else:
+        lam, Z = scipy.linalg.eig(A, B, right=False), None
     finite = np.isfinite(lam)
-    lam = lam[finite]
-    keep = lam[(lam.imag > 0) | (lam.imag == 0)]
-    keep = keep[np.argsort(np.abs(keep), kind="stable")]
+    pick = np.flatnonzero(finite & (lam.imag >= 0))
+    pick = pick[np.argsort(np.abs(lam[pick]), kind="stable")]
+    return lam[pick], None if Z is None else Z[:n, pick], int(np.sum(~finite))
+
+
+def modal_parameters(model: IdentificationResult | SecondOrderSystem) -> ModalParameters:
+    """Natural frequencies, damping ratios and stability of ``M ü + C u̇ + K u = 0``.
+
+    The modes of :func:`companion_modes`.
+    """
+    keep, _, n_infinite = companion_modes(model)
     mag = np.abs(keep)
     with np.errstate(invalid="ignore", divide="ignore"):
         zeta = np.where(mag > 0, -keep.real / mag, 0.0)
@@ -166,7 +182,7 @@ def modal_parameters(model: IdentificationResult | SecondOrderSystem) -> ModalPa
         eigenvalues=keep,
         frequencies_hz=mag / (2 * np.pi),
         damping_ratios=zeta,
-        n_infinite=int(np.sum(~finite)),
+        n_infinite=n_infinite,
     )
 
 

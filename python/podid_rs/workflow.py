@@ -11,7 +11,10 @@ and writes into the output folder
 * ``frf_input<k>.png`` — measured and identified FRF (``R H_m Rᵀ``) at the driving
   point of driven DOF k and at the measured DOF farthest from it (at most four);
 * ``modes.csv`` and ``modes.md`` — the modal table (natural frequencies, damping
-  ratios, stability), ``modes.md`` headed by a summary of the run.
+  ratios, stability), ``modes.md`` headed by a summary of the run;
+* ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` — the model for
+  other tools, the evidence for the order, the MAC between two orders
+  (:mod:`podid_rs.identify_outputs`).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .identification import IdentificationResult
+from .identify_outputs import write_identify_outputs
 from .measurements import MeasuredData, load_data, save_model
 from .physical import make_physical, modal_parameters, modal_table, table_csv, table_markdown
 from .plotting import Curve, plot_frf_comparison
@@ -125,6 +129,7 @@ def run_identify(
     energy: float | None = None,
     lam: float | tuple[float, float, float] | None = None,
     physical: bool = False,
+    progress: bool = True,
 ) -> IdentifyRun:
     """Identify a reduced model from the data file ``path`` and write it to ``out``.
 
@@ -132,6 +137,7 @@ def run_identify(
     fewer driven DOFs than m need symmetry, see :mod:`podid_rs.measurements`),
     a number or triple the regularised one (eq. 40). The order is ``m``, or the
     smallest capturing the energy fraction ``energy`` (default 0.99, eq. 43).
+    ``progress`` shows the order sweep of the stabilisation chart on a terminal.
     """
     source = Path(path)
     data = load_data(source, band_hz=band_hz)
@@ -159,4 +165,6 @@ def run_identify(
         + table_markdown(rows)
     )
     files += [out / "modes.csv", out / "modes.md"]
+    files += write_identify_outputs(source, data, result, R, out, band_hz=band_hz, lam=lam,
+                                    physical=physical, progress=progress)
     return IdentifyRun(source, data, ls, result, R, files)

@@ -1,0 +1,228 @@
+"""Mode shapes of an identified model on the measured DOFs, and the MAC.
+
+An identified reduced model's modes ψ (the vectors of the pencil
+``(λ²M + λC + K)ψ = 0``, paper eq. 1, from :func:`podid_rs.physical.companion_modes`)
+live in POD coordinates; on the measured DOFs they are φ = R ψ (eq. 9). The
+modal assurance criterion compares two sets of shapes,
+
+    MAC(a, b) = |aᴴ b|² / ((aᴴ a)(bᴴ b)),
+
+1 for shapes that are multiples of each other, 0 for orthogonal ones
+(Allemang & Brown 1982). :func:`plot_mac` draws it against reference shapes:
+another model's (:func:`mode_shapes`) or those of a UFF file's dataset 55
+(:func:`podid_rs.uff.read_uff_modes`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ._arrays import as_array, as_basis
+from .identification import IdentificationResult
+from .physical import companion_modes
+from .systems import SecondOrderSystem
+
+#: a model counts as symmetric (and gets its modal A) when ‖X − Xᵀ‖ ≤ this × ‖X‖
+SYMMETRY_RTOL = 1e-12
+#: MAC values are written in the cells of a figure up to this many cells
+ANNOTATE_MAX_CELLS = 400
+
+
+@dataclass(frozen=True)
+class ModeShapes:
+    """Modes with their shapes on labelled DOFs.
+
+    ``eigenvalues`` ``(k,)`` (one per mode, ``Im λ ≥ 0``, sorted by ``|λ|``, as
+    :func:`podid_rs.modal_parameters`); ``shapes`` ``(n, k)`` complex, column j
+    scaled so that its largest entry is 1; ``dofs`` ``(n, 2)`` (node, direction)
+    labels of the rows, or None. ``modal_a`` ``(k,)``: ``ψᵀ(2λM + C)ψ`` for the
+    scaled shapes of a symmetric model, so that the receptance is
+    ``Σ_j φ_j φ_jᵀ / (a_j (iω − λ_j))`` (plus the conjugate of every complex
+    mode); None when the model is not symmetric or the shapes were read from a
+    file without it. ``numbers`` ``(k,)``: the modes' numbers (1-based, as in the
+    modal table or the file), kept when modes are selected; None means 1 … k.
+    """
+
+    eigenvalues: np.ndarray
+    shapes: np.ndarray
+    dofs: np.ndarray | None = None
+    modal_a: np.ndarray | None = None
+    numbers: np.ndarray | None = None
+
+    @property
+    def mode_numbers(self) -> np.ndarray:
+        """1-based mode numbers (``numbers``, or 1 … k)."""
+        if self.numbers is None:
+            return np.arange(1, self.n_modes + 1)
+        return np.asarray(self.numbers)
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        """Undamped natural frequencies ``|λ| / 2π``."""
+        return np.abs(self.eigenvalues) / (2 * np.pi)
+
+    @property
+    def damping_ratios(self) -> np.ndarray:
+        """``−Re λ / |λ|`` (0 for λ = 0)."""
+        mag = np.abs(self.eigenvalues)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(mag > 0, -self.eigenvalues.real / mag, 0.0)
+
+    @property
+    def n_modes(self) -> int:
+        return self.eigenvalues.size
+
+    def in_band(self, band_hz: tuple[float, float]) -> ModeShapes:
+        """The modes with natural frequency in ``[lo, hi]`` Hz."""
+        f = self.frequencies_hz
+        return self.select((f >= band_hz[0]) & (f <= band_hz[1]))
+
+    def oscillatory(self) -> ModeShapes:
+        """The complex modes (``Im λ > 0``), without the real (overdamped) roots."""
+        return self.select(self.eigenvalues.imag > 0)
+
+    def select(self, keep: np.ndarray) -> ModeShapes:
+        """The modes where the boolean ``(k,)`` mask ``keep`` is true, numbers kept."""
+        return replace(
+            self,
+            eigenvalues=self.eigenvalues[keep],
+            shapes=self.shapes[:, keep],
+            modal_a=None if self.modal_a is None else self.modal_a[keep],
+            numbers=self.mode_numbers[keep],
+        )
+
+
+def _is_symmetric(M: np.ndarray, C: np.ndarray, K: np.ndarray) -> bool:
+    return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X) for X in (M, C, K))
+
+
+def mode_shapes(
+    model: IdentificationResult | SecondOrderSystem,
+    basis: object = None,
+    dofs: object = None,
+) -> ModeShapes:
+    """The model's modes with shapes φ = R ψ on the measured DOFs (R = ``basis``).
+
+    ``basis`` R ``(n, m)``; None gives the shapes in the model's own coordinates.
+    ``dofs`` ``(n, 2)`` labels the rows (node, direction), for UFF output and for
+    matching against reference shapes.
+    """
+    from .measurements import _dof_labels
+
+    lam, psi, _ = companion_modes(model, vectors=True)
+    m = psi.shape[0]
+    R = as_basis(basis, m)
+    phi = R @ psi
+    top = phi[np.argmax(np.abs(phi), axis=0), np.arange(phi.shape[1])]
+    if np.any(top == 0):
+        raise ValueError("a mode has no component on the measured DOFs (R ψ = 0)")
+    phi = phi / top
+    psi = psi / top
+    M, C = model.M, model.C
+    modal_a = None
+    if _is_symmetric(M, C, model.K):
+        # zᵀ [[C, M], [M, 0]] z for z = [ψ; λψ]: the first-order form's modal A
+        modal_a = lam * np.einsum("ik,ij,jk->k", psi, 2 * M, psi) + np.einsum(
+            "ik,ij,jk->k", psi, C, psi
+        )
+    labels = None if dofs is None else _dof_labels(dofs, phi.shape[0])
+    return ModeShapes(lam, phi, labels, modal_a)
+
+
+def mac(A: object, B: object) -> np.ndarray:
+    """Modal assurance criterion ``|aᴴb|² / ((aᴴa)(bᴴb))`` of every column pair.
+
+    ``A`` ``(n, ka)`` and ``B`` ``(n, kb)`` (or 1-D, one shape), real or complex,
+    with the same rows (DOFs). Returns ``(ka, kb)`` in [0, 1].
+    """
+    a, b = as_array(A, "A"), as_array(B, "B")
+    a = a[:, None] if a.ndim == 1 else a
+    b = b[:, None] if b.ndim == 1 else b
+    if a.ndim != 2 or b.ndim != 2 or 0 in a.shape or 0 in b.shape:
+        raise ValueError(f"A and B must be non-empty (n, k) arrays, got {a.shape} and {b.shape}")
+    if a.shape[0] != b.shape[0]:
+        raise ValueError(
+            f"A and B must have the same number of rows (DOFs), got {a.shape[0]} and {b.shape[0]}"
+        )
+    na, nb = np.linalg.norm(a, axis=0), np.linalg.norm(b, axis=0)
+    for name, norms in (("A", na), ("B", nb)):
+        if np.any(norms == 0):
+            raise ValueError(f"{name} column {int(np.argmin(norms))} is zero: it has no MAC")
+    cross = np.abs((a / na).conj().T @ (b / nb)) ** 2
+    return np.minimum(cross, 1.0)
+
+
+def shape_mac(a: ModeShapes, b: ModeShapes) -> tuple[np.ndarray, np.ndarray | None]:
+    """MAC of the shapes of ``a`` (rows) against ``b`` (columns) on their common DOFs.
+
+    With labels on both, the DOFs both sets have are used, in ``a``'s order (at
+    least two); without, the rows must correspond. Returns the MAC and the labels
+    used (None without labels).
+    """
+    if not isinstance(a, ModeShapes) or not isinstance(b, ModeShapes):
+        raise ValueError("shape_mac compares two ModeShapes (see podid_rs.mode_shapes)")
+    if a.n_modes == 0 or b.n_modes == 0:
+        raise ValueError(f"nothing to compare: {a.n_modes} and {b.n_modes} modes")
+    if a.dofs is None or b.dofs is None:
+        return mac(a.shapes, b.shapes), None
+    where = {tuple(d): i for i, d in enumerate(b.dofs.tolist())}
+    rows = [(i, where[tuple(d)]) for i, d in enumerate(a.dofs.tolist()) if tuple(d) in where]
+    if len(rows) < 2:
+        raise ValueError(
+            f"the two sets of shapes share {len(rows)} (node, direction) DOF(s); the MAC needs "
+            "at least 2 (check the node numbering and directions)"
+        )
+    ia, ib = (np.asarray(x) for x in zip(*rows, strict=True))
+    return mac(a.shapes[ia], b.shapes[ib]), a.dofs[ia]
+
+
+def _mode_labels(s: ModeShapes) -> list[str]:
+    return [f"{j}: {f:.4g} Hz" for j, f in zip(s.mode_numbers, s.frequencies_hz, strict=True)]
+
+
+def plot_mac(
+    identified: ModeShapes,
+    reference: ModeShapes | str | Path,
+    path: str | Path,
+    *,
+    names: tuple[str, str] = ("identified", "reference"),
+    band_hz: tuple[float, float] | None = None,
+    title: str | None = None,
+) -> Path:
+    """The MAC of ``identified`` against ``reference`` as a PNG (values in the cells).
+
+    ``reference``: shapes of another model (:func:`mode_shapes`) or a UFF file
+    whose dataset 55 holds them. ``band_hz`` keeps the modes of both in that band.
+    """
+    from .plotting import _new_figure, _save
+
+    if isinstance(reference, str | Path):
+        from .uff import read_uff_modes
+
+        ref_name = Path(reference).name
+        reference = read_uff_modes(reference)
+        names = (names[0], f"{names[1]} ({ref_name})")
+    if band_hz is not None:
+        identified, reference = identified.in_band(band_hz), reference.in_band(band_hz)
+    values, used = shape_mac(identified, reference)
+    ka, kb = values.shape
+    size = min(max(4.5, 0.45 * max(ka, kb) + 2.5), 14.0)
+    fig, axes = _new_figure(size + 1.2, size, 1)
+    ax = axes[0, 0]
+    fig.subplots_adjust(left=1.6 / (size + 1.2), bottom=1.7 / size, right=1 - 1.2 / (size + 1.2))
+    image = ax.imshow(values, vmin=0.0, vmax=1.0, cmap="Blues", aspect="auto")
+    fig.colorbar(image, ax=ax, fraction=0.05, pad=0.03, label="MAC")
+    if ka * kb <= ANNOTATE_MAX_CELLS:
+        for (i, j), v in np.ndenumerate(values):
+            ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=7,
+                    color="white" if v > 0.6 else "black")
+    ax.set_yticks(range(ka), _mode_labels(identified), fontsize=7)
+    ax.set_xticks(range(kb), _mode_labels(reference), fontsize=7, rotation=60, ha="right")
+    ax.set_ylabel(f"{names[0]} mode")
+    ax.set_xlabel(f"{names[1]} mode")
+    n_dofs = identified.shapes.shape[0] if used is None else len(used)
+    ax.set_title(title or f"MAC, {names[0]} vs {names[1]} ({n_dofs} DOFs)", fontsize=10)
+    return _save(fig, path)

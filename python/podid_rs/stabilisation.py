@@ -1,0 +1,346 @@
+"""Stabilisation chart over the POD order: the evidence for the order m of a model.
+
+Experimentalists choose a model order from a stabilisation chart (as for LSCF
+or polyreference estimators): fit models of increasing order, draw each one's
+natural frequencies against the order over the summed measured FRF, and trust
+the poles that stay put as the order grows; spurious (numerical, noise) poles
+wander. Here the order is the number m of POD modes (paper eqs. 7, 43), and
+each model is by default the paper's estimator (eq. 49) in its exactly
+symmetric limit on the first m POD modes of the measured responses — or any
+``fit(m) -> IdentificationResult`` (for example a refined model).
+
+Each pole of each order is marked
+
+* **stable** — Re λ < 0;
+* **physical** (a property of the model, not the pole) — M, K symmetric
+  positive definite and C symmetric positive semidefinite (:func:`is_physical`),
+  which makes every pole stable;
+* **consistent** with the previous order — the nearest pole of order m − 1 in
+  frequency is within ``f_tol`` (default 1 %) in natural frequency
+  (``consistent_f``), and also within ``zeta_tol`` (default 5 %, relative) in
+  damping ratio (``consistent``): the usual LSCF tolerances.
+
+Poles on the real axis (overdamped, not modes) are in the table but not drawn.
+"""
+
+from __future__ import annotations
+
+import csv
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._arrays import as_count, as_scalar
+from .identification import IdentificationResult, identify
+from .measurements import MeasuredData
+from .physical import ModalParameters, modal_parameters
+from .pod import PODResult
+
+#: consistency between successive orders: |Δf| / f ≤ F_TOL, |Δζ| / ζ ≤ ZETA_TOL
+F_TOL = 0.01
+ZETA_TOL = 0.05
+#: a model is physical when M, K ≻ 0, C ⪰ 0 and each is symmetric to this relative defect;
+#: C's smallest eigenvalue may be this far below 0, relative to its largest magnitude
+PHYSICAL_RTOL = 1e-10
+
+
+def is_physical(model: IdentificationResult, rtol: float = PHYSICAL_RTOL) -> bool:
+    """M and K symmetric positive definite, C symmetric positive semidefinite.
+
+    Symmetric: ‖X − Xᵀ‖ ≤ rtol ‖X‖; definiteness from the eigenvalues of the
+    symmetric parts (C's smallest may be −rtol × its largest magnitude).
+    """
+    mats = (model.M, model.C, model.K)
+    if any(np.linalg.norm(X - X.T) > rtol * np.linalg.norm(X) for X in mats):
+        return False
+    eM, eC, eK = (np.linalg.eigvalsh(0.5 * (X + X.T)) for X in mats)
+    scale_C = float(np.max(np.abs(eC))) if eC.size else 0.0
+    return bool(eM.min() > 0 and eK.min() > 0 and eC.min() >= -rtol * scale_C)
+
+
+@dataclass(frozen=True)
+class StabilisationOrder:
+    """One order of the chart: the model's modes and how each is marked.
+
+    ``model`` is what ``fit(m)`` returned; ``modes`` its
+    :func:`podid_rs.modal_parameters` (sorted by |λ|); ``stable``,
+    ``consistent_f``, ``consistent`` are ``(k,)`` flags per mode; ``physical``
+    the model's; ``notes`` the warnings its fit raised.
+    """
+
+    m: int
+    model: IdentificationResult
+    modes: ModalParameters
+    physical: bool
+    consistent_f: np.ndarray
+    consistent: np.ndarray
+    notes: tuple[str, ...] = ()
+
+    @property
+    def stable(self) -> np.ndarray:
+        return self.modes.eigenvalues.real < 0
+
+    @property
+    def oscillatory(self) -> np.ndarray:
+        """Complex poles (modes); real poles are overdamped roots."""
+        return self.modes.eigenvalues.imag > 0
+
+
+@dataclass(frozen=True)
+class StabilisationChart:
+    """Models of orders ``m_min … m_max`` and the data they were fitted to.
+
+    ``freq_hz`` and ``summed_frf`` (Σ |U| over measured DOFs and load cases, in
+    receptance) are the background of the plot; ``chosen_m`` the order a command
+    picked (marked on the chart) or None.
+    """
+
+    orders: tuple[StabilisationOrder, ...]
+    freq_hz: np.ndarray
+    summed_frf: np.ndarray
+    is_frf: bool
+    f_tol: float
+    zeta_tol: float
+    chosen_m: int | None = None
+
+    @property
+    def band_hz(self) -> tuple[float, float]:
+        return float(self.freq_hz[0]), float(self.freq_hz[-1])
+
+    def order(self, m: int) -> StabilisationOrder:
+        for o in self.orders:
+            if o.m == m:
+                return o
+        raise KeyError(f"the chart has no order m = {m}")
+
+    def rows(self) -> list[dict[str, object]]:
+        """One row per pole: order, mode, f, ζ, λ and the marks (CSV-ready)."""
+        lo, hi = self.band_hz
+        out: list[dict[str, object]] = []
+        for o in self.orders:
+            f, z = o.modes.frequencies_hz, o.modes.damping_ratios
+            for k, lam in enumerate(o.modes.eigenvalues):
+                out.append({
+                    "m": o.m,
+                    "mode": k + 1,
+                    "f_hz": float(f[k]),
+                    "zeta": float(z[k]),
+                    "re_lambda": float(lam.real),
+                    "im_lambda": float(lam.imag),
+                    "stable": bool(o.stable[k]),
+                    "physical": o.physical,
+                    "consistent_f": bool(o.consistent_f[k]),
+                    "consistent": bool(o.consistent[k]),
+                    "real_pole": bool(lam.imag == 0),
+                    "in_band": bool(lo <= f[k] <= hi),
+                    "chosen": o.m == self.chosen_m,
+                })
+        return out
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write :meth:`rows` to ``path`` (header first line, full precision)."""
+        rows = self.rows()
+        path = Path(path)
+        with path.open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["m"])
+            w.writeheader()
+            w.writerows(rows)
+        return path
+
+
+def _match_previous(
+    modes: ModalParameters, prev: ModalParameters | None, f_tol: float, zeta_tol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(consistent_f, consistent) of each mode against the nearest previous pole in f."""
+    k = modes.eigenvalues.size
+    cf, c = np.zeros(k, dtype=bool), np.zeros(k, dtype=bool)
+    if prev is None or prev.eigenvalues.size == 0:
+        return cf, c
+    fp, zp = prev.frequencies_hz, prev.damping_ratios
+    for i, (f, z) in enumerate(zip(modes.frequencies_hz, modes.damping_ratios, strict=True)):
+        j = int(np.argmin(np.abs(fp - f)))
+        cf[i] = fp[j] > 0 and abs(f - fp[j]) <= f_tol * fp[j]
+        c[i] = cf[i] and abs(z - zp[j]) <= zeta_tol * abs(zp[j])
+    return cf, c
+
+
+def pod_fit(
+    data: MeasuredData,
+    lam: float | tuple[float, float, float] | str = 0.0,
+    symmetric: bool = True,
+    basis: PODResult | None = None,
+) -> Callable[[int], IdentificationResult]:
+    """The model of order m by eq. 49 on the first m POD modes of ``data``.
+
+    Default: the exactly symmetric limit; ``lam``/``symmetric`` as in
+    :func:`podid_rs.identify`. ``basis``: ``data.pod()`` if already computed.
+    """
+    basis = data.pod() if basis is None else basis
+
+    def fit(m: int) -> IdentificationResult:
+        U_m, F_m = data.project(basis.basis(m))
+        return identify(U_m, F_m, data.omega, lam, symmetric)
+
+    return fit
+
+
+def stabilisation_chart(
+    data: MeasuredData,
+    m_max: int,
+    *,
+    fit: Callable[[int], IdentificationResult] | None = None,
+    m_min: int = 1,
+    f_tol: float = F_TOL,
+    zeta_tol: float = ZETA_TOL,
+    chosen_m: int | None = None,
+    progress: bool = True,
+) -> StabilisationChart:
+    """Fit models of order ``m_min … m_max`` to ``data`` and mark their poles.
+
+    ``fit(m)`` returns the order-m :class:`IdentificationResult`; default
+    :func:`pod_fit` (the paper's estimator, ``symmetric=True``, on the POD basis
+    of ``data``, so m ≤ n measured DOFs). ``chosen_m`` is only marked. Warnings a
+    fit raises are kept in that order's ``notes``; an error names the order.
+    ``progress`` shows a tqdm bar over the orders (on a terminal).
+    """
+    from ._progress import progress_bar
+
+    if not isinstance(data, MeasuredData):
+        raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
+    m_min = as_count(m_min, "m_min", 1)
+    m_max = as_count(m_max, "m_max", m_min, data.n if fit is None else None)
+    f_tol = as_scalar(f_tol, "f_tol")
+    zeta_tol = as_scalar(zeta_tol, "zeta_tol")
+    if chosen_m is not None:
+        chosen_m = as_count(chosen_m, "chosen_m", 1)
+    if fit is None:
+        fit = pod_fit(data)
+    elif not callable(fit):
+        raise ValueError(f"fit must be a callable fit(m) -> IdentificationResult, got {fit!r}")
+    orders: list[StabilisationOrder] = []
+    prev: ModalParameters | None = None
+    bar = progress_bar(m_max - m_min + 1, enabled=progress, desc="stabilisation", unit="order")
+    try:
+        for m in range(m_min, m_max + 1):
+            bar.set_postfix_str(f"m = {m}")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    model = fit(m)
+                except (ValueError, MemoryError) as exc:
+                    raise type(exc)(f"stabilisation chart, order m = {m}: {exc}") from exc
+            if not isinstance(model, IdentificationResult) or model.m != m:
+                raise ValueError(
+                    f"fit({m}) must return an IdentificationResult of order {m}, got {model!r}"
+                )
+            modes = modal_parameters(model)
+            cf, c = _match_previous(modes, prev, f_tol, zeta_tol)
+            orders.append(StabilisationOrder(
+                m, model, modes, is_physical(model), cf, c,
+                tuple(str(w.message) for w in caught),
+            ))
+            prev = modes
+            bar.update(1)
+    finally:
+        bar.close()
+    summed = np.sum(np.abs(data.U), axis=(1, 2))
+    return StabilisationChart(tuple(orders), data.freq_hz.copy(), summed, data.is_frf,
+                              f_tol, zeta_tol, chosen_m)
+
+
+_POWER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+_ORDINATE = {"displacement": "receptance", "velocity": "mobility", "acceleration": "accelerance"}
+
+
+def plot_stabilisation(
+    chart: StabilisationChart,
+    path: str | Path,
+    *,
+    quantity: str = "displacement",
+    title: str | None = None,
+) -> Path:
+    """The chart as a PNG: poles (frequency vs order) over the summed measured FRF.
+
+    Markers: ○ new pole, △ frequency consistent with order m − 1, ● frequency
+    and damping consistent; green for a physical model, blue otherwise, red ×
+    for an unstable pole. The chosen order is shaded (and named in the legend).
+    ``quantity`` draws the background FRF as receptance, mobility or accelerance
+    (as the test measured).
+    """
+    from .plotting import _new_figure, _save
+
+    if quantity not in _POWER:
+        raise ValueError(f"quantity must be one of {tuple(_POWER)}, got {quantity!r}")
+    lo, hi = chart.band_hz
+    fig, axes = _new_figure(11.0, 6.4, 1, legend_rows=2)
+    fig.subplots_adjust(right=1 - 1.0 / 11.0)  # room for the FRF axis on the right
+    ax = axes[0, 0]
+    back = ax.twinx()
+    w = 2 * np.pi * chart.freq_hz
+    back.semilogy(chart.freq_hz, chart.summed_frf * w ** _POWER[quantity], color="0.6", lw=1.0)
+    what = "FRF" if chart.is_frf else "response spectrum"
+    back.set_ylabel(f"Σ |measured {what}| ({_ORDINATE[quantity] if chart.is_frf else quantity})",
+                    color="0.4")
+    back.tick_params(axis="y", colors="0.4")
+    ax.set_zorder(back.get_zorder() + 1)
+    ax.patch.set_visible(False)
+
+    styles = {
+        "new": dict(marker="o", facecolors="none", s=22, lw=0.9),
+        "f": dict(marker="^", facecolors="none", s=26, lw=0.9),
+        "fz": dict(marker="o", s=26, lw=0.5),
+    }
+    labels = {"new": "new pole", "f": f"frequency within {100 * chart.f_tol:g} %",
+              "fz": f"frequency and damping within {100 * chart.f_tol:g} % / "
+                    f"{100 * chart.zeta_tol:g} %"}
+    seen: set[str] = set()
+    for o in chart.orders:
+        f = o.modes.frequencies_hz
+        show = o.oscillatory & (f >= lo) & (f <= hi)
+        color = "tab:green" if o.physical else "tab:blue"
+        for key, pick in (("new", ~o.consistent_f), ("f", o.consistent_f & ~o.consistent),
+                          ("fz", o.consistent)):
+            sel = show & pick & o.stable
+            if np.any(sel):
+                st = dict(styles[key])
+                if st.pop("facecolors", None) == "none":
+                    st.update(facecolors="none", edgecolors=color)
+                else:
+                    st.update(color=color)
+                ax.scatter(f[sel], np.full(sel.sum(), o.m), label=None, **st)
+                seen.add(key)
+        bad = show & ~o.stable
+        if np.any(bad):
+            ax.scatter(f[bad], np.full(bad.sum(), o.m), marker="x", color="tab:red", s=22,
+                       lw=1.0)
+            seen.add("unstable")
+    handles = []
+    for key in ("new", "f", "fz"):
+        st = dict(styles[key])
+        if st.pop("facecolors", None) == "none":
+            st.update(facecolors="none", edgecolors="0.25")
+        else:
+            st.update(color="0.25")
+        handles.append(ax.scatter([], [], label=labels[key], **st))
+    handles.append(ax.scatter([], [], marker="x", color="tab:red", s=22, label="unstable pole"))
+    handles.append(ax.scatter([], [], marker="s", color="tab:green", s=22,
+                              label="physical model (M, K ≻ 0, C ⪰ 0)"))
+    handles.append(ax.scatter([], [], marker="s", color="tab:blue", s=22,
+                              label="model not physical"))
+    if chart.chosen_m is not None:
+        # marked by a band and in the legend: a label on the axes would hide poles
+        handles.append(ax.axhspan(chart.chosen_m - 0.45, chart.chosen_m + 0.45, color="gold",
+                                  alpha=0.35, lw=0, label=f"chosen order m = {chart.chosen_m}"))
+    ms = [o.m for o in chart.orders]
+    ax.set_ylim(min(ms) - 0.7, max(ms) + 0.7)
+    ax.set_xlim(lo, hi)
+    ax.set_xlabel("Frequency (Hz)")
+    ax.set_ylabel("model order m (POD modes)")
+    ax.yaxis.get_major_locator().set_params(integer=True)
+    ax.grid(True, alpha=0.25)
+    fig.legend(handles=handles, loc="lower center", ncols=4, fontsize=8, frameon=False)
+    fig.suptitle(title or "Stabilisation chart over the POD order")
+    return _save(fig, path)

@@ -1,0 +1,303 @@
+"""An identified model out as a Universal File, and mode shapes and geometry in.
+
+:func:`write_uff` writes what modal software and finite-element correlation
+tools read (the inverse of :func:`podid_rs.read_uff`):
+
+* dataset 15 — the node coordinates, when the test's geometry is known
+  (:func:`read_uff_geometry` takes it from the input file);
+* dataset 55 — one set per mode of the modal table
+  (:func:`podid_rs.physical.modal_table`): complex eigenvalue analysis (type 3),
+  the eigenvalue λ in rad/s (natural frequency |λ|/2π, damping ratio −Re λ/|λ|),
+  the mode shape φ = R ψ on the measured (node, direction) DOFs (largest entry 1),
+  and, for a symmetric model, the modal A and B (B = −λA) that make the set a
+  complete residue model: H = Σ φφᵀ / (A (iω − λ)) + conjugates;
+* dataset 58 — the identified FRF ``R H_m(ω) Rᵀ`` for every measured DOF and
+  driven DOF, in the ordinate the test had (``quantity``: accelerance in,
+  accelerance out).
+
+Precision is the format's: dataset 15 and 55 fields and the 58 abscissa carry 6
+significant digits (E13.5), ASCII 58 ordinates 12 (E20.11), binary 58 ordinates
+are exact doubles.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ._arrays import as_array, as_basis, as_omega
+from .identification import IdentificationResult
+from .measurements import QUANTITIES, UFF_FRF, UFF_QUANTITY, MeasuredData, _dof_labels
+from .modes import ModeShapes, mode_shapes
+
+#: UFF specific data type of a displacement, velocity or acceleration numerator
+UFF_NUMERATOR = {q: k for k, q in UFF_QUANTITY.items()}
+UFF_EXCITATION_FORCE = 13
+UFF_FREQUENCY = 18
+#: dataset 55 analysis types whose sets are modes: normal (2), complex 1st/2nd order (3, 7)
+UFF_MODAL_ANALYSES = (2, 3, 7)
+
+
+def _pyuff():
+    import pyuff
+
+    return pyuff
+
+
+def _read_sets(path: str | Path, types: tuple[int, ...], header_only: bool = False):
+    """The sets of the given dataset types, and the types the file holds."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such UFF file: {path}")
+    uff = _pyuff().UFF(str(path))
+    found = [int(t) for t in np.asarray(uff.get_set_types()).reshape(-1)]
+    idx = [i for i, t in enumerate(found) if t in types]
+    if not idx:
+        return [], found
+    try:
+        sets = uff.read_sets(idx, header_only=header_only)
+    except Exception as exc:  # pyuff raises bare Exception on malformed records
+        raise ValueError(f"{path}: could not read dataset(s) {types}: {exc}") from None
+    return ([sets] if isinstance(sets, dict) else list(sets)), found
+
+
+def read_uff_geometry(path: str | Path) -> np.ndarray | None:
+    """Node coordinates ``(k, 4)`` [node, x, y, z] from dataset 15 or 2411; None if absent."""
+    sets, _ = _read_sets(path, (15, 2411))
+    rows: dict[int, tuple[float, float, float]] = {}
+    for d in sets:
+        for node, x, y, z in zip(d["node_nums"], d["x"], d["y"], d["z"], strict=True):
+            rows[int(node)] = (float(x), float(y), float(z))
+    if not rows:
+        return None
+    return np.array([(n, *xyz) for n, xyz in sorted(rows.items())], dtype=np.float64)
+
+
+def uff_quantity(path: str | Path) -> str | None:
+    """The ordinate of the file's FRF records (dataset 58, func_type 4) when they agree.
+
+    ``"displacement"``, ``"velocity"`` or ``"acceleration"`` (numerator type 8,
+    11, 12); None when the records disagree or have none of these.
+    """
+    sets, _ = _read_sets(path, (58,), header_only=True)
+    found = {UFF_QUANTITY.get(d.get("ordinate_spec_data_type")) for d in sets
+             if d.get("func_type") == UFF_FRF}
+    return found.pop() if len(found) == 1 else None
+
+
+def read_uff_modes(path: str | Path) -> ModeShapes:
+    """Mode shapes from the dataset-55 sets of a UFF (normal or complex modes).
+
+    Normal modes (analysis type 2) give λ = ω(−ζ + i√(1 − ζ²)) from the frequency
+    and viscous damping ratio; complex ones (3, 7) their eigenvalue. Modes keep the
+    file's order; the DOFs are every (node, direction 1–6) that is non-zero in some
+    mode. Raises ``ValueError`` naming the file when it has no dataset 55 or none
+    holding modes.
+    """
+    sets, found = _read_sets(path, (55,))
+    if not sets:
+        kinds = ", ".join(str(t) for t in sorted(set(found))) or "none"
+        raise ValueError(
+            f"{path}: no dataset 55 (mode shapes) in the file; it holds dataset(s) {kinds}"
+        )
+    modes = [d for d in sets if d.get("analysis_type") in UFF_MODAL_ANALYSES]
+    if not modes:
+        kinds = sorted({str(d.get("analysis_type")) for d in sets})
+        raise ValueError(
+            f"{path}: its dataset-55 sets are not modes (analysis type {', '.join(kinds)}; "
+            "modes are 2, 3 or 7)"
+        )
+    eig, columns, numbers = [], [], []
+    for d in modes:
+        numbers.append(int(d.get("mode_n", len(numbers) + 1)))
+        if d["analysis_type"] == 2:
+            w, z = 2 * np.pi * float(d["freq"]), float(d.get("modal_damp_vis", 0.0))
+            eig.append(w * complex(-z, np.sqrt(max(1.0 - z * z, 0.0))))
+        else:
+            eig.append(complex(d["eig"]))
+        col = {}
+        for k in range(1, 7):
+            for node, v in zip(d["node_nums"], d.get(f"r{k}", ()), strict=False):
+                col[(int(node), k)] = complex(v)
+        columns.append(col)
+    dofs = sorted({key for col in columns for key, v in col.items() if v != 0})
+    if not dofs:
+        raise ValueError(f"{path}: every dataset-55 mode shape is zero")
+    shapes = np.array([[col.get(key, 0.0) for col in columns] for key in dofs])
+    return ModeShapes(np.asarray(eig), shapes, np.asarray(dofs, dtype=np.int64),
+                      numbers=np.asarray(numbers))
+
+
+def _receptance_to(quantity: str, omega: np.ndarray) -> np.ndarray:
+    """Factor from receptance to ``quantity`` per force: 1, iω or −ω² (inverse of
+    :func:`podid_rs.measurements.to_receptance`)."""
+    return {"displacement": np.ones_like(omega) + 0j, "velocity": 1j * omega,
+            "acceleration": -(omega**2) + 0j}[quantity]
+
+
+def _check_geometry(geometry: object) -> np.ndarray | None:
+    if geometry is None:
+        return None
+    g = as_array(geometry, "geometry", real=True)
+    if g.ndim != 2 or g.shape[1] != 4 or g.shape[0] == 0:
+        raise ValueError(f"geometry must have shape (k, 4) [node, x, y, z], got {g.shape}")
+    if np.any(g[:, 0] != np.round(g[:, 0])) or np.unique(g[:, 0]).size != g.shape[0]:
+        raise ValueError("geometry's first column must hold distinct integer node numbers")
+    return g
+
+
+def _set_55(j: int, modes: ModeShapes, nodes: list[int], name: str) -> dict:
+    lam = complex(modes.eigenvalues[j])
+    a = 0j if modes.modal_a is None else complex(modes.modal_a[j])
+    r = np.zeros((3, len(nodes)), dtype=np.complex128)
+    for (node, direction), v in zip(modes.dofs.tolist(), modes.shapes[:, j], strict=True):
+        if 1 <= abs(direction) <= 3:
+            r[abs(direction) - 1, nodes.index(node)] = np.sign(direction) * v
+    f, zeta = modes.frequencies_hz[j], modes.damping_ratios[j]
+    return _pyuff().prepare_55(
+        id1=f"{name}: identified mode {j + 1}"[:80],
+        id2=f"f = {f:.6g} Hz, zeta = {zeta:.6g}"[:80],
+        id3="NONE",
+        id4="complex eigenvalue in rad/s; shape scaled to largest entry 1"[:80],
+        id5="NONE",
+        model_type=1,
+        analysis_type=3,
+        data_ch=2,
+        spec_data_type=8,
+        data_type=5,
+        n_data_per_node=3,
+        r1=r[0],
+        r2=r[1],
+        r3=r[2],
+        load_case=1,
+        mode_n=j + 1,
+        eig=lam,
+        modal_a=a,
+        modal_b=-lam * a,
+        node_nums=[int(n) for n in nodes],
+    )
+
+
+def _sets_58(
+    model: IdentificationResult, R: np.ndarray, dofs: np.ndarray, inputs: np.ndarray,
+    omega: np.ndarray, quantity: str, binary: bool, name: str,
+) -> list[dict]:
+    pyuff = _pyuff()
+    H_m = model.system().frf(omega)
+    H = np.einsum("am,smk,bk->sab", R, H_m, R[inputs]) * _receptance_to(quantity, omega)[
+        :, None, None
+    ]
+    freq = omega / (2 * np.pi)
+    step = np.diff(freq)
+    even = bool(np.allclose(step, step[0], rtol=1e-9, atol=0.0))
+    sets = []
+    for k, col in enumerate(inputs):
+        ref = (int(dofs[col, 0]), int(dofs[col, 1]))
+        for i, (node, direction) in enumerate(dofs.tolist()):
+            sets.append(pyuff.prepare_58(
+                binary=int(binary),
+                id1="FRF",
+                id2=f"H({node}:{direction}, {ref[0]}:{ref[1]}) {name}, identified"[:80],
+                id3="NONE",
+                id4="NONE",
+                id5="NONE",
+                func_type=UFF_FRF,
+                rsp_node=int(node),
+                rsp_dir=int(direction),
+                ref_node=ref[0],
+                ref_dir=ref[1],
+                data=np.ascontiguousarray(H[:, i, k]),
+                x=freq,
+                abscissa_spacing=int(even),
+                abscissa_spec_data_type=UFF_FREQUENCY,
+                abscissa_axis_units_lab="Hz",
+                ordinate_spec_data_type=UFF_NUMERATOR[quantity],
+                orddenom_spec_data_type=UFF_EXCITATION_FORCE,
+            ))
+    return sets
+
+
+def write_uff(
+    path: str | Path,
+    model: IdentificationResult,
+    basis: object,
+    data: MeasuredData | None = None,
+    *,
+    dofs: object = None,
+    inputs: object = None,
+    omega: object = None,
+    quantity: str = "displacement",
+    geometry: object = None,
+    binary: bool = False,
+    name: str = "podid_rs",
+) -> Path:
+    """Write the identified model to a Universal File: datasets 15, 55 and 58.
+
+    ``basis`` R ``(n, m)`` maps the model to the n measured DOFs. ``data`` (the
+    :class:`MeasuredData` identified from) supplies their (node, direction)
+    labels, the driven DOFs and the frequency lines; without it give ``dofs``
+    ``(n, 2)``, and ``inputs`` (indices of the driven DOFs) with ``omega`` (rad/s)
+    for the FRFs — without ``omega`` no dataset 58 is written. ``quantity`` is the
+    58 ordinate (the test's: ``"acceleration"`` for accelerance); ``geometry``
+    ``(k, 4)`` [node, x, y, z] gives dataset 15. ``binary`` writes 58 ordinates as
+    exact doubles. Dataset 55 holds translations (directions 1–3) only: a
+    rotational DOF raises ``ValueError``. The file is replaced if it exists.
+    """
+    if not isinstance(model, IdentificationResult):
+        raise ValueError(f"model must be an IdentificationResult, got {type(model).__name__}")
+    if data is not None:
+        if not isinstance(data, MeasuredData):
+            raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
+        if dofs is not None or inputs is not None or omega is not None:
+            raise ValueError("give data, or dofs / inputs / omega, not both")
+        dofs, inputs, omega = data.dofs, data.inputs, data.omega
+    if basis is None:
+        raise ValueError("UFF output needs the basis R (n, m) that maps the model to its DOFs")
+    R = as_basis(basis, model.m)
+    if dofs is None:
+        raise ValueError(
+            "the model has no measured-DOF labelling: UFF output needs the (node, direction) "
+            f"label of each of the {R.shape[0]} basis rows (dofs=, or data=)"
+        )
+    labels = _dof_labels(dofs, R.shape[0])
+    rotations = [tuple(d) for d in labels.tolist() if not 1 <= abs(d[1]) <= 3]
+    if rotations:
+        raise ValueError(
+            f"DOF(s) {rotations[:3]} are not translations (direction 1-3): dataset 55 with "
+            "complex shapes holds X, Y, Z only"
+        )
+    if (omega is None) != (inputs is None):
+        raise ValueError("the FRFs (dataset 58) need both inputs= and omega=")
+    if omega is not None:
+        w = as_omega(omega)
+        if w.size < 2 or np.any(np.diff(w) <= 0):
+            raise ValueError("omega must hold at least 2 strictly increasing frequency lines")
+        idx = as_array(inputs, "inputs", real=True).reshape(-1)
+        if idx.size == 0 or np.any(idx != np.round(idx)) or np.any((idx < 0) | (idx >= len(R))):
+            raise ValueError(f"inputs must index the {len(R)} measured DOFs, got {inputs!r}")
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
+    geom = _check_geometry(geometry)
+
+    modes = mode_shapes(model, R, labels)
+    nodes = sorted({int(n) for n in labels[:, 0]})
+    sets = []
+    if geom is not None:
+        sets.append(_pyuff().prepare_15(
+            node_nums=[int(n) for n in geom[:, 0]],
+            def_cs=[0] * len(geom), disp_cs=[0] * len(geom), color=[1] * len(geom),
+            x=geom[:, 1].tolist(), y=geom[:, 2].tolist(), z=geom[:, 3].tolist(),
+        ))
+    sets += [_set_55(j, modes, nodes, name) for j in range(modes.n_modes)]
+    if omega is not None:
+        sets += _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name)
+    path = Path(path)
+    path.unlink(missing_ok=True)
+    try:
+        _pyuff().UFF(str(path)).write_sets(sets, mode="add")
+    except OSError:
+        raise
+    except Exception as exc:  # pyuff raises bare Exception from its writers
+        raise ValueError(f"{path}: pyuff could not write the file: {exc}") from None
+    return path

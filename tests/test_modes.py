@@ -1,0 +1,131 @@
+"""Mode shapes on the measured DOFs and the MAC (podid_rs.modes).
+
+Tolerances: exact-data models reproduce the chain's modes to ~1e-9 (the
+identification's own accuracy, see test_identification), so MAC values of
+matching modes are asserted within 1e-8 of 1 and the residue sum within 1e-8.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from podid_rs import ModeShapes, mac, mass_spring_chain, modal_parameters, mode_shapes, shape_mac
+from podid_rs.measurements import from_frf
+from podid_rs.modes import plot_mac
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def full_order():
+    """The 6-DOF chain identified at full order from exact FRFs driven at DOFs 2 and 5."""
+    chain = mass_spring_chain(6)
+    omega = 2 * np.pi * np.linspace(1.0, 200.0, 400)
+    data = from_frf(chain.frf(omega)[:, :, [1, 4]], omega, inputs=[1, 4])
+    result, R = data.identify(m=6, symmetric=True)
+    return chain, data, result, R
+
+
+def test_mac_definition_and_invariances():
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((7, 3)) + 1j * rng.standard_normal((7, 3))
+    B = rng.standard_normal((7, 4))
+    expected = np.array(
+        [[abs(a.conj() @ b) ** 2 / ((a.conj() @ a).real * (b @ b)) for b in B.T] for a in A.T]
+    )
+    got = mac(A, B)
+    assert got.shape == (3, 4) and np.allclose(got, expected, rtol=1e-13)
+    assert np.allclose(mac(A * (2 - 3j), B * -5.0), got, rtol=1e-13)
+    assert np.allclose(np.diag(mac(A, A)), 1.0, rtol=1e-14)
+    Q = np.linalg.qr(rng.standard_normal((7, 4)))[0]
+    assert np.allclose(mac(Q, Q), np.eye(4), atol=1e-15)
+    assert mac(A[:, 0], A[:, 0]).shape == (1, 1)
+
+
+@pytest.mark.parametrize(
+    "A,B,message",
+    [
+        (np.ones((4, 2)), np.ones((5, 2)), "same number of rows"),
+        (np.ones((4, 2)), np.zeros((4, 2)), "B column 0 is zero"),
+        (np.ones((4, 0)), np.ones((4, 2)), "non-empty"),
+        (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
+    ],
+)
+def test_mac_bad_input_is_named(A, B, message):
+    with pytest.raises(ValueError, match=message):
+        mac(A, B)
+
+
+def test_shapes_of_a_proportionally_damped_chain_are_its_normal_modes():
+    chain = mass_spring_chain(8)
+    modes = mode_shapes(chain)
+    assert np.allclose(modes.eigenvalues, modal_parameters(chain).eigenvalues, rtol=1e-12)
+    assert np.allclose(np.max(np.abs(modes.shapes), axis=0), 1.0, rtol=1e-14)
+    assert np.max(np.abs(modes.shapes.imag)) < 1e-10  # Rayleigh damping: real modes
+    _, phi = scipy.linalg.eigh(chain.K, chain.M)
+    # the same shapes as the undamped modes (MAC is not M-orthogonality: the
+    # off-diagonal terms are the modes' auto-MAC, not 0, for a non-uniform mass)
+    assert np.allclose(mac(modes.shapes, phi), mac(phi, phi), atol=1e-10)
+    assert np.allclose(np.diag(mac(modes.shapes, phi)), 1.0, atol=1e-12)
+
+
+def test_identified_shapes_on_the_measured_dofs_match_the_chain(full_order):
+    chain, data, result, R = full_order
+    ident = mode_shapes(result, R, data.dofs)
+    truth = mode_shapes(chain, dofs=data.dofs)
+    assert ident.shapes.shape == (6, 6) and ident.dofs.tolist() == data.dofs.tolist()
+    assert np.allclose(ident.frequencies_hz, truth.frequencies_hz, rtol=1e-8)
+    values, used = shape_mac(ident, truth)
+    assert used.tolist() == data.dofs.tolist()
+    assert np.all(np.abs(np.diag(values) - 1) < 1e-8)
+    assert np.allclose(values, mac(truth.shapes, truth.shapes), atol=1e-8)
+
+
+def test_modal_a_makes_the_shapes_a_residue_model(full_order):
+    _, data, result, R = full_order
+    modes = mode_shapes(result, R)
+    assert modes.modal_a is not None
+    s = 1j * data.omega[:, None, None]
+    phi = modes.shapes
+    terms = np.einsum("ak,bk->kab", phi, phi) / modes.modal_a[:, None, None]
+    H = sum(terms[k] / (s - modes.eigenvalues[k]) for k in range(modes.n_modes))
+    H = H + sum(terms[k].conj() / (s - modes.eigenvalues[k].conj()) for k in range(modes.n_modes)
+                if modes.eigenvalues[k].imag > 0)
+    H_n = np.einsum("am,smk,bk->sab", R, result.system().frf(data.omega), R)
+    assert np.max(np.abs(H - H_n)) < 1e-8 * np.max(np.abs(H_n))
+
+
+def test_nonsymmetric_model_has_no_modal_a(full_order):
+    from dataclasses import replace
+
+    _, _, result, R = full_order
+    skewed = replace(result, C=result.C + 1e-3 * np.triu(result.C, 1))
+    assert mode_shapes(skewed, R).modal_a is None
+
+
+def test_shape_mac_uses_the_common_dofs_and_names_a_mismatch(full_order):
+    _, data, result, R = full_order
+    ident = mode_shapes(result, R, data.dofs)
+    order = [5, 3, 1, 0]
+    subset = ModeShapes(ident.eigenvalues, ident.shapes[order] * 1j, ident.dofs[order])
+    values, used = shape_mac(ident, subset)
+    assert sorted(used.tolist()) == sorted(ident.dofs[order].tolist())
+    assert np.allclose(np.diag(values), 1.0, rtol=1e-12)
+    elsewhere = ModeShapes(ident.eigenvalues, ident.shapes, ident.dofs + [100, 0])
+    with pytest.raises(ValueError, match="share 0 .* DOF"):
+        shape_mac(ident, elsewhere)
+    with pytest.raises(ValueError, match=r"basis must have shape \(n, m\) with m = 6"):
+        mode_shapes(result, R[:, :4])
+
+
+def test_plot_mac_against_another_model(full_order, tmp_path):
+    chain, data, result, R = full_order
+    ident = mode_shapes(result, R, data.dofs)
+    path = plot_mac(ident, mode_shapes(chain, dofs=data.dofs), tmp_path / "mac.png",
+                    names=("identified", "FE model"), band_hz=(0.0, 60.0))
+    assert path.read_bytes()[:8] == PNG
+    upper = ident.in_band((30.0, 1e3))
+    assert upper.mode_numbers[0] == 1 + np.sum(ident.frequencies_hz < 30.0)
+    assert ident.oscillatory().n_modes == 6  # the chain has no overdamped root

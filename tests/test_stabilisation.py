@@ -1,0 +1,121 @@
+"""Stabilisation chart over the POD order (podid_rs.stabilisation).
+
+The marking logic is tested on models built with known poles (so every mark is
+known exactly); the default fit on exact chain FRFs, where the full-order model
+must recover the chain (frequencies to 1e-7, as in test_cli_identify).
+"""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from podid_rs import IdentificationResult, mass_spring_chain, modal_parameters
+from podid_rs.measurements import from_frf
+from podid_rs.stabilisation import (
+    F_TOL,
+    ZETA_TOL,
+    is_physical,
+    plot_stabilisation,
+    stabilisation_chart,
+)
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def model_with_modes(f_hz, zeta) -> IdentificationResult:
+    """A diagonal (modal) model with natural frequencies f_hz and damping ratios zeta."""
+    w = 2 * np.pi * np.asarray(f_hz, dtype=float)
+    z = np.broadcast_to(np.asarray(zeta, dtype=float), w.shape)
+    m = w.size
+    return IdentificationResult(
+        M=np.eye(m), C=np.diag(2 * z * w), K=np.diag(w**2), lam=(0.0, 0.0, 0.0),
+        symmetric=True, residual_norm=0.0, penalty_norms=(0.0, 0.0, 0.0), method="test",
+        rank=m, n_unknowns=m, min_pivot_ratio=1.0, backend="test",
+    )
+
+
+@pytest.fixture(scope="module")
+def chain_data():
+    chain = mass_spring_chain(6)
+    omega = 2 * np.pi * np.linspace(1.0, 200.0, 400)
+    return chain, from_frf(chain.frf(omega)[:, :, [1, 4]], omega, inputs=[1, 4])
+
+
+def test_is_physical():
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert is_physical(good)
+    from dataclasses import replace
+
+    assert not is_physical(replace(good, K=np.diag([1.0, -1.0])))
+    assert not is_physical(replace(good, C=np.diag([1.0, -1e-3])))
+    assert not is_physical(replace(good, M=np.array([[1.0, 0.1], [0.0, 1.0]])))
+    assert is_physical(replace(good, C=np.zeros((2, 2))))  # undamped is passive
+
+
+def test_marks_follow_the_stated_tolerances(chain_data):
+    _, data = chain_data
+    base = [10.0, 20.0, 40.0, 80.0]
+
+    def fit(m: int) -> IdentificationResult:
+        # order m: the first m poles; order 3 moves pole 1 by half the frequency
+        # tolerance and its damping by twice the damping tolerance
+        f, z = np.array(base[:m]), np.full(m, 0.02)
+        if m == 3:
+            f[0] *= 1 + F_TOL / 2
+            z[0] *= 1 + 2 * ZETA_TOL
+        if m == 4:
+            f[1] *= 1 + 2 * F_TOL
+        return model_with_modes(f, z)
+
+    chart = stabilisation_chart(data, 4, fit=fit, chosen_m=3, progress=False)
+    assert [o.m for o in chart.orders] == [1, 2, 3, 4] and chart.chosen_m == 3
+    cf = [o.consistent_f.tolist() for o in chart.orders]
+    c = [o.consistent.tolist() for o in chart.orders]
+    assert cf == [[False], [True, False], [True, True, False], [True, False, True, False]]
+    assert c == [[False], [True, False], [False, True, False], [False, False, True, False]]
+    assert all(o.physical and o.stable.all() for o in chart.orders)
+    rows = chart.rows()
+    assert len(rows) == 10 and sum(r["chosen"] for r in rows) == 3
+    assert np.allclose([r["f_hz"] for r in rows if r["m"] == 4], [10.0, 20.4, 40.0, 80.0])
+
+
+def test_default_fit_recovers_the_chain_at_full_order(chain_data, tmp_path, capsys):
+    chain, data = chain_data
+    chart = stabilisation_chart(data, 6, chosen_m=6)
+    assert capsys.readouterr().err == ""  # not a terminal: no progress bar
+    full = chart.order(6)
+    truth = modal_parameters(chain)
+    assert full.physical and full.stable.all() and full.oscillatory.all()
+    assert np.allclose(full.modes.frequencies_hz, truth.frequencies_hz, rtol=1e-7)
+    assert np.allclose(full.modes.damping_ratios, truth.damping_ratios, rtol=1e-6)
+    path = chart.to_csv(tmp_path / "stabilisation.csv")
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == sum(o.modes.eigenvalues.size for o in chart.orders)
+    assert {"m", "mode", "f_hz", "zeta", "stable", "physical", "consistent"} <= set(rows[0])
+    back = [float(r["f_hz"]) for r in rows if r["m"] == "6"]
+    assert np.array_equal(back, full.modes.frequencies_hz)
+    png = plot_stabilisation(chart, tmp_path / "stab.png", quantity="acceleration")
+    assert png.read_bytes()[:8] == PNG
+
+
+def test_bad_input_is_named(chain_data):
+    _, data = chain_data
+    with pytest.raises(ValueError, match=r"m_max must be in \[1, 6\]"):
+        stabilisation_chart(data, 7, progress=False)
+    with pytest.raises(ValueError, match="must return an IdentificationResult of order 2"):
+        stabilisation_chart(data, 3, fit=lambda m: model_with_modes([10.0], 0.01),
+                            progress=False)
+
+    def failing(m: int) -> IdentificationResult:
+        raise ValueError("too few equations")
+
+    with pytest.raises(ValueError, match="order m = 1: too few equations"):
+        stabilisation_chart(data, 2, fit=failing, progress=False)
+    with pytest.raises(ValueError, match="fit must be a callable"):
+        stabilisation_chart(data, 2, fit="lscf", progress=False)
+    with pytest.raises(ValueError, match="data must be a MeasuredData"):
+        stabilisation_chart(data.U, 2)

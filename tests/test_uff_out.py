@@ -1,0 +1,162 @@
+"""``write_uff``: the identified model written as datasets 15, 55, 58 and read back by pyuff.
+
+Tolerances are the file's precision: dataset 15/55 fields are E13.5 (6
+significant digits: 5e-6 relative per field, so 2e-5 on frequencies and
+damping ratios, which combine two fields, and 1e-5 on shape entries ≤ 1);
+ASCII 58 ordinates are E20.11 (5e-12 relative per part, asserted 1e-10);
+binary 58 ordinates are exact doubles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import podid_rs as pr
+from podid_rs.physical import modal_table
+from podid_rs.uff import read_uff_geometry, read_uff_modes, uff_quantity, write_uff
+
+pyuff = pytest.importorskip("pyuff")
+from test_measurements import write_uff as write_input_uff  # noqa: E402
+
+GEOMETRY = np.array([[k, 0.1 * k, 0.0, -0.02 * k] for k in range(1, 8)])  # node 7 unmeasured
+
+
+@pytest.fixture(scope="module")
+def model():
+    """An order-4 model of the 6-DOF chain from exact accelerances driven at DOFs 2, 5.
+
+    Directions are Z (3) on nodes 1–6; the data come through a UFF file, as a user's do.
+    """
+    chain = pr.mass_spring_chain(6)
+    freq = np.arange(0.0, 121.0, 1.0)
+    H = np.zeros((freq.size, 6, 2), dtype=complex)
+    H[1:] = chain.frf(2 * np.pi * freq[1:])[:, :, [1, 4]]
+    return chain, freq, H
+
+
+@pytest.fixture(scope="module")
+def written(model, tmp_path_factory):
+    chain, freq, H = model
+    tmp = tmp_path_factory.mktemp("uff")
+    dofs = [(k + 1, 3) for k in range(6)]
+    source = write_input_uff(tmp / "test.uff", freq, H, dofs, [dofs[1], dofs[4]])
+    data = pr.read_uff(source, band_hz=(5.0, 120.0))
+    result, R = data.identify(m=4, symmetric=True)
+    path = write_uff(tmp / "model.uff", result, R, data, quantity="acceleration",
+                     geometry=GEOMETRY)
+    sets = pyuff.UFF(str(path)).read_sets()
+    return source, data, result, R, path, sets
+
+
+def identified_frf(result, R, data):
+    return np.einsum("am,smk,bk->sab", R, result.system().frf(data.omega), R[data.inputs])
+
+
+def test_dataset_order_and_geometry(written):
+    _, _, result, _, path, sets = written
+    kinds = [d["type"] for d in sets]
+    n_modes = len(modal_table(result))
+    assert kinds == [15] + [55] * n_modes + [58] * 12
+    g = sets[0]
+    assert [int(n) for n in g["node_nums"]] == list(range(1, 8))
+    assert np.allclose(np.c_[g["x"], g["y"], g["z"]], GEOMETRY[:, 1:], rtol=1e-5, atol=1e-12)
+    assert np.allclose(read_uff_geometry(path), GEOMETRY, rtol=1e-5, atol=1e-12)
+
+
+def test_dataset_55_matches_the_modal_table_and_the_shapes(written):
+    _, data, result, R, _, sets = written
+    rows = modal_table(result)
+    modes = pr.mode_shapes(result, R, data.dofs)
+    s55 = [d for d in sets if d["type"] == 55]
+    assert [d["mode_n"] for d in s55] == [r["mode"] for r in rows]
+    for d, row, j in zip(s55, rows, range(len(rows)), strict=True):
+        lam = d["eig"]
+        assert d["analysis_type"] == 3 and d["data_ch"] == 2 and d["spec_data_type"] == 8
+        assert abs(abs(lam) / (2 * np.pi) / row["f_hz"] - 1) < 2e-5
+        assert abs(-lam.real / abs(lam) - row["zeta"]) < 2e-5 * abs(row["zeta"])
+        assert [int(n) for n in d["node_nums"]] == list(range(1, 7))
+        assert np.max(np.abs(d["r3"] - modes.shapes[:, j])) < 1e-5
+        assert not np.any(d["r1"]) and not np.any(d["r2"])
+        assert abs(d["modal_a"] - modes.modal_a[j]) < 1e-5 * abs(modes.modal_a[j])
+        assert abs(d["modal_b"] + lam * d["modal_a"]) < 2e-5 * abs(lam * d["modal_a"])
+    back = read_uff_modes(written[4])
+    assert back.dofs.tolist() == data.dofs.tolist()
+    assert back.mode_numbers.tolist() == [r["mode"] for r in rows]
+    assert np.max(np.abs(back.shapes - modes.shapes)) < 1e-5
+    assert np.allclose(back.eigenvalues, modes.eigenvalues, rtol=1e-5)
+
+
+def test_dataset_58_holds_the_identified_accelerances(written):
+    _, data, result, R, path, sets = written
+    H = identified_frf(result, R, data) * -(data.omega**2)[:, None, None]
+    s58 = [d for d in sets if d["type"] == 58]
+    seen = set()
+    for d in s58:
+        i = data.dofs[:, 0].tolist().index(d["rsp_node"])
+        k = [int(data.dofs[j, 0]) for j in data.inputs].index(d["ref_node"])
+        seen.add((i, k))
+        assert (d["rsp_dir"], d["ref_dir"], d["func_type"]) == (3, 3, 4)
+        assert d["ordinate_spec_data_type"] == 12 and d["orddenom_spec_data_type"] == 13
+        assert np.allclose(d["x"], data.freq_hz, rtol=1e-12)
+        err = np.abs(d["data"] - H[:, i, k])
+        assert np.max(err / np.abs(H[:, i, k])) < 1e-10
+    assert len(seen) == 12 and uff_quantity(path) == "acceleration"
+    # read_uff reads it back as the identified receptance: the loop closes
+    again = pr.read_uff(path)
+    assert again.dofs.tolist() == data.dofs.tolist() and again.inputs.tolist() == [1, 4]
+    H_id = identified_frf(result, R, data)
+    assert np.max(np.abs(again.U - H_id)) < 1e-10 * np.max(np.abs(H_id))
+
+
+def test_binary_58_is_exact_and_receptance_is_the_default(written, tmp_path):
+    _, data, result, R, _, _ = written
+    path = write_uff(tmp_path / "b.uff", result, R, data, binary=True)
+    sets = pyuff.UFF(str(path)).read_sets()
+    assert [d["type"] for d in sets].count(15) == 0
+    s58 = [d for d in sets if d["type"] == 58]
+    H = identified_frf(result, R, data)
+    assert all(d["ordinate_spec_data_type"] == 8 and d["binary"] == 1 for d in s58)
+    got = {(d["rsp_node"], d["ref_node"]): d["data"] for d in s58}
+    assert np.array_equal(got[(4, 5)], H[:, 3, 1])
+
+
+def test_modes_only_without_frequency_lines(written, tmp_path):
+    _, data, result, R, _, _ = written
+    path = write_uff(tmp_path / "modes.uff", result, R, dofs=data.dofs)
+    assert set(pyuff.UFF(str(path)).get_set_types()) == {55}
+
+
+def test_bad_input_is_named(written, tmp_path):
+    source, data, result, R, _, _ = written
+    out = tmp_path / "x.uff"
+    with pytest.raises(ValueError, match="no measured-DOF labelling"):
+        write_uff(out, result, R)
+    with pytest.raises(ValueError, match=r"basis must have shape \(n, m\) with m = 4"):
+        write_uff(out, result, R.T, data)
+    with pytest.raises(ValueError, match="need both inputs= and omega="):
+        write_uff(out, result, R, dofs=data.dofs, omega=data.omega)
+    with pytest.raises(ValueError, match="not both"):
+        write_uff(out, result, R, data, dofs=data.dofs)
+    with pytest.raises(ValueError, match="quantity must be one of"):
+        write_uff(out, result, R, data, quantity="accelerance")
+    with pytest.raises(ValueError, match="not translations"):
+        write_uff(out, result, R, dofs=np.c_[np.arange(1, 7), np.full(6, 5)])
+    with pytest.raises(ValueError, match=r"geometry must have shape \(k, 4\)"):
+        write_uff(out, result, R, data, geometry=GEOMETRY[:, :3])
+    assert not out.exists()
+    # a reference file without mode shapes: the input FRF file
+    with pytest.raises(ValueError, match=r"test\.uff: no dataset 55 \(mode shapes\).*58"):
+        read_uff_modes(source)
+    modes = pr.mode_shapes(result, R, data.dofs)
+    with pytest.raises(ValueError, match="no dataset 55"):
+        pr.plot_mac(modes, source, tmp_path / "mac.png")
+
+
+def test_mac_figure_against_the_written_file(written, tmp_path):
+    _, data, result, R, path, _ = written
+    modes = pr.mode_shapes(result, R, data.dofs)
+    values, _ = pr.shape_mac(modes, read_uff_modes(path))
+    assert np.all(np.abs(np.diag(values) - 1) < 1e-8)
+    png = pr.plot_mac(modes, path, tmp_path / "mac.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
