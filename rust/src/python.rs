@@ -440,7 +440,7 @@ fn sweep_memory_bytes(m: usize) -> u128 {
 /// exception in it stops the iteration and propagates.
 #[pyfunction]
 #[pyo3(signature = (u, f, omega, p, start, weights = None, weight_matrices = None,
-    max_iter = 200, ftol = 1e-10, xtol = 1e-12, log_diagonal = true, progress = None,
+    max_iter = 200, ftol = 1e-7, xtol = 1e-12, log_diagonal = true, progress = None,
     threads = 0))]
 #[allow(clippy::too_many_arguments)]
 fn refine_output_error<'py>(

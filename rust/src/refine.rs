@@ -10,10 +10,11 @@
 //! over every line i and load case j, with a weight T_ij per column: a scalar w_ij
 //! (relative, uniform, the user's) or a real m×m matrix (per-entry weights on the
 //! measured DOFs, reduced by the caller). The matrices are parametrised by their
-//! Cholesky factors, M = L_M L_Mᵀ, C = L_C L_Cᵀ, K = L_K L_Kᵀ (L lower triangular),
-//! so every model is symmetric with M, K, C ⪰ 0 by construction; with the
-//! `log_diagonal` option the diagonals of L_M and L_K are exp(θ), which makes
-//! M and K positive definite for every θ.
+//! Cholesky factors, M = L_M L_Mᵀ + ε‖L_M‖² I, … (L lower triangular, ε = 1e-10),
+//! so every model is symmetric with M, C, K ≻ 0 by construction; with the
+//! `log_diagonal` option (default) the diagonals of the factors are exp(θ), which
+//! makes M, C and K positive definite for every θ — and the model asymptotically
+//! stable (every eigenvalue of the pencil has Re λ < 0).
 //!
 //! Levenberg–Marquardt with the analytic Jacobian: with v̂ = [−ω²x; iωx; x] and
 //! δZ = [δM δC δK],
@@ -128,11 +129,13 @@ impl OeData<'_> {
 pub struct OeOptions {
     /// most Gauss–Newton steps (accepted or not)
     pub max_iter: usize,
-    /// converged when an accepted step lowers the cost by less than `ftol` relative
+    /// converged when the last [`FTOL_WINDOW`] accepted steps together lowered the cost
+    /// by less than `FTOL_WINDOW · ftol` relative: a slow drift along a flat valley
+    /// (a direction of the model the data hardly see) is not worth the time
     pub ftol: f64,
     /// converged when ‖δθ‖ ≤ xtol·(‖θ‖ + xtol)
     pub xtol: f64,
-    /// diagonals of L_M and L_K as exp(θ): M, K positive definite for every θ
+    /// diagonals of the factors as exp(θ): M, C, K positive definite for every θ
     pub log_diagonal: bool,
 }
 
@@ -140,7 +143,7 @@ impl Default for OeOptions {
     fn default() -> Self {
         OeOptions {
             max_iter: 200,
-            ftol: 1e-10,
+            ftol: 1e-7,
             xtol: 1e-12,
             log_diagonal: true,
         }
@@ -150,7 +153,7 @@ impl Default for OeOptions {
 /// Why the iteration stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stop {
-    /// relative cost decrease below ftol
+    /// relative cost decrease over the last accepted steps below ftol
     CostConverged,
     /// step below xtol
     StepConverged,
@@ -261,8 +264,8 @@ impl Params {
         th
     }
 
-    fn logged(&self, b: usize) -> bool {
-        self.log_diagonal && b != 1
+    fn logged(&self, _b: usize) -> bool {
+        self.log_diagonal
     }
 
     /// The factors from θ.
@@ -285,10 +288,16 @@ impl Params {
     }
 }
 
+/// X = L Lᵀ + ε‖L‖²_F I with ε = [`CONDITION_FLOOR`]: positive definite with
+/// cond(X) ≤ m/ε + 1 for every L, so that definiteness and the modes of the model are
+/// numerically certain (a factor drifting to singular leaves a mass, damping or
+/// stiffness floored at ε times the block's trace).
 fn gram_lower(l: &Mat<f64>) -> Mat<f64> {
     let m = l.nrows();
+    let trace: f64 = (0..m).map(|i| (0..=i).map(|k| l[(i, k)] * l[(i, k)]).sum::<f64>()).sum();
     Mat::from_fn(m, m, |i, j| {
-        (0..=i.min(j)).map(|k| l[(i, k)] * l[(j, k)]).sum()
+        let llt: f64 = (0..=i.min(j)).map(|k| l[(i, k)] * l[(j, k)]).sum();
+        llt + if i == j { CONDITION_FLOOR * trace } else { 0.0 }
     })
 }
 
@@ -447,6 +456,15 @@ fn inverse_of(lu: MatRef<c64>, perm: &[usize], m: usize) -> Vec<c64> {
     solve_lines(lu, perm, &mut inv, m, m);
     inv
 }
+
+/// Relative floor ε of every block: X = L Lᵀ + ε tr(L Lᵀ) I (see `gram_lower`).
+pub const CONDITION_FLOOR: f64 = 1e-10;
+
+/// Accepted steps over which the relative cost decrease is judged (see `ftol`).
+pub const FTOL_WINDOW: usize = 10;
+
+/// Eigenvalues of the scaled start C are raised to this fraction of max(|M̃|, |K̃|).
+pub const C_START_FLOOR: f64 = 1e-4;
 
 /// Lines processed together when forming the normal matrix (bounds memory).
 const NORMAL_CHUNK: usize = 256;
@@ -638,6 +656,8 @@ fn normal_equations(
                     for c in 0..m {
                         pm[(j * m + c, col)] += scale * lb[(c, k)];
                         pm[(c * m + j, col)] += scale * lb[(c, k)];
+                        // the floor ε‖L‖²_F I
+                        pm[(c * m + c, col)] += scale * 2.0 * CONDITION_FLOOR * lb[(j, k)];
                     }
                 }
             }
@@ -682,7 +702,8 @@ fn normal_equations(
         let lb = &l[b];
         for j in 0..m {
             for k in 0..=j {
-                let mut acc = 0.0;
+                let trace_g: f64 = (0..m).map(|c| grad_z[(c, b * m + c)]).sum();
+                let mut acc = 2.0 * CONDITION_FLOOR * trace_g * lb[(j, k)];
                 for c in 0..m {
                     acc += (grad_z[(j, b * m + c)] + grad_z[(c, b * m + j)]) * lb[(c, k)];
                 }
@@ -694,6 +715,14 @@ fn normal_equations(
         }
     }
     (nth, gth)
+}
+
+/// Longest change of a log-diagonal in one step: a factor e² in the entry.
+const LOG_STEP_MAX: f64 = 2.0;
+
+fn log_step_too_long(params: &Params, step: &[f64]) -> bool {
+    let nb = n_per_block(params.m);
+    (0..3).any(|b| (0..params.m).any(|j| step[b * nb + tri(j, j)].abs() > LOG_STEP_MAX))
 }
 
 /// Solve (N + μ diag(N)) δ = −g by Cholesky; None if it is not positive definite.
@@ -802,7 +831,9 @@ pub fn refine(
     };
     let ref_scale = top(&scaled[0]).max(top(&scaled[2])).max(f64::MIN_POSITIVE);
     let mut l = [0, 1, 2].map(|b| {
-        let floor = if b == 1 { 1e-10 } else { 1e-12 } * ref_scale;
+        // C: a damping floor (ζ of order 1e-4 on the scaled data, where ω ~ 1), so that
+        // no direction starts undamped — its factor would have no gradient to leave 0
+        let floor = if b == 1 { C_START_FLOOR } else { 1e-12 } * ref_scale;
         psd_factor(scaled[b].as_ref(), floor)
     });
     for (b, lb) in l.iter().enumerate() {
@@ -869,6 +900,16 @@ pub fn refine(
             }
             continue;
         };
+        if params.log_diagonal && log_step_too_long(&params, &step) {
+            // a long step in a log-diagonal can overflow the model in one go: damp more
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e16 {
+                stop = Stop::NoDescent;
+                break;
+            }
+            continue;
+        }
         let trial: Vec<f64> = theta.iter().zip(&step).map(|(a, b)| a + b).collect();
         let lt = params.unpack(&trial);
         let mckt = lt.clone().map(|x| gram_lower(&x));
@@ -882,7 +923,6 @@ pub fn refine(
         let tnorm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
         if evt.cost.is_finite() && actual > 0.0 {
             let rho = actual / predicted.max(f64::MIN_POSITIVE);
-            let rel = actual / ev.cost;
             theta = trial;
             lf = lt;
             mck = mckt;
@@ -897,7 +937,9 @@ pub fn refine(
                     return Err(PodidError::Interrupted);
                 }
             }
-            if rel < opts.ftol {
+            let earlier = history[history.len().saturating_sub(FTOL_WINDOW + 1)].1;
+            let full = history.len() > FTOL_WINDOW;
+            if full && (earlier - ev.cost * su2) < FTOL_WINDOW as f64 * opts.ftol * earlier {
                 stop = Stop::CostConverged;
                 break;
             }
