@@ -247,3 +247,29 @@ def test_paper_chain_path_matches_the_dense_chain():
         out.append((sim.response_spectrum, H, R, res.K, np.median(db, axis=0)))
     for a, b in zip(*out, strict=True):
         assert rel(a, b) < 1e-10
+
+
+def test_identify_workflow_on_a_scan_allocates_nothing_of_n_by_n(tmp_path):
+    """`run_identify` on FRFs at n = 4000 points (12 lines, 2 inputs): POD by snapshots,
+    projection, overlays and modal table; numpy's allocations (traced by tracemalloc)
+    peak far below one n × n array (128 MB)."""
+    import tracemalloc
+
+    from podid_rs.measurements import from_frf, save_data
+    from podid_rs.workflow import run_identify
+
+    system = mass_spring_lattice(80, 50, mass_variation=0.05, seed=0)
+    omega = 2 * np.pi * np.linspace(20.0, 24.0, 12)
+    inputs = [1020, 2555]
+    H = system.frf(omega, cols=inputs)
+    dofs = np.stack([np.arange(1, 4001), np.full(4000, 3)], axis=1)
+    path = save_data(tmp_path / "scan.npz", from_frf(H, omega, inputs=inputs, dofs=dofs))
+    tracemalloc.start()
+    try:
+        run = run_identify(path, tmp_path / "out", band_hz=(19.0, 25.0), m=6)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert run.basis.shape == (4000, 6) and run.result.m == 6
+    assert peak < 0.25 * 8 * 4000**2, f"peak {peak / 1e6:.0f} MB"
+    assert (tmp_path / "out" / "frf_input1.png").is_file()

@@ -5,7 +5,8 @@ Khalil, Adhikari & Sarkar (2007), "Linear system identification using proper
 orthogonal decomposition", MSSP 21, 3123–3145 — with a Rust core that never forms
 the paper's Kronecker matrix. The pipeline, one module per stage:
 
-- :mod:`podid_rs.systems` — second-order systems, the paper's mass–spring chain;
+- :mod:`podid_rs.systems` — second-order systems (dense or sparse), the paper's
+  mass–spring chain, a 2-D lattice;
 - :mod:`podid_rs.simulation` — white-noise forcing, responses, spectra, H1 FRFs;
 - :mod:`podid_rs.pod` — correlation matrices, POD basis, projection (eqs. 3–18);
 - :mod:`podid_rs.identification` — :func:`identify` (eqs. 19–49);
@@ -30,6 +31,7 @@ from .pod import (
     pod,
     pod_from_correlation,
     pod_from_frf,
+    pod_from_spectra,
 )
 from .regularisation import (
     LambdaCurve,
@@ -40,7 +42,7 @@ from .regularisation import (
     plot_lambda_curve,
 )
 from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
-from .systems import SecondOrderSystem, mass_spring_chain
+from .systems import SecondOrderSystem, mass_spring_chain, mass_spring_lattice
 
 __version__ = "0.1.0"
 
@@ -66,11 +68,13 @@ __all__ = [
     "load_model",
     "make_physical",
     "mass_spring_chain",
+    "mass_spring_lattice",
     "modal_parameters",
     "plot_lambda_curve",
     "pod",
     "pod_from_correlation",
     "pod_from_frf",
+    "pod_from_spectra",
     "read_uff",
     "save_data",
     "save_model",
