@@ -273,3 +273,28 @@ def test_identify_workflow_on_a_scan_allocates_nothing_of_n_by_n(tmp_path):
     assert run.basis.shape == (4000, 6) and run.result.m == 6
     assert peak < 0.25 * 8 * 4000**2, f"peak {peak / 1e6:.0f} MB"
     assert (tmp_path / "out" / "frf_input1.png").is_file()
+
+
+def test_cli_paper_n_reaches_the_study(monkeypatch, capsys):
+    import podid_rs.paper as paper
+    from podid_rs.cli import main
+
+    seen = {}
+
+    class Study:
+        def summary(self):
+            return "done"
+
+    def fake(out, **kwargs):
+        seen.update(kwargs)
+        return Study()
+
+    monkeypatch.setattr(paper, "run_paper_study", fake)
+    assert main(["paper", "--quick", "--n", "100000", "--no-progress"]) == 0
+    assert seen["n"] == 100_000 and seen["quick"]
+    with pytest.raises(SystemExit):
+        main(["paper", "--n", "1"])
+    assert "--n" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="n must be an integer >= 2"):
+        paper.run_paper_study(n=1)
+    assert chain_entries(100_000) == ((50_000, 50_000), (60_000, 40_000))

@@ -91,14 +91,14 @@ NOISE_LEVELS: tuple[float | None, ...] = (None, 20.0, 10.0)
 ENTRIES: tuple[tuple[int, int], ...] = ((50, 50), (60, 40))
 #: Masses of the paper's chain; ``n`` of :func:`run_paper_study` changes it.
 PAPER_N = 100
+#: The paper's regularisation parameter λ_M = λ_C = λ_K (Section 6.2.1).
+PAPER_LAMBDA = 100.0
 
 
 def chain_entries(n: int) -> tuple[tuple[int, int], ...]:
     """The compared entries of an n-mass chain, 1-based, at the paper's relative places:
     H(n/2, n/2) and H(0.6n, 0.4n) — :data:`ENTRIES` at n = 100."""
     return ((max(1, n // 2),) * 2, (max(1, round(0.6 * n)), max(1, round(0.4 * n))))
-#: The paper's regularisation parameter λ_M = λ_C = λ_K (Section 6.2.1).
-PAPER_LAMBDA = 100.0
 
 
 @dataclass(frozen=True)
@@ -424,6 +424,12 @@ def run_paper_study(
             P = pod_from_spectra(U_n, sim.n_samples)  # = POD of the history (Parseval)
             if snr is None:
                 m = PAPER_ORDERS[b - 1] if cfg.energy is None else P.order_for_energy(cfg.energy)
+                if 3 * m > 2 * sim.omega.size:  # 3m² unknowns, 2m equations per line
+                    raise ValueError(
+                        f"energy {cfg.energy:g} needs m = {m} POD modes in band {b}, but its "
+                        f"{sim.omega.size} lines determine at most m = {2 * sim.omega.size // 3}; "
+                        "ask for a smaller energy fraction (or drop --quick for more lines)"
+                    )
             band_eigs[_noise_label(snr)] = P.eigenvalues
             R = P.basis(m)
             U, F = P.project(U_n, m), P.project(sim.force_spectrum, m)
