@@ -289,6 +289,7 @@ def test_cli_paper_n_reaches_the_study(monkeypatch, capsys):
         seen.update(kwargs)
         return Study()
 
+    real = paper.run_paper_study
     monkeypatch.setattr(paper, "run_paper_study", fake)
     assert main(["paper", "--quick", "--n", "100000", "--no-progress"]) == 0
     assert seen["n"] == 100_000 and seen["quick"]
@@ -296,5 +297,5 @@ def test_cli_paper_n_reaches_the_study(monkeypatch, capsys):
         main(["paper", "--n", "1"])
     assert "--n" in capsys.readouterr().err
     with pytest.raises(ValueError, match="n must be an integer >= 2"):
-        paper.run_paper_study(n=1)
+        real(n=1)
     assert chain_entries(100_000) == ((50_000, 50_000), (60_000, 40_000))
