@@ -132,8 +132,13 @@ class PODResult:
         self._formed = None
         return self
 
+    def __repr__(self) -> str:
+        how = "snapshots" if self._snapshots is not None else "correlation"
+        return f"PODResult(n={self.n}, n_modes={self.n_modes}, from the {how})"
+
     @property
     def eigenvalues(self) -> np.ndarray:
+        """The eigenvalues λ_i ``(n,)``, descending, non-negative."""
         return self._eigenvalues
 
     @property
