@@ -107,7 +107,7 @@ def chain_problem(
     # rows of the banded storage: super-, main and sub-diagonal of M, C, K
     bands = [np.zeros((3, n)) for _ in range(3)]
     for X, b in zip((sys_.M, sys_.C, sys_.K), bands, strict=True):
-        b[0, 1:], b[1], b[2, :-1] = np.diag(X, 1), np.diag(X), np.diag(X, -1)
+        b[0, 1:], b[1], b[2, :-1] = X.diagonal(1), X.diagonal(), X.diagonal(-1)
     U = np.empty_like(F)
     for i, w in enumerate(omega):
         ab = -(w**2) * bands[0] + 1j * w * bands[1] + bands[2]

@@ -5,7 +5,8 @@ Khalil, Adhikari & Sarkar (2007), "Linear system identification using proper
 orthogonal decomposition", MSSP 21, 3123–3145 — with a Rust core that never forms
 the paper's Kronecker matrix. The pipeline, one module per stage:
 
-- :mod:`podid_rs.systems` — second-order systems, the paper's mass–spring chain;
+- :mod:`podid_rs.systems` — second-order systems (dense or sparse), the paper's
+  mass–spring chain, a 2-D lattice;
 - :mod:`podid_rs.simulation` — white-noise forcing, responses, spectra, H1 FRFs;
 - :mod:`podid_rs.pod` — correlation matrices, POD basis, projection (eqs. 3–18);
 - :mod:`podid_rs.identification` — :func:`identify` (eqs. 19–49);
@@ -35,6 +36,7 @@ from .pod import (
     pod,
     pod_from_correlation,
     pod_from_frf,
+    pod_from_spectra,
 )
 from .regularisation import (
     LambdaCurve,
@@ -51,7 +53,7 @@ from .stabilisation import (
     plot_stabilisation,
     stabilisation_chart,
 )
-from .systems import SecondOrderSystem, mass_spring_chain
+from .systems import SecondOrderSystem, mass_spring_chain, mass_spring_lattice
 from .uff import read_uff_geometry, read_uff_modes, write_uff
 
 __version__ = "0.1.0"
@@ -82,6 +84,7 @@ __all__ = [
     "mac",
     "make_physical",
     "mass_spring_chain",
+    "mass_spring_lattice",
     "modal_parameters",
     "mode_shapes",
     "plot_lambda_curve",
@@ -90,6 +93,7 @@ __all__ = [
     "pod",
     "pod_from_correlation",
     "pod_from_frf",
+    "pod_from_spectra",
     "read_uff",
     "read_uff_geometry",
     "read_uff_modes",

@@ -71,3 +71,20 @@ def as_basis(basis: object, m: int) -> np.ndarray:
             f"basis must have shape (n, m) with m = {m} (the model's order), got {R.shape}"
         )
     return R
+
+
+def as_array_nocopy(x: object, name: str) -> np.ndarray:
+    """``x`` as float64 or complex128, checked numeric and finite, copied only if its
+    dtype must change — for large read-only inputs (spectra of 10⁵ DOFs), where a
+    defensive copy would double the memory. Callers must not write to the result.
+    """
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} could not be read as a numeric array: {exc}") from None
+    if a.dtype == np.bool_ or not np.issubdtype(a.dtype, np.number):
+        raise ValueError(f"{name} must be a numeric array, got dtype {a.dtype}")
+    a = a.astype(np.complex128 if np.iscomplexobj(a) else np.float64, copy=False)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains non-finite values (NaN or inf)")
+    return a

@@ -76,6 +76,7 @@ def _integer_at_least(lo: int, kind: str):
 
 _seed = _integer_at_least(0, "a non-negative integer")
 _order = _integer_at_least(1, "a positive integer")
+_chain_size = _integer_at_least(2, "an integer >= 2")
 
 
 def _run_paper(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -89,7 +90,7 @@ def _run_paper(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     try:
         study = run_paper_study(
             args.out, quick=args.quick, seed=args.seed, lam=lam, energy=args.energy,
-            progress=not args.no_progress,
+            progress=not args.no_progress, n=args.n,
         )
     except (ValueError, MemoryError, OSError) as exc:
         print(f"podid-rs paper: error: {exc}", file=sys.stderr)
@@ -123,6 +124,9 @@ def _add_paper(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--energy", type=_energy, default=None, metavar="K",
                    help="choose m as the smallest order capturing this energy fraction of the "
                    "noise-free response (default: the paper's m = 2, 4, 10, 13)")
+    p.add_argument("--n", type=_chain_size, default=100, metavar="N",
+                   help="masses of the chain (default: the paper's %(default)s); FRFs are "
+                   "compared at H(N/2, N/2) and H(0.6N, 0.4N), the paper's places at N = 100")
     p.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
     p.set_defaults(handler=functools.partial(_run_paper, parser=p))
 

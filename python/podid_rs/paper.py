@@ -66,15 +66,14 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import numpy as np
-import scipy.linalg
 
 from ._progress import Progress
 from ._validation import check_lam
 from .identification import identify
 from .plotting import Curve, plot_frf_comparison, plot_full_frf, plot_pod_eigenvalues
-from .pod import pod
+from .pod import pod_from_spectra
 from .regularisation import RULES, LambdaSelectionWarning, plot_lambda_curve
-from .simulation import Simulation, add_noise, simulate_white_noise, spectra
+from .simulation import Simulation, add_noise, simulate_white_noise
 from .systems import SecondOrderSystem, mass_spring_chain
 
 #: The four frequency bands of Section 6.1 (Hz).
@@ -90,12 +89,16 @@ PAPER_ORDERS: tuple[int, ...] = (2, 4, 10, 13)
 NOISE_LEVELS: tuple[float | None, ...] = (None, 20.0, 10.0)
 #: FRF entries compared, 1-based (row, column): driving point and cross.
 ENTRIES: tuple[tuple[int, int], ...] = ((50, 50), (60, 40))
+#: Masses of the paper's chain; ``n`` of :func:`run_paper_study` changes it.
+PAPER_N = 100
 #: The paper's regularisation parameter λ_M = λ_C = λ_K (Section 6.2.1).
 PAPER_LAMBDA = 100.0
-#: Largest order ``energy`` may select: the direct solve has 3m² unknowns and costs
-#: O(m⁶), seconds at m = 50, hours near m = 100 (``energy=0.9999`` asks for m = 83
-#: in band 4).
-MAX_ORDER = 50
+
+
+def chain_entries(n: int) -> tuple[tuple[int, int], ...]:
+    """The compared entries of an n-mass chain, 1-based, at the paper's relative places:
+    H(n/2, n/2) and H(0.6n, 0.4n) — :data:`ENTRIES` at n = 100."""
+    return ((max(1, n // 2),) * 2, (max(1, round(0.6 * n)), max(1, round(0.4 * n))))
 
 
 @dataclass(frozen=True)
@@ -111,6 +114,7 @@ class StudySettings:
     duration: float
     plot_points: int
     full_points: int
+    n: int = PAPER_N
 
     @property
     def line_spacing_hz(self) -> float:
@@ -119,13 +123,14 @@ class StudySettings:
 
 
 def _settings(
-    quick: bool, seed: int, lam: tuple[float, float, float] | str, energy: float | None
+    quick: bool, seed: int, lam: tuple[float, float, float] | str, energy: float | None,
+    n: int = PAPER_N,
 ):
     if quick:
         return StudySettings(quick, seed, lam, energy, dt=1 / 400, duration=20.0,
-                             plot_points=300, full_points=1200)
+                             plot_points=300, full_points=1200, n=n)
     return StudySettings(quick, seed, lam, energy, dt=1 / 400, duration=100.0,
-                         plot_points=2000, full_points=6000)
+                         plot_points=2000, full_points=6000, n=n)
 
 
 @dataclass(frozen=True)
@@ -192,13 +197,14 @@ class PaperStudy:
     def summary(self) -> str:
         """A few lines for the terminal: median dB errors per band and noise level."""
         s = self.settings
+        (i, j), (k, q) = chain_entries(s.n)
         lines = [
-            f"Section 6 of Khalil, Adhikari & Sarkar (2007): n = 100 chain, "
+            f"Section 6 of Khalil, Adhikari & Sarkar (2007): n = {s.n} chain, "
             f"λ = {_lam_text(s.lam)}, {s.duration:g} s record"
             f"{' (quick)' if s.quick else ''}, seed {s.seed}",
             "median |dB error| vs the original FRF, identified (projected):",
             f"  {'band':<18} {'noise':<10} {'m':>3} {'energy':>7}"
-            f"  {'H(50,50)':>15}  {'H(60,40)':>15}",
+            f"  {f'H({i},{j})':>15}  {f'H({k},{q})':>15}",
         ]
         for r in self.rows:
             lines.append(
@@ -248,9 +254,9 @@ def frf_entries(
     """Selected receptance entries H(i, j)(ω), 1-based, shape ``(s, len(entries))``.
 
     Without ``basis`` the dynamic stiffness (eq. 19) is solved for the unit
-    loads at the needed columns only, line by line, ``chunk`` lines of it in
-    memory at a time. (One LAPACK solve per line: NumPy's batched solve is
-    several times slower for n = 100 when OpenBLAS runs multi-threaded.) With a
+    loads at the needed columns only, line by line
+    (:meth:`~podid_rs.SecondOrderSystem.frf` with ``rows``/``cols``: O(n) per
+    line for the sparse chain). With a
     basis R ``(n, m)`` the system is a reduced model and its FRF is mapped back
     to physical coordinates, H_n(ω) ≈ R H_m(ω) Rᵀ (eqs. 10, 17–19).
     """
@@ -259,15 +265,9 @@ def frf_entries(
     cols = np.array([j - 1 for _, j in entries])
     out = np.empty((omega.size, len(entries)), dtype=np.complex128)
     if basis is None:
-        need, col_of = np.unique(cols, return_inverse=True)
-        loads = np.zeros((system.n, need.size), dtype=np.complex128)
-        loads[need, np.arange(need.size)] = 1.0
-        for start in range(0, omega.size, chunk):
-            Z = system.dynamic_stiffness(omega[start : start + chunk])
-            for k, Zk in enumerate(Z):
-                X = scipy.linalg.solve(Zk, loads, overwrite_a=True, check_finite=False)
-                out[start + k] = X[rows, col_of]
-        return out
+        need_r, row_of = np.unique(rows, return_inverse=True)
+        need_c, col_of = np.unique(cols, return_inverse=True)
+        return system.frf(omega, rows=need_r, cols=need_c)[:, row_of, col_of]
     R = np.asarray(basis, dtype=float)
     for start in range(0, omega.size, chunk):
         Hm = system.frf(omega[start : start + chunk])
@@ -280,20 +280,17 @@ def db_error(H: np.ndarray, H_ref: np.ndarray) -> np.ndarray:
     return np.abs(20.0 * np.log10(np.abs(H) / np.abs(H_ref)))
 
 
-def _add_band_limited_noise(sim: Simulation, snr_db: float, seed: int) -> np.ndarray:
-    """The measured response history plus band-limited white noise at ``snr_db`` (eq. 53).
+def _band_limited_noisy_spectrum(sim: Simulation, snr_db: float, seed: int) -> np.ndarray:
+    """The measured response plus band-limited white noise at ``snr_db`` (eq. 53), as its
+    in-band spectrum ``(s, n)``.
 
     The noise lives on the same FFT lines as the forcing band; per channel its
     variance is the channel's signal variance over 10^(SNR/10) (``add_noise``
     applied to the in-band spectrum, whose per-line power is proportional to the
-    variance by Parseval). Returned as a time history ``(r, n)``.
+    variance by Parseval). The noisy history is never formed: its spectrum is
+    this, to round-off.
     """
-    r = sim.t.size
-    lines = np.rint(sim.omega * r * sim.dt / (2 * np.pi)).astype(int)
-    noise = np.zeros((r // 2 + 1, sim.response.shape[1]), dtype=np.complex128)
-    noise[lines] = add_noise(sim.response_spectrum, snr_db, seed=seed, axis=0)
-    noise[lines] -= sim.response_spectrum
-    return sim.response + np.fft.irfft(noise, n=r, axis=0)
+    return add_noise(sim.response_spectrum, snr_db, seed=seed, axis=0)
 
 
 def _plot_window(band: tuple[float, float], points: int) -> np.ndarray:
@@ -345,6 +342,7 @@ def run_paper_study(
     lam: float | tuple[float, float, float] | str = PAPER_LAMBDA,
     energy: float | None = None,
     progress: bool = True,
+    n: int = PAPER_N,
 ) -> PaperStudy:
     """Run the paper's Section 6 study and write its figures and tables to ``out_dir``.
 
@@ -360,8 +358,13 @@ def run_paper_study(
     ``fig04``–``fig07`` (POD-reduced), ``fig08``–``fig19`` (identified: noise-free,
     SNR 20 dB, SNR 10 dB), ``results.csv``, ``results.md``.
 
-    Raises ``ValueError`` for a bad ``lam``, ``energy`` or ``seed`` (before any
-    work), and when ``energy`` asks for more than :data:`MAX_ORDER` modes in a band.
+    ``n`` is the number of masses of the chain (the paper's 100); the compared
+    entries are at the same relative places, :func:`chain_entries`. A large chain
+    is sparse and simulated without time histories (POD from the in-band spectra,
+    which equals the time correlation by Parseval), so n = 10⁵ runs in minutes.
+
+    Raises ``ValueError`` for a bad ``lam``, ``energy``, ``seed`` or ``n`` (before
+    any work).
     """
     t_start = time.perf_counter()
     if isinstance(lam, str):
@@ -374,11 +377,15 @@ def run_paper_study(
         raise ValueError(f"energy must be a fraction in (0, 1], got {energy!r}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    cfg = _settings(bool(quick), int(seed), lam_t, None if energy is None else float(energy))
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 2:
+        raise ValueError(f"n must be an integer >= 2 (masses of the chain), got {n!r}")
+    cfg = _settings(bool(quick), int(seed), lam_t, None if energy is None else float(energy),
+                    int(n))
+    entries = chain_entries(cfg.n)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
 
-    system = mass_spring_chain()
+    system = mass_spring_chain(cfg.n, sparse=True)
     bar = Progress(2 + len(BANDS_HZ) * (2 + len(NOISE_LEVELS)), enabled=progress)
     figures: list[Path] = []
     rows: list[StudyRow] = []
@@ -388,18 +395,18 @@ def run_paper_study(
 
     bar.step("full model FRFs (Fig. 2)")
     f_full = np.geomspace(0.5, 160.0, cfg.full_points)
-    H_full = frf_entries(system, 2 * np.pi * f_full)
+    H_full = frf_entries(system, 2 * np.pi * f_full, entries)
     figures.append(plot_full_frf(f_full, H_full, BANDS_HZ, out / "fig02_full_frf.png",
-                                 n=system.n, entries=ENTRIES))
+                                 n=system.n, entries=entries))
 
     for b, band in enumerate(BANDS_HZ, start=1):
         bar.step(f"band {b} ({band[0]:g}–{band[1]:g} Hz): simulate the n = {system.n} chain")
         t0 = time.perf_counter()
         sim = simulate_white_noise(system, band, cfg.dt, cfg.duration, 1.0,
-                                   seed=_sub_seed(cfg.seed, b))
+                                   seed=_sub_seed(cfg.seed, b), histories=False)
         f_plot = _plot_window(band, cfg.plot_points)
-        H_orig_lines = frf_entries(system, sim.omega)
-        H_orig_plot = frf_entries(system, 2 * np.pi * f_plot)
+        H_orig_lines = frf_entries(system, sim.omega, entries)
+        H_orig_plot = frf_entries(system, 2 * np.pi * f_plot, entries)
         t_sim = time.perf_counter() - t0
 
         band_eigs: dict[str, np.ndarray] = {}
@@ -410,18 +417,18 @@ def run_paper_study(
             bar.step(f"band {b}, {_noise_label(snr)}: POD, identification, FRFs")
             t0 = time.perf_counter()
             if snr is None:
-                history, U_n = sim.response, sim.response_spectrum
+                U_n = sim.response_spectrum
             else:
-                history = _add_band_limited_noise(sim, snr, _sub_seed(cfg.seed, b, k))
-                U_n = spectra(history, sim.dt, sim.band_hz)[1]
-            P = pod(history)
+                U_n = _band_limited_noisy_spectrum(sim, snr, _sub_seed(cfg.seed, b, k))
+            P = None  # let the previous basis go before the next is built
+            P = pod_from_spectra(U_n, sim.n_samples)  # = POD of the history (Parseval)
             if snr is None:
                 m = PAPER_ORDERS[b - 1] if cfg.energy is None else P.order_for_energy(cfg.energy)
-                if m > MAX_ORDER:
+                if 3 * m > 2 * sim.omega.size:  # 3m² unknowns, 2m equations per line
                     raise ValueError(
-                        f"energy {cfg.energy:g} needs m = {m} POD modes in band {b}; this study "
-                        f"stops at m = {MAX_ORDER} (the direct solve grows as m⁶), so ask for "
-                        "a smaller energy fraction"
+                        f"energy {cfg.energy:g} needs m = {m} POD modes in band {b}, but its "
+                        f"{sim.omega.size} lines determine at most m = {2 * sim.omega.size // 3}; "
+                        "ask for a smaller energy fraction (or drop --quick for more lines)"
                     )
             band_eigs[_noise_label(snr)] = P.eigenvalues
             R = P.basis(m)
@@ -447,16 +454,16 @@ def run_paper_study(
             t0 = time.perf_counter()
             projected = system.project(R)
             identified = result.system()
-            err_id = _errors(frf_entries(identified, sim.omega, basis=R), H_orig_lines)
-            err_proj = _errors(frf_entries(projected, sim.omega, basis=R), H_orig_lines)
+            err_id = _errors(frf_entries(identified, sim.omega, entries, basis=R), H_orig_lines)
+            err_proj = _errors(frf_entries(projected, sim.omega, entries, basis=R), H_orig_lines)
             w_plot = 2 * np.pi * f_plot
             lam_label[snr] = f"λ = {lam_used:.3g}" + ("" if rule == "fixed" else f" ({rule})")
             curves[snr] = (
                 [Curve(f"original FRF, n = {system.n}", H_orig_plot, "original"),
                  Curve(f"POD-projected (RᵀMR, RᵀCR, RᵀKR), m = {m}",
-                       frf_entries(projected, w_plot, basis=R), "projected")],
+                       frf_entries(projected, w_plot, entries, basis=R), "projected")],
                 [Curve(f"identified POD-reduced, m = {m}",
-                       frf_entries(identified, w_plot, basis=R), "identified")],
+                       frf_entries(identified, w_plot, entries, basis=R), "identified")],
             )
             t_frf = time.perf_counter() - t0
 
@@ -474,7 +481,7 @@ def run_paper_study(
         base, ident = curves[None]
         figures.append(plot_frf_comparison(
             f_plot, base, out / _figure_name(3 + b, b, "pod_reduced"), band_hz=band,
-            title=f"Fig. {3 + b} — original and POD-reduced FRFs, {label}", entries=ENTRIES,
+            title=f"Fig. {3 + b} — original and POD-reduced FRFs, {label}", entries=entries,
         ))
         for k, snr in enumerate(NOISE_LEVELS):
             base, ident = curves[snr]
@@ -483,7 +490,7 @@ def run_paper_study(
                 f_plot, base + ident,
                 out / _figure_name(number, b, f"identified_{_noise_slug(snr)}"), band_hz=band,
                 title=f"Fig. {number} — original and identified POD-reduced FRFs, {label}, "
-                f"{_noise_label(snr)}, {lam_label[snr]}", entries=ENTRIES,
+                f"{_noise_label(snr)}, {lam_label[snr]}", entries=entries,
             ))
 
     bar.step("POD eigenvalues (Fig. 3) and tables")
@@ -516,7 +523,7 @@ def _write_markdown(rows: Sequence[StudyRow], cfg: StudySettings, elapsed: float
     head = [
         "# Section 6 of Khalil, Adhikari & Sarkar (2007), reproduced by `podid-rs paper`",
         "",
-        f"100-DOF chain, unit-variance band-limited white noise on every DOF, "
+        f"{cfg.n}-DOF chain, unit-variance band-limited white noise on every DOF, "
         f"{cfg.duration:g} s record at dt = {cfg.dt * 1e3:g} ms "
         f"(lines {cfg.line_spacing_hz:g} Hz apart){', quick mode' if cfg.quick else ''}; "
         f"{orders}; λ_M, λ_C, λ_K = {_lam_text(cfg.lam)}; seed {cfg.seed}; "
@@ -533,8 +540,9 @@ def _write_markdown(rows: Sequence[StudyRow], cfg: StudySettings, elapsed: float
         "- **time**: seconds for simulate (shared by a band's rows) / POD / identify / FRFs.",
         "",
         "| band | Hz | noise | m | lines | energy | λ | sym M / C / K "
-        "| identified H(50,50) | identified H(60,40) | projected H(50,50) "
-        "| projected H(60,40) | time (s) |",
+        "| identified {0} | identified {1} | projected {0} "
+        "| projected {1} | time (s) |".format(
+            *(f"H({i},{j})" for i, j in chain_entries(cfg.n))),
         "|---:|:---|:---|---:|---:|---:|:---|:---|---:|---:|---:|---:|:---|",
     ]
     body = []

@@ -263,7 +263,7 @@ def refine(
     else:
         R, U3 = None, None
         data = check_frequency_data(U, F, omega)
-    m, s, p = data.m, data.s, data.p
+    m, p = data.m, data.p
     for X, name in ((M0, "M"), (C0, "C"), (K0, "K")):
         if X.shape != (m, m):
             raise ValueError(f"the start model's {name} is {X.shape}, the data have order m = {m}")
@@ -273,7 +273,9 @@ def refine(
     if not (0.0 < ftol < 1.0):
         raise ValueError(f"ftol must lie in (0, 1), got {ftol!r}")
     if not (isinstance(progress, bool) or callable(progress)):
-        raise ValueError(f"progress must be a bool or a callable(iteration, cost), got {progress!r}")
+        raise ValueError(
+            f"progress must be a bool or a callable(iteration, cost), got {progress!r}"
+        )
     threads = _check_threads(threads)
 
     # weights: a scalar per column, or per-entry weights reduced to a metric per column

@@ -14,6 +14,7 @@ import numpy as np
 from scipy.signal import get_window
 
 from podid_rs._arrays import as_array, as_count, as_scalar
+from podid_rs._memory import require_memory
 from podid_rs.systems import SecondOrderSystem
 
 
@@ -25,16 +26,54 @@ class Simulation:
     ``(r, n)``. ``omega`` ``(s,)`` (rad/s) are the FFT lines inside ``band_hz``;
     ``force_spectrum`` and ``response_spectrum`` ``(s, n)`` are the real FFT of the
     histories on those lines, exactly as :func:`spectra` returns them.
+
+    Without histories (large n, ``histories=False``) ``forces`` and ``response``
+    are ``None`` and the spectra are the synthesised ones themselves; everything
+    the POD needs is in them (:meth:`pod`, Parseval).
     """
 
     t: np.ndarray
-    forces: np.ndarray
-    response: np.ndarray
+    forces: np.ndarray | None
+    response: np.ndarray | None
     omega: np.ndarray
     force_spectrum: np.ndarray
     response_spectrum: np.ndarray
     dt: float
     band_hz: tuple[float, float]
+
+    @property
+    def n_samples(self) -> int:
+        """Samples r of the record (the histories' length, kept or not)."""
+        return self.t.size
+
+    def pod(self, method: str = "auto"):
+        """POD of the response correlation ``⟨u uᵀ⟩`` over the record (eqs. 3, 5).
+
+        Computed from the in-band response spectrum (:func:`podid_rs.pod_from_spectra`),
+        equal by Parseval to ``pod(self.response)`` but without the r × n history.
+        """
+        from .pod import pod_from_spectra
+
+        return pod_from_spectra(self.response_spectrum, self.n_samples, method=method)
+
+
+#: ``histories=None`` keeps the time histories when both take at most this many bytes.
+HISTORY_BYTES = 1 << 30
+
+
+def white_noise_spectrum(rng: np.random.Generator, shape: tuple[int, int], scale: float,
+                         block: int = 64) -> np.ndarray:
+    """``scale · (x + i y)``, x and y standard normal ``shape`` draws from ``rng`` in turn.
+
+    Bit for bit ``scale * (rng.standard_normal(shape) + 1j * rng.standard_normal(shape))``,
+    drawn ``block`` rows at a time so that no real temporary of the full shape is made.
+    """
+    out = np.empty(shape, dtype=np.complex128)
+    for part in (out.real, out.imag):
+        for i in range(0, shape[0], block):
+            part[i : i + block] = rng.standard_normal((min(block, shape[0] - i), shape[1]))
+    out *= scale
+    return out
 
 
 def _band_lines(r: int, dt: float, band_hz: object) -> np.ndarray:
@@ -71,6 +110,9 @@ def simulate_white_noise(
     duration: float,
     intensity: float = 1.0,
     seed: int | None = None,
+    *,
+    histories: bool | None = None,
+    threads: int | None = None,
 ) -> Simulation:
     """Periodic steady-state response to incoherent band-limited white noise on every DOF.
 
@@ -87,6 +129,13 @@ def simulate_white_noise(
     response correlation ``⟨u uᵀ⟩ ≈ intensity / (2π (hi − lo)) · Ruu`` with ``Ruu``
     from :func:`podid_rs.pod.correlation_from_frf`. The record has
     ``r = round(duration / dt)`` samples; the line spacing is ``1 / (r dt)`` Hz.
+
+    ``histories``: keep the r × n time histories (``True``), or only the in-band
+    spectra (``False``: memory O(s·n), the way to simulate 10⁵ DOFs); ``None``
+    keeps them when they take at most 1 GB. The forces and the response are the
+    same either way (the same random draws; spectra equal to round-off).
+    ``threads``: worker threads for the per-line solves of a sparse system.
+    ``MemoryError`` before any work when the result would not fit.
     """
     if not isinstance(system, SecondOrderSystem):
         raise ValueError(f"system must be a SecondOrderSystem, got {type(system).__name__}")
@@ -101,15 +150,36 @@ def simulate_white_noise(
     lines = _band_lines(r, dt, band_hz)
     omega = 2 * np.pi * np.fft.rfftfreq(r, dt)[lines]
 
+    shape = (lines.size, system.n)
+    history_bytes = 2 * 8 * r * system.n
+    keep = history_bytes <= HISTORY_BYTES if histories is None else bool(histories)
+    spectra_bytes = 3 * 16 * lines.size * system.n  # F, U and the solver's copy of F
+    require_memory(
+        spectra_bytes + (history_bytes + 16 * (r // 2 + 1) * system.n if keep else 0),
+        f"simulating {system.n} DOFs over {lines.size} lines"
+        + (f" with {r}-sample histories" if keep else ""),
+        "pass histories=False to keep only the in-band spectra" if keep else "",
+    )
+
     # Parseval: mean_t x² = (2 / r²) Σ_k |X_k|², so E|X_k|² = intensity · r² / (2 s).
     rng = np.random.default_rng(seed)
-    shape = (lines.size, system.n)
     scale = r * np.sqrt(intensity / (4 * lines.size))
-    F = scale * (rng.standard_normal(shape) + 1j * rng.standard_normal(shape))
+    F = white_noise_spectrum(rng, shape, scale)
+    if not keep:
+        return Simulation(
+            t=dt * np.arange(r),
+            forces=None,
+            response=None,
+            omega=omega,
+            force_spectrum=F,
+            response_spectrum=system.response(omega, F, threads=threads),
+            dt=dt,
+            band_hz=(float(band_hz[0]), float(band_hz[1])),
+        )
     full = np.zeros((r // 2 + 1, system.n), dtype=np.complex128)
     full[lines] = F
     forces = np.fft.irfft(full, n=r, axis=0)
-    full[lines] = system.response(omega, F)
+    full[lines] = system.response(omega, F, threads=threads)
     response = np.fft.irfft(full, n=r, axis=0)
     return Simulation(
         t=dt * np.arange(r),
@@ -145,8 +215,14 @@ def add_noise(x: object, snr_db: float, seed: int | None = None, axis: int = 0) 
     sigma = np.sqrt(np.var(a, axis=axis, keepdims=True) / 10 ** (snr / 10))
     rng = np.random.default_rng(seed)
     if np.iscomplexobj(a):
-        noise = rng.standard_normal(a.shape) + 1j * rng.standard_normal(a.shape)
-        return a + sigma / np.sqrt(2) * noise
+        # = a + sigma / √2 · (x + i y), x, y ~ N(0, 1) drawn in turn, without temporaries
+        # of the full size (bit for bit the same numbers)
+        noise = white_noise_spectrum(rng, (a.shape[0], a[0].size), 1.0).reshape(a.shape)
+        c = sigma / np.sqrt(2)
+        noise.real *= c
+        noise.imag *= c
+        noise += a
+        return noise
     return a + sigma * rng.standard_normal(a.shape)
 
 
