@@ -39,16 +39,13 @@ def read_rows(path) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
-def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
-    chain, path = uff_file
-    out = tmp_path / "out"
-    status = main(["identify", str(path), "--band-hz", "5", "200", "--m", "6", "--out", str(out)])
-    assert status == 0
-    stdout = capsys.readouterr().out
-    assert "exactly symmetric" in stdout and "stable: yes" in stdout
+def check_full_order_outputs(chain, out, names_extra=()):
+    """model.npz holds the chain at full order (to 1e-6, see the module docstring), the
+    modal table its modes, the overlays and the chart are written."""
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["frf_input1.png", "frf_input2.png", "mac.png", "model.npz", "model.uff",
-                     "modes.csv", "modes.md", "stabilisation.csv", "stabilisation.png"]
+    assert names == sorted(["frf_input1.png", "frf_input2.png", "mac.png", "model.npz",
+                            "model.uff", "modes.csv", "modes.md", "stabilisation.csv",
+                            "stabilisation.png", *names_extra])
     for png in ("frf_input1.png", "frf_input2.png"):
         assert (out / png).read_bytes()[:8] == PNG
 
@@ -68,6 +65,44 @@ def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
     assert all(r["stable"] == "yes" for r in rows)
     md = (out / "modes.md").read_text()
     assert "`test.uff`" in md and "196 lines 5–200 Hz" in md and "| mode | f_hz |" in md
+    return model
+
+
+def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
+    """The default: output-error models by continuation up to the asked order."""
+    chain, path = uff_file
+    out = tmp_path / "out"
+    status = main(["identify", str(path), "--band-hz", "5", "200", "--m", "6", "--out", str(out)])
+    assert status == 0
+    stdout = capsys.readouterr().out
+    assert "output-error refinement" in stdout and "m = 6 as asked" in stdout
+    assert "stable: yes" in stdout and "positive definite: yes" in stdout
+    model = check_full_order_outputs(chain, out, ("order.md", "order.png"))
+    assert model.method == "output-error" and model.symmetric
+    table = (out / "order.md").read_text()
+    assert all(f"| {k} " in table for k in range(1, 6)) and "| 6 **(chosen)** |" in table
+
+
+def test_identify_paper_estimator_alone(uff_file, tmp_path, capsys):
+    chain, path = uff_file
+    out = tmp_path / "out"
+    argv = ["identify", str(path), "--band-hz", "5", "200", "--m", "6", "--paper-estimator"]
+    assert main([*argv, "--out", str(out)]) == 0
+    stdout = capsys.readouterr().out
+    assert "exactly symmetric" in stdout and "stable: yes" in stdout
+    model = check_full_order_outputs(chain, out)
+    assert model.method == "cholesky"
+
+
+def test_identify_chooses_the_order_on_held_out_lines(uff_file, tmp_path, capsys):
+    chain, path = uff_file
+    out = tmp_path / "out"
+    assert main(["identify", str(path), "--band-hz", "5", "200", "--out", str(out)]) == 0
+    stdout = capsys.readouterr().out
+    assert "held-out median error" in stdout and "every 4-th line held out" in stdout
+    model, extras = load_model(out / "model.npz")
+    # exact FRFs of a 6-DOF chain: the full order reproduces them, nothing less does as well
+    assert model.m == 6 and (out / "order.png").read_bytes()[:8] == PNG
 
 
 def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
@@ -77,7 +112,7 @@ def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
     np.savez(data, forces=x, responses=np.fft.irfft(Y, n=r, axis=0), dt=1 / 256, inputs=[0, 2])
     out = tmp_path / "out"
     argv = ["identify", str(data), "--band-hz", "2", "60", "--energy", "0.9999"]
-    status = main([*argv, "--lam", "1e3", "--physical", "--out", str(out)])
+    status = main([*argv, "--lam", "1e3", "--physical", "--paper-estimator", "--out", str(out)])
     assert status == 0
     stdout = capsys.readouterr().out
     assert "λ = 1000, 1000, 1000" in stdout and "physical correction" in stdout
@@ -99,6 +134,8 @@ def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
         (["--m", "0"], "positive integer"),
         (["--lam", "1", "2"], "one value or three"),
         (["--band-hz", "50", "10"], "LO < HI"),
+        (["--physical"], "physical by construction"),
+        (["--m", "3", "--m-max", "5"], "--m-max bounds the order sweep"),
     ],
 )
 def test_identify_usage_errors_exit_2(uff_file, tmp_path, capsys, extra, message):
@@ -138,4 +175,4 @@ def test_identify_runs_as_a_module(uff_file, tmp_path):
         [sys.executable, "-m", "podid_rs", *argv], capture_output=True, text=True, timeout=120
     )
     assert proc.returncode == 0, proc.stderr
-    assert "reduced order m = " in proc.stdout and (out / "model.npz").is_file()
+    assert "- order: m = " in proc.stdout and (out / "model.npz").is_file()

@@ -44,7 +44,7 @@ FIGURES = (
         for b in range(1, 5)
     ]
 )
-TIME_COLUMNS = {"t_simulate_s", "t_pod_s", "t_identify_s", "t_frf_s"}
+TIME_COLUMNS = {"t_simulate_s", "t_pod_s", "t_identify_s", "t_frf_s", "t_refine_s"}
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,8 @@ the paper's Kronecker matrix. The pipeline, one module per stage:
 - :mod:`podid_rs.regularisation` — choosing λ: L-curve, GCV, discrepancy (§4.2);
 - :mod:`podid_rs.reference` — the paper's literal Kronecker formulation (the oracle);
 - :mod:`podid_rs.measurements` — measured data in: UFF 58 FRFs, time histories, ``.npz``;
+- :mod:`podid_rs.refinement` — output-error refinement: models that reproduce the data;
+- :mod:`podid_rs.model_order` — the order on measured data, chosen on held-out lines;
 - :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability;
 - :mod:`podid_rs.modes` — mode shapes on the measured DOFs, the MAC;
 - :mod:`podid_rs.stabilisation` — stabilisation chart over the POD order;
@@ -27,6 +29,7 @@ from .identification import (
     identify,
 )
 from .measurements import MeasuredData, load_data, load_model, read_uff, save_data, save_model
+from .model_order import OrderSweep, final_fit, plot_order_sweep, sweep_orders
 from .modes import ModeShapes, mac, mode_shapes, plot_mac, shape_mac
 from .physical import make_physical, modal_parameters
 from .pod import (
@@ -38,6 +41,7 @@ from .pod import (
     pod_from_frf,
     pod_from_spectra,
 )
+from .refinement import StartWarning, refine
 from .regularisation import (
     LambdaCurve,
     LambdaSelectionWarning,
@@ -66,15 +70,18 @@ __all__ = [
     "MeasuredData",
     "ModeShapes",
     "NoCornerWarning",
+    "OrderSweep",
     "PODResult",
     "RankDeficientWarning",
     "SecondOrderSystem",
     "Simulation",
     "StabilisationChart",
+    "StartWarning",
     "add_noise",
     "choose_lambda",
     "correlation_from_frf",
     "correlation_from_snapshots",
+    "final_fit",
     "frf_h1",
     "identify",
     "is_physical",
@@ -89,6 +96,7 @@ __all__ = [
     "mode_shapes",
     "plot_lambda_curve",
     "plot_mac",
+    "plot_order_sweep",
     "plot_stabilisation",
     "pod",
     "pod_from_correlation",
@@ -97,11 +105,13 @@ __all__ = [
     "read_uff",
     "read_uff_geometry",
     "read_uff_modes",
+    "refine",
     "save_data",
     "save_model",
     "shape_mac",
     "simulate_white_noise",
     "spectra",
     "stabilisation_chart",
+    "sweep_orders",
     "write_uff",
 ]

@@ -144,10 +144,16 @@ def _run_identify(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
             lam = parse_lam(args.lam)
         except ValueError as exc:
             parser.error(str(exc))
+    if args.physical and not args.paper_estimator:
+        parser.error("--physical applies to --paper-estimator: the refined model is physical "
+                     "by construction")
+    if args.m_max is not None and (args.m is not None or args.paper_estimator):
+        parser.error("--m-max bounds the order sweep: it goes without --m and --paper-estimator")
     try:
         run = run_identify(
             args.data, args.out, band_hz=(lo, hi), m=args.m, energy=args.energy, lam=lam,
-            physical=args.physical, progress=not args.no_progress,
+            physical=args.physical, paper_estimator=args.paper_estimator, m_max=args.m_max,
+            progress=not args.no_progress,
         )
     except (ValueError, MemoryError, OSError) as exc:
         print(f"podid-rs identify: error: {exc}", file=sys.stderr)
@@ -166,10 +172,15 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
             "dataset 58 FRFs; velocity and acceleration are converted to receptance), or an "
             ".npz with time histories (arrays forces, responses, dt, inputs; FRFs by H1 with "
             "Welch averaging) or a data set saved by podid_rs.save_data. Builds the POD basis "
-            "of the responses in the band, identifies M, C, K and writes model.npz, FRF "
-            "overlays (frf_input<k>.png), the modal table (modes.csv, modes.md), the model "
-            "as a Universal File (model.uff), the stabilisation chart over the POD order "
-            "(stabilisation.png, .csv) and the MAC between two orders (mac.png)."
+            "of the responses in the band and identifies M, C, K: by default output-error "
+            "models (M, C, K symmetric positive definite, stable, fitted to the measured "
+            "FRFs) of order 1, 2, ... by continuation, the order chosen by the error on "
+            "held-out lines; --paper-estimator gives the paper's least-squares estimator "
+            "(eq. 49) alone. Writes model.npz, FRF overlays (frf_input<k>.png), the modal "
+            "table and a summary with FRF errors and stability (modes.csv, modes.md), the "
+            "order sweep (order.png, order.md), the model as a Universal File (model.uff), "
+            "the stabilisation chart over the POD order (stabilisation.png, .csv) and the "
+            "MAC between two orders (mac.png)."
         ),
     )
     p.add_argument("data", metavar="DATA", help="measured data file (.uff, .unv or .npz)")
@@ -177,15 +188,21 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
                    help="frequency band in Hz; the lines in it are used")
     order = p.add_mutually_exclusive_group()
     order.add_argument("--m", type=_order, default=None, metavar="M",
-                       help="reduced order (number of POD modes)")
+                       help="reduced order (number of POD modes; default: chosen by the error "
+                       "on held-out lines, or by energy 0.99 with --paper-estimator)")
     order.add_argument("--energy", type=_energy, default=None, metavar="K",
-                       help="smallest order capturing this energy fraction (default: 0.99)")
+                       help="smallest order capturing this energy fraction of the response")
+    p.add_argument("--m-max", type=_order, default=None, metavar="M",
+                   help="highest order the sweep tries (default: 40, at most the POD modes)")
+    p.add_argument("--paper-estimator", action="store_true",
+                   help="write the paper's estimator (eq. 49) alone, without the output-error "
+                   "refinement")
     p.add_argument("--lam", nargs="+", default=None, metavar="LAM",
-                   help="symmetry regularisation λ, or λ_M λ_C λ_K (paper eq. 40; default: "
-                   "exactly symmetric M, C, K, the λ → ∞ limit)")
+                   help="symmetry regularisation of the paper's estimator: λ, or λ_M λ_C λ_K "
+                   "(eq. 40; default: exactly symmetric M, C, K, the λ → ∞ limit)")
     p.add_argument("--physical", action="store_true",
-                   help="make M, K positive definite and C positive semidefinite (nearest "
-                   "matrices), reporting the change in residual")
+                   help="with --paper-estimator: make M, K positive definite and C positive "
+                   "semidefinite (nearest matrices), reporting the change in residual")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output folder (created if missing)")
     p.add_argument("--no-progress", action="store_true",

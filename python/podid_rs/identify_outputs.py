@@ -88,17 +88,25 @@ def write_identify_outputs(
     lam: float | tuple[float, float, float] | str | None = None,
     physical: bool = False,
     progress: bool = True,
+    pod: PODResult | None = None,
+    fit: Callable[[int], IdentificationResult] | None = None,
+    max_order: int | None = None,
 ) -> list[Path]:
-    """Write ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` to ``out``."""
+    """Write ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` to ``out``.
+
+    The chart fits orders 1 … ``max_order`` (default :func:`stabilisation_orders`)
+    with ``fit`` (default: as the command's paper estimator, :func:`command_fit`).
+    """
     quantity = source_ordinate(source)
     files = [
         write_uff(out / "model.uff", result, basis, data, quantity=quantity,
                   geometry=source_geometry(source), name=source.name)
     ]
     m = result.m
-    pod = data.pod()
+    pod = data.pod() if pod is None else pod
+    top = stabilisation_orders(m, data.n) if max_order is None else max_order
     chart = stabilisation_chart(
-        data, stabilisation_orders(m, data.n), fit=command_fit(data, lam, physical, pod),
+        data, top, fit=command_fit(data, lam, physical, pod) if fit is None else fit,
         chosen_m=m, progress=progress,
     )
     files.append(chart.to_csv(out / "stabilisation.csv"))
@@ -107,7 +115,7 @@ def write_identify_outputs(
         title=f"Stabilisation chart over the POD order: {source.name}, "
         f"{band_hz[0]:g}–{band_hz[1]:g} Hz",
     ))
-    other = m + 1 if m < data.n else m - 1
+    other = m + 1 if m < top else m - 1
     lo, hi = float(data.freq_hz[0]), float(data.freq_hz[-1])
     if other >= 1:
         shapes = mode_shapes(result, basis, data.dofs).in_band((lo, hi)).oscillatory()

@@ -276,6 +276,35 @@ class MeasuredData:
         result = identify(U_m, F_m, self.omega, lam, symmetric, backend=backend, threads=threads)
         return result, R
 
+    def fit(
+        self,
+        m: int | None = None,
+        *,
+        m_max: int | None = None,
+        progress: bool = False,
+        threads: int | None = None,
+    ):
+        """Output-error models that reproduce these data (DESIGN §6, :mod:`podid_rs.model_order`).
+
+        Orders 1, 2, … are fitted by continuation on the POD basis, m is chosen on
+        held-out lines (or given), and that order is refitted on every line. Returns
+        ``(model, R, sweep)``: the refined :class:`IdentificationResult` (M, C, K
+        positive definite, stable), the basis R ``(n, m)`` and the
+        :class:`podid_rs.model_order.OrderSweep` (every order's errors, the reason for m).
+        """
+        return _fit_output_error(self, m, m_max, progress, threads)
+
+
+def _fit_output_error(data: MeasuredData, m, m_max, progress, threads):
+    from .model_order import final_fit, sweep_orders
+
+    pod = data.pod()
+    F_n = data.forces_on_dofs()
+    sweep = sweep_orders(data.U, F_n, data.omega, pod, m=m, m_max=m_max, threads=threads)
+    model, R = final_fit(sweep, data.U, F_n, data.omega, pod, threads=threads,
+                         progress=progress)
+    return model, R, sweep
+
 
 def from_frf(
     H: object,

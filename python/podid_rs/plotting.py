@@ -22,6 +22,7 @@ STYLES: dict[str, dict] = {
     "original": {"color": "black", "lw": 1.6, "ls": "-", "zorder": 2},
     "projected": {"color": "tab:blue", "lw": 1.3, "ls": "--", "zorder": 3},
     "identified": {"color": "tab:red", "lw": 1.3, "ls": "-", "zorder": 4, "alpha": 0.9},
+    "refined": {"color": "tab:green", "lw": 1.4, "ls": "--", "zorder": 5},
 }
 _BAND_COLORS = ("tab:orange", "tab:green", "tab:purple", "tab:cyan")
 _DPI = 110

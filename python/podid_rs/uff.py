@@ -295,7 +295,11 @@ def write_uff(
     path = Path(path)
     path.unlink(missing_ok=True)
     try:
-        _pyuff().UFF(str(path)).write_sets(sets, mode="add")
+        writer = _pyuff().UFF(str(path))
+        # pyuff re-reads the whole file after every set it writes: O(sets²), minutes
+        # for a 4000-point scan; nothing here reads the file back, so no index is kept
+        writer.refresh = lambda: None
+        writer.write_sets(sets, mode="add")
     except OSError:
         raise
     except Exception as exc:  # pyuff raises bare Exception from its writers

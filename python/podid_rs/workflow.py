@@ -1,20 +1,30 @@
 """Measured data to a reduced model on disk: the work behind ``podid-rs identify``.
 
 :func:`run_identify` reads a data file (:func:`podid_rs.measurements.load_data`:
-UFF 58 FRFs, time histories or a saved data set), keeps the lines of a band,
-builds the POD basis of the measured responses, identifies M, C, K (paper §5,
-steps 1–6), optionally makes them physical (:func:`podid_rs.physical.make_physical`)
-and writes into the output folder
+UFF 58 FRFs, time histories or a saved data set), keeps the lines of a band and
+builds the POD basis of the measured responses (paper §5, steps 1–5). Then, by
+default, it fits **output-error models** (:mod:`podid_rs.refinement`) of order
+1, 2, … by continuation over the order, chooses m by the error on held-out lines
+(:mod:`podid_rs.model_order`) and refits that order on every line: M, C, K
+symmetric and positive definite, the model stable by construction, fitted to the
+measured FRFs themselves. The paper's estimator (eq. 49, exactly symmetric or with
+λ) is computed at the same order for comparison; ``paper_estimator=True`` writes
+it instead (optionally made physical, :func:`podid_rs.physical.make_physical`).
+Into the output folder go
 
 * ``model.npz`` — the model (:func:`podid_rs.measurements.load_model`), with the
   basis ``basis`` (n × m), the measured ``dofs``, the driven ``inputs`` and ``band_hz``;
 * ``frf_input<k>.png`` — measured and identified FRF (``R H_m Rᵀ``) at the driving
-  point of driven DOF k and at the measured DOF farthest from it (at most four);
+  point of driven DOF k and at the measured DOF farthest from it (at most four),
+  the refined model beside the paper's estimator;
 * ``modes.csv`` and ``modes.md`` — the modal table (natural frequencies, damping
-  ratios, stability), ``modes.md`` headed by a summary of the run;
+  ratios, stability), ``modes.md`` headed by a summary of the run: the order and
+  why, FRF errors of the paper's estimator and of the refined model, stability;
+* ``order.png`` and ``order.md`` — the held-out and training errors of every order
+  tried (refined models only);
 * ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` — the model for
-  other tools, the evidence for the order, the MAC between two orders
-  (:mod:`podid_rs.identify_outputs`).
+  other tools, the evidence for the order (the sweep's models), the MAC between two
+  orders (:mod:`podid_rs.identify_outputs`).
 """
 
 from __future__ import annotations
@@ -24,11 +34,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .identification import IdentificationResult
+from .identification import IdentificationResult, identify
 from .identify_outputs import write_identify_outputs
 from .measurements import MeasuredData, load_data, save_model
+from .model_order import OrderSweep, final_fit, plot_order_sweep, sweep_orders
 from .physical import make_physical, modal_parameters, modal_table, table_csv, table_markdown
 from .plotting import Curve, plot_frf_comparison
+from .refinement import db_errors
+from .stabilisation import is_physical
 
 MAX_OVERLAYS = 4
 
@@ -37,8 +50,10 @@ MAX_OVERLAYS = 4
 class IdentifyRun:
     """What :func:`run_identify` did: the data used, the model(s), the basis and the files.
 
-    ``result`` is the model written (corrected when ``physical``); ``least_squares``
-    the uncorrected one (the same object without ``physical``).
+    ``result`` is the model written: the refined (output-error) model, or with
+    ``paper_estimator`` the paper's (made physical when asked). ``least_squares`` is
+    the paper's estimator at the same order (eq. 49); ``sweep`` the order sweep
+    (None with ``paper_estimator``).
     """
 
     source: Path
@@ -47,25 +62,60 @@ class IdentifyRun:
     result: IdentificationResult
     basis: np.ndarray
     files: list[Path] = field(default_factory=list)
+    sweep: OrderSweep | None = None
+
+    def frf_errors(self, model: IdentificationResult) -> tuple[float, float]:
+        """Median and 95th percentile |dB| of ``model``'s responses (R H_m Rᵀ F) against
+        the measured ones, over every line, measured DOF and load case."""
+        d, R = self.data, self.basis
+        F_m = np.einsum("im,sip->smp", R[d.inputs], d.F)
+        X = np.einsum("nm,smp->snp", R, model.system().response(d.omega, F_m))
+        e = db_errors(X, d.U)
+        return float(np.median(e)), float(np.percentile(e, 95))
 
     def summary(self) -> str:
         """A few lines of Markdown describing the run."""
-        d, r = self.data, self.result
+        d, r, ls = self.data, self.result, self.least_squares
         f_m = np.einsum("im,sip->smp", self.basis[d.inputs], d.F)
         lam = (
             "exactly symmetric (λ → ∞)"
-            if r.symmetric
-            else "λ = " + ", ".join(f"{v:g}" for v in r.lam)
+            if ls.symmetric
+            else "λ = " + ", ".join(f"{v:g}" for v in ls.lam)
         )
-        modes = modal_parameters(r)
         lines = [
             f"- data: `{self.source.name}`, {d.s} lines {d.freq_hz[0]:g}–{d.freq_hz[-1]:g} Hz, "
             f"{d.n} measured DOFs, {d.p} load case(s), driven DOFs (node, dir) "
             + ", ".join(str(tuple(int(v) for v in d.dofs[i])) for i in d.inputs),
-            f"- reduced order m = {r.m}; {lam}; solver {r.method}, rank {r.rank} of {r.n_unknowns}",
-            f"- residual ‖Ax − y‖ = {r.residual_norm:.4g} "
-            f"({r.residual_norm / np.linalg.norm(f_m):.3g} of ‖y‖)",
+            *[f"- note: {note}" for note in d.notes],
         ]
+        if self.sweep is not None:
+            lines.append(f"- order: {self.sweep.reason}")
+        else:
+            lines.append(f"- order: m = {r.m}")
+        ref = r.info.get("refinement")
+        if ref is not None:
+            lines.append(
+                f"- model: output-error refinement ({ref['weights']} weights), "
+                f"{r.iterations} Levenberg–Marquardt steps ({ref['stop']}); M, C, K symmetric, "
+                f"positive definite: {'yes' if is_physical(r) else 'no'}"
+            )
+        else:
+            lines.append(
+                f"- model: the paper's estimator (eq. 49), {lam}; solver {r.method}, rank "
+                f"{r.rank} of {r.n_unknowns}"
+            )
+        y = np.linalg.norm(f_m)
+        if r is ls:
+            lines.append(
+                f"- equation-error residual ‖Ax − y‖ = {r.residual_norm:.4g} "
+                f"({r.residual_norm / y:.3g} of ‖y‖)"
+            )
+        else:
+            lines.append(
+                f"- equation-error residual ‖Ax − y‖ / ‖y‖ (what the paper's estimator "
+                f"minimises): paper's estimator {ls.residual_norm / y:.3g}, "
+                f"{'refined' if ref is not None else 'written'} model {r.residual_norm / y:.3g}"
+            )
         if "physical" in r.info:
             p = r.info["physical"]
             change = p["residual_after"] / p["residual_before"] - 1 if p["residual_before"] else 0.0
@@ -74,6 +124,23 @@ class IdentifyRun:
                 f"{p['residual_before']:.4g} → {p['residual_after']:.4g} ({100 * change:+.2f} %), "
                 f"eigenvalues raised in M, C, K: {tuple(p['eigenvalues_raised'])}"
             )
+        med_ls, p95_ls = self.frf_errors(ls)
+        stab_ls = "stable" if modal_parameters(ls).stable else "unstable"
+        if r is not ls:
+            med, p95 = self.frf_errors(r)
+            stab = "stable" if modal_parameters(r).stable else "unstable"
+            lines.append(
+                f"- FRF error, median / 95th percentile |dB| over every line and measured DOF: "
+                f"paper's estimator {med_ls:.2f} / {p95_ls:.1f} dB ({stab_ls}) → "
+                f"{'refined' if ref is not None else 'written'} model {med:.2f} / {p95:.1f} dB "
+                f"({stab})"
+            )
+        else:
+            lines.append(
+                f"- FRF error, median / 95th percentile |dB| over every line and measured DOF: "
+                f"{med_ls:.2f} / {p95_ls:.1f} dB ({stab_ls})"
+            )
+        modes = modal_parameters(r)
         lines.append(
             f"- stable: {'yes' if modes.stable else 'no'} "
             f"(largest Re λ = {modes.max_real_part:.4g})"
@@ -94,9 +161,12 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
     under random forces) have no measured FRF, so only the model's is drawn.
     """
     d = run.data
-    models = [("identified", run.least_squares, {})]
+    refined = "refinement" in run.result.info
+    models = [("paper's estimator (eq. 49)" if refined else "identified", run.least_squares,
+               {"color": "tab:orange", "lw": 1.0} if refined else {})]
     if run.result is not run.least_squares:
-        models.append(("identified, physical", run.result, {"color": "tab:green", "ls": "--"}))
+        label = "refined (output error)" if refined else "identified, physical"
+        models.append((label, run.result, {"color": "tab:green", "ls": "--"}))
     paths = []
     for k in range(min(d.inputs.size if d.is_frf else 1, MAX_OVERLAYS)):
         col = int(d.inputs[k])
@@ -129,24 +199,52 @@ def run_identify(
     energy: float | None = None,
     lam: float | tuple[float, float, float] | None = None,
     physical: bool = False,
+    paper_estimator: bool = False,
+    m_max: int | None = None,
     progress: bool = True,
 ) -> IdentifyRun:
     """Identify a reduced model from the data file ``path`` and write it to ``out``.
 
-    ``lam=None`` solves the exactly symmetric problem (the λ → ∞ limit; FRFs from
-    fewer driven DOFs than m need symmetry, see :mod:`podid_rs.measurements`),
-    a number or triple the regularised one (eq. 40). The order is ``m``, or the
-    smallest capturing the energy fraction ``energy`` (default 0.99, eq. 43).
-    ``progress`` shows the order sweep of the stabilisation chart on a terminal.
+    Default: output-error models by continuation over the order, m chosen on held-out
+    lines (or ``m`` given, or the smallest capturing the energy fraction ``energy``,
+    eq. 43), up to ``m_max``. ``paper_estimator=True``: the paper's estimator alone,
+    at ``m`` or by ``energy`` (default 0.99), made physical with ``physical``.
+    ``lam=None`` solves the paper's estimator exactly symmetric (the λ → ∞ limit;
+    FRFs from fewer driven DOFs than m need symmetry, see
+    :mod:`podid_rs.measurements`), a number or triple the regularised one (eq. 40).
+    ``progress`` shows the order sweep, the refinement and the chart on a terminal.
     """
+    if m is not None and energy is not None:
+        raise ValueError("give the reduced order m or the energy fraction, not both")
     source = Path(path)
     data = load_data(source, band_hz=band_hz)
     symmetric = lam is None
-    ls, R = data.identify(m=m, energy=energy, lam=0.0 if symmetric else lam, symmetric=symmetric)
-    result = make_physical(ls, *data.project(R), data.omega) if physical else ls
+    pod = data.pod()
+    F_n = data.forces_on_dofs()
+    sweep = None
+    if paper_estimator:
+        order = m if m is not None else pod.order_for_energy(0.99 if energy is None else energy)
+    else:
+        order = m if energy is None else pod.order_for_energy(energy)
+        bar = _SweepBar(enabled=progress)
+        try:
+            sweep = sweep_orders(data.U, F_n, data.omega, pod, m=order, m_max=m_max,
+                                 progress=bar)
+        finally:
+            bar.close()
+        order = sweep.chosen
+    R = pod.basis(order)
+    U_m, F_m = data.project(R)
+    ls = identify(U_m, F_m, data.omega, 0.0 if symmetric else lam, symmetric)
+    if sweep is not None:
+        result, R = final_fit(sweep, data.U, F_n, data.omega, pod, progress=progress)
+    elif physical:
+        result = make_physical(ls, U_m, F_m, data.omega)
+    else:
+        result = ls
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    run = IdentifyRun(source, data, ls, result, R)
+    run = IdentifyRun(source, data, ls, result, R, sweep=sweep)
     files = [
         save_model(
             out / "model.npz",
@@ -165,6 +263,39 @@ def run_identify(
         + table_markdown(rows)
     )
     files += [out / "modes.csv", out / "modes.md"]
-    files += write_identify_outputs(source, data, result, R, out, band_hz=band_hz, lam=lam,
-                                    physical=physical, progress=progress)
-    return IdentifyRun(source, data, ls, result, R, files)
+    if sweep is not None:
+        files.append(plot_order_sweep(
+            sweep, out / "order.png",
+            title=f"Order of the output-error model: {source.name}, "
+            f"{band_hz[0]:g}–{band_hz[1]:g} Hz",
+        ))
+        (out / "order.md").write_text(
+            f"# Order sweep\n\n{sweep.reason}\n\n{sweep.table()}"
+        )
+        files.append(out / "order.md")
+        fits = {f.m: f.model for f in sweep.fits}
+        files += write_identify_outputs(
+            source, data, result, R, out, band_hz=band_hz, lam=lam, physical=physical,
+            progress=progress, pod=pod, fit=lambda k: result if k == order else fits[k],
+            max_order=max(fits),
+        )
+    else:
+        files += write_identify_outputs(source, data, result, R, out, band_hz=band_hz, lam=lam,
+                                        physical=physical, progress=progress, pod=pod)
+    return IdentifyRun(source, data, ls, result, R, files, sweep)
+
+
+class _SweepBar:
+    """The order sweep as a tqdm bar on stderr: orders fitted, the latest held-out error."""
+
+    def __init__(self, enabled: bool) -> None:
+        from ._progress import progress_bar
+
+        self.bar = progress_bar(None, enabled=enabled, desc="order sweep", unit="order")
+
+    def __call__(self, m: int, fit) -> None:
+        self.bar.update(1)
+        self.bar.set_postfix_str(f"m = {m}, held-out {fit.test_db:.2f} dB")
+
+    def close(self) -> None:
+        self.bar.close()
