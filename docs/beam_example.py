@@ -1,12 +1,12 @@
 """``podid-rs identify`` on the real roving-hammer test of a steel beam (UFSC).
 
-Runs the command on ``beam_roving_hammer.uff`` (30 hammer points, one
-accelerometer at point 3) and copies its stabilisation chart into ``docs/``
-(the README's figure). Until ``read_uff`` reads a roving-hammer file by reciprocity,
-the script writes a transposed copy first, H(k, 3) = H(3, k) (Maxwell): the 30
-points become the responses and point 3 the driven DOF.
+Runs the command (the default: output-error models, the order chosen on held-out
+lines) on ``tests/data/ufsc_beam/beam_roving_hammer.uff`` — 30 hammer points, one
+accelerometer at point 3, read by reciprocity as the FRF column of a force at point
+3 — in a band, and copies its FRF overlay, order sweep and stabilisation chart into
+``docs/`` as ``beam_<lo>_<hi>_{frf,order,stabilisation}.png`` (the README's figures).
 
-    python docs/beam_example.py [path/to/beam_roving_hammer.uff] [--out DIR]
+    python docs/beam_example.py [path/to/file.uff] [--band-hz LO HI] [--out DIR]
 """
 
 from __future__ import annotations
@@ -15,26 +15,9 @@ import argparse
 import shutil
 from pathlib import Path
 
-import pyuff
-
-from podid_rs import read_uff
 from podid_rs.cli import main
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared/data/ufsc_beam/beam_roving_hammer.uff"
-
-
-def transposed_copy(source: Path, target: Path) -> Path:
-    """The file with every FRF's response and reference swapped (reciprocity)."""
-    uff = pyuff.UFF(str(source))
-    sets = uff.read_sets()
-    for d in sets:
-        if d["type"] == 58:
-            d["rsp_node"], d["ref_node"] = d["ref_node"], d["rsp_node"]
-            d["rsp_dir"], d["ref_dir"] = d["ref_dir"], d["rsp_dir"]
-    target.unlink(missing_ok=True)
-    pyuff.UFF(str(target)).write_sets(sets, "add")
-    return target
-
+DEFAULT = Path(__file__).resolve().parents[1] / "tests/data/ufsc_beam/beam_roving_hammer.uff"
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -42,16 +25,12 @@ if __name__ == "__main__":
     ap.add_argument("--out", type=Path, default=Path("beam-results"))
     ap.add_argument("--band-hz", nargs=2, type=float, default=(50.0, 300.0))
     args = ap.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = args.uff
-    try:
-        read_uff(path)
-    except ValueError as exc:
-        print(f"read_uff: {exc}\n-> analysing a transposed copy (reciprocity)")
-        path = transposed_copy(path, args.out / "beam_reciprocal.uff")
     lo, hi = args.band_hz
-    status = main(["identify", str(path), "--band-hz", f"{lo:g}", f"{hi:g}",
-                   "--out", str(args.out / "identify")])
+    out = args.out / f"identify_{lo:g}_{hi:g}"
+    status = main(["identify", str(args.uff), "--band-hz", f"{lo:g}", f"{hi:g}",
+                   "--out", str(out)])
     docs = Path(__file__).resolve().parent
-    shutil.copy(args.out / "identify" / "stabilisation.png", docs / "beam_stabilisation.png")
+    for name, target in (("frf_input1", "frf"), ("order", "order"),
+                         ("stabilisation", "stabilisation")):
+        shutil.copy(out / f"{name}.png", docs / f"beam_{lo:g}_{hi:g}_{target}.png")
     raise SystemExit(status)

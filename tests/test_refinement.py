@@ -19,6 +19,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import podid_rs as pr
 from podid_rs.identification import ConvergenceWarning
@@ -216,3 +218,37 @@ def test_beam_band_refined_model_is_physical_and_beats_the_paper_estimator(beam)
     assert_physical(model)
     before, after = model.info["refinement"]["db_before"], model.info["refinement"]["db_after"]
     assert after[0] < 0.5 * before[0]
+
+
+@settings(
+    max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
+@given(
+    m=st.integers(1, 5),
+    lines=st.integers(4, 40),
+    p=st.integers(1, 2),
+    seed=st.integers(0, 2**32 - 1),
+    weights=st.sampled_from(["relative", "uniform"]),
+)
+def test_any_start_on_any_data_gives_a_physical_stable_model_or_a_named_error(
+    m, lines, p, seed, weights
+):
+    """Random data (not from any model) and random starts (indefinite, non-symmetric):
+    the answer is always symmetric positive definite and stable — or, when no physical
+    start exists, a ValueError that says so."""
+    rng = np.random.default_rng(seed)
+    w = np.sort(rng.uniform(1.0, 100.0, lines)) + np.arange(lines) * 1e-6
+    U = rng.standard_normal((lines, m, p)) + 1j * rng.standard_normal((lines, m, p))
+    F = rng.standard_normal((lines, m, p)) + 1j * rng.standard_normal((lines, m, p))
+    start = tuple(rng.standard_normal((m, m)) * 10.0 ** rng.uniform(-2, 2) for _ in range(3))
+    copies = [a.copy() for a in (U, F, w, *start)]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = refine(start, U, F, w, weights=weights, max_iter=30)
+    except ValueError as exc:
+        assert "cannot be made positive definite" in str(exc) or "pole on a measured" in str(exc)
+    else:
+        assert_physical(model)
+    for a, b in zip((U, F, w, *start), copies, strict=True):
+        assert np.array_equal(a, b)
