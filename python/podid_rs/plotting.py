@@ -183,7 +183,11 @@ def plot_frf_comparison(
     Each :class:`Curve` holds both entries; the measured band is shaded when
     ``band_hz`` is given, so in-band and out-of-band behaviour read apart.
     """
-    fig, axes = _new_figure(11.0, 4.6, 2, legend_rows=1)
+    # legend entries: the curves and the band; at most three side by side
+    n_items = len(curves) + (band_hz is not None)
+    ncols = min(n_items, 3)
+    legend_rows = -(-n_items // ncols)
+    fig, axes = _new_figure(11.0, 4.35 + 0.25 * legend_rows, 2, legend_rows=legend_rows)
     for i, (ax, entry) in enumerate(zip(axes[0], entries, strict=True)):
         for c in curves:
             style = {**STYLES.get(c.kind, {}), **c.style}
@@ -193,6 +197,6 @@ def plot_frf_comparison(
                        label=f"measured band {band_hz[0]:g}–{band_hz[1]:g} Hz")
         _frf_axis(ax, entry, i)
         ax.set_xlim(freq_hz[0], freq_hz[-1])
-    _legend_below(fig, axes[0, 0], ncols=len(curves) + 1)
+    _legend_below(fig, axes[0, 0], ncols=ncols)
     fig.suptitle(title)
     return _save(fig, path)
