@@ -11,9 +11,11 @@ and scores each on frequency lines it was not fitted to:
   freedom: the single mode that best fits the new coordinate's own data. Every
   order therefore starts from a model that already reproduces what the previous
   one did, which is what lets the refinement reach good models on wide bands,
-  where a start from the paper's estimator stalls in poor local minima. Two more
-  starts are tried beside it — one mode added at the largest peak of the previous
-  model's residual, and the paper's estimator made physical (which wins on clean
+  where a start from the paper's estimator stalls in poor local minima. More
+  starts are tried beside it — the best earlier order (by its training error)
+  extended the same way, when it is not the previous one (an order that went astray
+  does not drag the next ones with it); one mode added at the largest peak of the
+  previous model's residual; the paper's estimator made physical (which wins on clean
   data) — each for ``TRIAL_ITER`` steps, and the best continues;
 * **held-out lines** — every ``holdout``-th line is left out of the fit; the
   median |dB| error of the model's FRFs on the measured DOFs over those lines is
@@ -21,7 +23,7 @@ and scores each on frequency lines it was not fitted to:
   the lines it was fitted to pays on the held-out ones;
 * **the choice** — the order with the lowest held-out error (``tolerance`` > 0
   takes the smallest order within that fraction of it instead); the sweep stops
-  once ``patience`` (6) orders in a row have not improved the best held-out error
+  once ``patience`` (10) orders in a row have not improved the best held-out error
   by ``PROGRESS_STEP`` (3 %): past that point more orders buy little and cost much
   (O(m⁴) per step). On the beam at 20–800 Hz a 2 % tolerance chose m = 20 (1.61 dB
   after the final fit) where the best held-out order, m = 26, gave 1.48 dB.
@@ -48,7 +50,7 @@ HOLDOUT = 4
 #: orders within this fraction of the best held-out error count as equally good (0: the best)
 TOLERANCE = 0.0
 #: the sweep stops after PATIENCE orders without a PROGRESS_STEP better held-out error
-PATIENCE = 6
+PATIENCE = 10
 PROGRESS_STEP = 0.03
 #: Levenberg–Marquardt steps per order in the sweep, and for the final refit
 SWEEP_MAX_ITER = 40
@@ -287,6 +289,19 @@ def sweep_orders(
         dof = _decoupled_mode(Ut, Ft, wt, w)
         if dof is not None:
             starts.append(("continuation", _extend(previous, dof)))
+        if len(fits) > 1:
+            # an order that went astray does not drag the next ones with it: the best
+            # earlier order (on its training lines) is extended as well
+            best = min(fits[:-1], key=lambda f: f.train_db)
+            if best.train_db < fits[-1].train_db:
+                model = (best.model.M, best.model.C, best.model.K)
+                for j in range(best.m + 1, order + 1):
+                    extra = _decoupled_mode(Ut[:, :j], Ft[:, :j], wt, w)
+                    if extra is None:
+                        break
+                    model = _extend(model, extra)
+                else:
+                    starts.append((f"continuation from m = {best.m}", model))
         if previous is not None:
             peaks = _residual_modes(previous, Ut, Ft, wt, w)
             if peaks:
