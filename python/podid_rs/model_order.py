@@ -412,8 +412,9 @@ def plot_order_sweep(sweep: OrderSweep, path: str | Path, *, title: str | None =
         ax.plot([f.m for f in unstable], [f.test_db for f in unstable], "kx", ms=9,
                 label="unstable")
     ax.axvline(sweep.chosen, color="grey", ls=":", lw=1.2)
-    ax.text(sweep.chosen, 0.97, f" m = {sweep.chosen}", transform=ax.get_xaxis_transform(),
-            va="top", fontsize=9, color="dimgrey")
+    at_right = sweep.chosen > (ms[0] + ms[-1]) / 2  # keep the label inside the axes
+    ax.text(sweep.chosen, 0.97, f" m = {sweep.chosen} ", transform=ax.get_xaxis_transform(),
+            va="top", ha="right" if at_right else "left", fontsize=9, color="dimgrey")
     ax.set_yscale("log")
     ax.set_xlabel("reduced order m (POD modes)")
     ax.set_ylabel("median |dB error| of the FRFs")
