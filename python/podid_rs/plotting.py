@@ -41,7 +41,7 @@ class Curve:
     style: Mapping = field(default_factory=dict)
 
 
-def _entry_name(entry: tuple[int, int]) -> str:
+def _entry_name(entry: tuple[int | str, int | str]) -> str:
     return f"H({entry[0]},{entry[1]})"
 
 
@@ -176,9 +176,11 @@ def plot_frf_comparison(
     *,
     title: str,
     band_hz: tuple[float, float] | None = None,
-    entries: Sequence[tuple[int, int]] = ((50, 50), (60, 40)),
+    entries: Sequence[tuple[int | str, int | str]] = ((50, 50), (60, 40)),
 ) -> Path:
     """Two FRF panels (driving point, cross) comparing several models (paper Figs. 4–19).
+
+    ``entries`` name the two FRF entries (1-based indices, or DOF names such as "3Z").
 
     Each :class:`Curve` holds both entries; the measured band is shaded when
     ``band_hz`` is given, so in-band and out-of-band behaviour read apart.

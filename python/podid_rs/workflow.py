@@ -184,10 +184,19 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
                 curves,
                 out / f"frf_input{k + 1}.png",
                 title=f"FRFs for the force at DOF {node}: {what}, m = {run.result.m}",
-                entries=[(col + 1, col + 1), (far + 1, col + 1)],
+                entries=[(_dof_name(d.dofs[col]), _dof_name(d.dofs[col])),
+                         (_dof_name(d.dofs[far]), _dof_name(d.dofs[col]))],
             )
         )
     return paths
+
+
+def _dof_name(dof: np.ndarray) -> str:
+    """A measured DOF as the file names it: node and direction, e.g. ``3Z`` or ``12-Y``."""
+    node, direction = (int(v) for v in dof[:2])
+    if 1 <= abs(direction) <= 3:
+        return f"{node}{'-' if direction < 0 else ''}{'XYZ'[abs(direction) - 1]}"
+    return f"{node}:{direction}"
 
 
 def run_identify(
