@@ -1,0 +1,548 @@
+//! Symmetric Gauss–Seidel over entry pairs: the preconditioner of the matrix-free
+//! solver (DESIGN §4, issue 13), applied with Eisenstat's trick by [`crate::cg`].
+//!
+//! In the Q basis of [`crate::precond`] the normal operator splits as
+//! G = D + L + Lᵀ: D the pair blocks of [`PairPrecond`] (3×3 per diagonal entry,
+//! 3×3 or 6×6 per pair (j, k)), L the couplings of each pair to the pairs before
+//! it in column-major pair order (larger index k first, then j). Every coupling
+//! outside D comes from the row operator Z ↦ Z H̃ with the mode-diagonal 3×3
+//! blocks of H̃ removed; written on the entry matrix Y (Y_ic ∈ ℝ³, one value per
+//! block) it is
+//!
+//! ```text
+//!   (L Y)_ic = Σ_{l<c} Y_il H̃(l, c)        (H̃(l, c) the 3×3 block of modes l, c)
+//! ```
+//!
+//! i.e. the strictly block-upper part U of H̃ (in mode-major order) acting from
+//! the right, Y ↦ Y U; the entry (i, c) and its mirror (c, i) meet only in D.
+//! The penalty, which can exceed the data by 10¹⁵, lives in D alone, and D is
+//! solved in the sym/skew coordinates (σ, τ), so it never touches the entries.
+//!
+//! The triangular solve (D + L) y = r is a triangular Lyapunov/Sylvester
+//! equation; it is done recursively (RECSY style): split the modes in halves
+//! a|b, solve the a×a part, update the accumulated lower terms of what depends on
+//! it by one GEMM, solve the a×b and b×a entries (a triangular Sylvester problem,
+//! split the same way), update, solve b×b. All couplings across halves are
+//! GEMMs in single precision (H̃ in f32, ≈ 9m³ flops per solve: half an operator
+//! GEMM); only those within leaves of [`LEAF`] modes are done entry by entry.
+//! The solve (D + Lᵀ) is the same recursion in reverse mode order.
+//!
+//! The entries are kept in a 3m×m matrix, column i holding row i of Y in
+//! mode-major order (Y_il[b] at row 3l + b), so that both the GEMMs and the
+//! dot products of the leaves read contiguous memory.
+
+use crate::pairs::Layout;
+use crate::precond::PairPrecond;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
+use rayon::prelude::*;
+use std::f64::consts::FRAC_1_SQRT_2 as RSQRT2;
+
+/// Modes per leaf of the recursion (entry-by-entry substitution below this):
+/// the tiles of the pair numbering, so that a leaf's pair data are contiguous.
+pub const LEAF: usize = crate::pairs::TILE;
+
+/// GEMMs below this many flops run on one thread.
+const PAR_FLOPS: f64 = 4e6;
+
+/// H̃ in mode-major order, single precision, for the triangular solves.
+pub struct Sgs {
+    layout: Layout,
+    /// Sylvester blocks with both sides at least this long fork ([`FORK`])
+    pub fork: usize,
+    /// 3m×3m, column-major: H̃(l, c)[b', b] at row 3l + b', column 3c + b
+    hm: Vec<f32>,
+    par: Par,
+}
+
+/// Scratch of one solve: the entries Y and their accumulated lower terms W,
+/// both 3m×m column-major (column i = row i of the entry matrix, mode-major).
+pub struct SgsWork {
+    y: Vec<f32>,
+    w: Vec<f32>,
+}
+
+impl SgsWork {
+    pub fn new(m: usize) -> SgsWork {
+        SgsWork {
+            y: vec![0.0; 3 * m * m],
+            w: vec![0.0; 3 * m * m],
+        }
+    }
+}
+
+/// A contiguous range of modes.
+#[derive(Clone, Copy, Debug)]
+struct Modes {
+    lo: usize,
+    hi: usize,
+}
+
+impl Modes {
+    fn len(self) -> usize {
+        self.hi - self.lo
+    }
+}
+
+impl Sgs {
+    /// From H̃ (3m×3m, block layout: row b·m + l) in the Q basis.
+    pub fn new(ht: MatRef<f64>, layout: Layout, par: Par) -> Sgs {
+        let n = 3 * layout.m;
+        let mut hm = vec![0.0f32; n * n];
+        hm.par_chunks_mut(n).enumerate().for_each(|(c, col)| {
+            let (m, cc) = (layout.m, (c % 3) * layout.m + c / 3);
+            for (r, v) in col.iter_mut().enumerate() {
+                *v = ht[((r % 3) * m + r / 3, cc)] as f32;
+            }
+        });
+        Sgs {
+            layout,
+            fork: FORK,
+            hm,
+            par,
+        }
+    }
+
+    /// Bytes held (for the memory estimate): H̃ in f32 and one [`SgsWork`].
+    pub fn bytes(m: usize) -> usize {
+        4 * (9 * m * m + 6 * m * m)
+    }
+
+    /// Solve (D + L) y = r (`backward`: (D + Lᵀ) y = r) in packed coordinates;
+    /// if `lower` is given, it receives L y (Lᵀ y), the couplings the solve
+    /// subtracted, in the same coordinates.
+    pub fn solve(
+        &self,
+        pre: &PairPrecond,
+        r: &[f64],
+        y: &mut [f64],
+        lower: Option<&mut [f64]>,
+        backward: bool,
+        work: &mut SgsWork,
+    ) {
+        let lay = self.layout;
+        let n = lay.len();
+        assert!(r.len() == n && y.len() == n && work.y.len() == 3 * lay.m * lay.m);
+        assert!(lower.as_ref().is_none_or(|l| l.len() == n));
+        work.w.par_iter_mut().for_each(|v| *v = 0.0);
+        let s = Solve {
+            sgs: self,
+            pre,
+            r,
+            ptr: Ptrs {
+                ye: work.y.as_mut_ptr(),
+                w: work.w.as_mut_ptr(),
+                out: y.as_mut_ptr(),
+                lower: lower.map_or(std::ptr::null_mut(), |l| l.as_mut_ptr()),
+            },
+            backward,
+            nested: false,
+            n_pairs: lay.n_pairs(),
+        };
+        s.lyap(Modes { lo: 0, hi: lay.m });
+    }
+}
+
+/// Where one solve writes: the entries Y and lower terms W (3m×m each), the
+/// solution and the lower terms in packed coordinates (null if not wanted).
+///
+/// Safety: the recursion of [`Solve`] runs two branches at once only on
+/// disjoint sets of entries (i, c) and their mirrors (c, i); each branch writes
+/// Y, W and the packed outputs of its own entries only, and reads Y only of its
+/// own entries or of entries finished before the branches were forked. The
+/// buffers outlive the solve (they are borrowed by [`Sgs::solve`]).
+#[derive(Clone, Copy)]
+struct Ptrs {
+    ye: *mut f32,
+    w: *mut f32,
+    out: *mut f64,
+    lower: *mut f64,
+}
+
+unsafe impl Send for Ptrs {}
+unsafe impl Sync for Ptrs {}
+
+/// One triangular solve in progress (cheap to copy into a parallel branch).
+#[derive(Clone, Copy)]
+struct Solve<'a> {
+    sgs: &'a Sgs,
+    pre: &'a PairPrecond,
+    r: &'a [f64],
+    ptr: Ptrs,
+    backward: bool,
+    /// inside a parallel branch: GEMMs on one thread
+    nested: bool,
+    n_pairs: usize,
+}
+
+/// Both ranges of a Sylvester block at least this long: its two independent
+/// quarters run in parallel.
+const FORK: usize = 32;
+
+impl Solve<'_> {
+    /// The two halves of `r` in solve order, split at a tile boundary.
+    fn split(&self, r: Modes) -> (Modes, Modes) {
+        let mid = (r.lo + r.len() / 2 + LEAF / 2) / LEAF * LEAF;
+        let mid = mid.clamp(r.lo + 1, r.hi - 1);
+        let (a, b) = (Modes { lo: r.lo, hi: mid }, Modes { lo: mid, hi: r.hi });
+        if self.backward {
+            (b, a)
+        } else {
+            (a, b)
+        }
+    }
+
+    /// W[dst, rows] += H̃[dst, src] · Y[src, rows]: the lower terms that the
+    /// entries in rows `rows`, columns `dst` receive from columns `src`.
+    fn update(&self, dst: Modes, src: Modes, rows: Modes) {
+        let (d, s, n) = (3 * dst.len(), 3 * src.len(), rows.len());
+        if d == 0 || s == 0 || n == 0 {
+            return;
+        }
+        let flops = 2.0 * d as f64 * s as f64 * n as f64;
+        let par = if self.nested || flops < PAR_FLOPS {
+            Par::Seq
+        } else {
+            self.sgs.par
+        };
+        let ld = 3 * self.sgs.layout.m;
+        // SAFETY: W[dst, rows] belongs to this branch and Y[src, rows] is final
+        // (see `Ptrs`); both views lie inside the 3m×m buffers.
+        let (w, y) = unsafe {
+            (
+                MatMut::from_raw_parts_mut(
+                    self.ptr.w.add(rows.lo * ld + 3 * dst.lo),
+                    d,
+                    n,
+                    1,
+                    ld as isize,
+                ),
+                MatRef::from_raw_parts(
+                    self.ptr.ye.add(rows.lo * ld + 3 * src.lo) as *const f32,
+                    s,
+                    n,
+                    1,
+                    ld as isize,
+                ),
+            )
+        };
+        let h = MatRef::from_column_major_slice(&self.sgs.hm[..], ld, ld);
+        matmul(
+            w,
+            Accum::Add,
+            h.submatrix(3 * dst.lo, 3 * src.lo, d, s),
+            y,
+            1.0f32,
+            par,
+        );
+    }
+
+    /// Diagonal block r×r of Y.
+    fn lyap(&self, r: Modes) {
+        if r.len() <= LEAF {
+            return self.leaf(r, r);
+        }
+        let (a, b) = self.split(r);
+        self.lyap(a);
+        self.update(b, a, a);
+        self.sylv(a, b);
+        self.update(b, a, b);
+        self.lyap(b);
+    }
+
+    /// Entries (i, c) and (c, i), i in `ri`, c in `rc`, `ri` wholly before `rc`.
+    /// (i, c) depends on (i, l) for l before c, its mirror (c, i) on (c, l) for l
+    /// before i: of the four quarters, (ri₂, rc₁) and (ri₁, rc₂) are independent.
+    fn sylv(&self, ri: Modes, rc: Modes) {
+        let (li, lc) = (ri.len(), rc.len());
+        if li <= LEAF && lc <= LEAF {
+            return self.leaf(ri, rc);
+        }
+        if li > LEAF && lc > LEAF {
+            let (i1, i2) = self.split(ri);
+            let (c1, c2) = self.split(rc);
+            self.sylv(i1, c1);
+            self.update(c2, c1, i1);
+            self.update(i2, i1, c1);
+            if li.min(lc) >= self.sgs.fork {
+                let inner = Solve {
+                    nested: true,
+                    ..*self
+                };
+                rayon::join(|| inner.sylv(i1, c2), || inner.sylv(i2, c1));
+            } else {
+                self.sylv(i1, c2);
+                self.sylv(i2, c1);
+            }
+            self.update(c2, c1, i2);
+            self.update(i2, i1, c2);
+            self.sylv(i2, c2);
+        } else if lc > LEAF {
+            let (a, b) = self.split(rc);
+            self.sylv(ri, a);
+            // entries (i, c ∈ b) depend on (i, l ∈ a)
+            self.update(b, a, ri);
+            self.sylv(ri, b);
+        } else {
+            let (a, b) = self.split(ri);
+            self.sylv(a, rc);
+            // entries (c, i ∈ b) depend on (c, l ∈ a)
+            self.update(b, a, rc);
+            self.sylv(b, rc);
+        }
+    }
+
+    /// Entry by entry: the pairs (i, c), i in `ri`, c in `rc`, `ri` wholly
+    /// before `rc`, or (`ri` = `rc`) the diagonal block: pairs i before c and
+    /// the diagonal entries. What the leaf touches of Y and W is copied into
+    /// small local arrays first (local index = position in solve order).
+    fn leaf(&self, ri: Modes, rc: Modes) {
+        let diagonal = ri.lo == rc.lo;
+        let (ni, nc) = (if diagonal { 0 } else { ri.len() }, rc.len());
+        let n = ni + nc;
+        debug_assert!(n <= 2 * LEAF);
+        let back = self.backward;
+        let mode = |u: usize| {
+            let (r, k) = if u < ni { (ri, u) } else { (rc, u - ni) };
+            if back {
+                r.hi - 1 - k
+            } else {
+                r.lo + k
+            }
+        };
+        let modes: [usize; 2 * LEAF] = std::array::from_fn(|u| if u < n { mode(u) } else { 0 });
+        let ld = 3 * self.sgs.layout.m;
+        // h[u][v] = H̃(mode u, mode v) for u before v in the same range: h[u][v][b'][b]
+        let mut h = [[[[0.0f32; 3]; 3]; 2 * LEAF]; 2 * LEAF];
+        let same = |u: usize, v: usize| (u < ni) == (v < ni);
+        for v in 0..n {
+            for u in 0..v {
+                if same(u, v) {
+                    let (l, c) = (modes[u], modes[v]);
+                    for (bp, row) in h[u][v].iter_mut().enumerate() {
+                        for (b, x) in row.iter_mut().enumerate() {
+                            *x = self.sgs.hm[(3 * c + b) * ld + 3 * l + bp];
+                        }
+                    }
+                }
+            }
+        }
+        // the entries (row u, col v) of this leaf: their accumulated lower terms
+        // and, once solved, their values
+        let wanted = |u: usize, v: usize| diagonal || !same(u, v);
+        let mut w = [[[0.0f32; 3]; 2 * LEAF]; 2 * LEAF];
+        let mut e = [[[0.0f32; 3]; 2 * LEAF]; 2 * LEAF];
+        for u in 0..n {
+            for v in 0..n {
+                if wanted(u, v) {
+                    let at = modes[u] * ld + 3 * modes[v];
+                    // SAFETY: entry (u, v) belongs to this leaf (see `Ptrs`)
+                    let src = unsafe { std::slice::from_raw_parts(self.ptr.w.add(at), 3) };
+                    w[u][v].copy_from_slice(src);
+                }
+            }
+        }
+        // (row u, col v) sees the columns of v's range before v
+        let term = |e: &[[[f32; 3]; 2 * LEAF]; 2 * LEAF], u: usize, v: usize| -> [f64; 3] {
+            let first = if v < ni { 0 } else { ni };
+            let mut acc = w[u][v];
+            for l in first..v {
+                let (y, hb) = (&e[u][l], &h[l][v]);
+                for b in 0..3 {
+                    acc[b] += hb[0][b] * y[0] + hb[1][b] * y[1] + hb[2][b] * y[2];
+                }
+            }
+            acc.map(|a| a as f64)
+        };
+        let m = self.sgs.layout.m;
+        let symmetric = self.sgs.layout.symmetric;
+        // SAFETY (both): the packed coordinates of this leaf's pairs belong to it
+        let out = |at: usize, x: &[f64]| unsafe {
+            std::ptr::copy_nonoverlapping(x.as_ptr(), self.ptr.out.add(at), x.len())
+        };
+        let lower = |at: usize, x: &[f64]| {
+            if !self.ptr.lower.is_null() {
+                unsafe {
+                    std::ptr::copy_nonoverlapping(x.as_ptr(), self.ptr.lower.add(at), x.len())
+                }
+            }
+        };
+        for v in ni..n {
+            let rows = if diagonal { 0..v } else { 0..ni };
+            for u in rows {
+                let (i, c) = (modes[u], modes[v]);
+                let wx = term(&e, u, v);
+                let wz = term(&e, v, u);
+                let (j, k) = (i.min(c), i.max(c));
+                let (wu, wl) = if i < c { (wx, wz) } else { (wz, wx) };
+                let p = self.sgs.layout.pair(j, k);
+                let s0 = 3 * m + 3 * p;
+                let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
+                let ls = [0, 1, 2].map(|b| (wu[b] + wl[b]) * RSQRT2);
+                let (upper, lw) = if symmetric {
+                    let mut x = [0, 1, 2].map(|b| self.r[s0 + b] - ls[b]);
+                    self.pre.solve_sym(p, &mut x);
+                    out(s0, &x);
+                    let v = x.map(|s| (s * RSQRT2) as f32);
+                    (v, v)
+                } else {
+                    let lt = [0, 1, 2].map(|b| (wu[b] - wl[b]) * RSQRT2);
+                    let mut x = [0, 1, 2, 3, 4, 5].map(|q| {
+                        if q < 3 {
+                            self.r[s0 + q] - ls[q]
+                        } else {
+                            self.r[t0 + q - 3] - lt[q - 3]
+                        }
+                    });
+                    self.pre.solve_pen(p, &mut x);
+                    out(s0, &x[..3]);
+                    out(t0, &x[3..]);
+                    lower(t0, &lt);
+                    (
+                        [0, 1, 2].map(|b| ((x[b] + x[b + 3]) * RSQRT2) as f32),
+                        [0, 1, 2].map(|b| ((x[b] - x[b + 3]) * RSQRT2) as f32),
+                    )
+                };
+                lower(s0, &ls);
+                // Y[j, k] is the upper entry, Y[k, j] the lower one
+                let (eu, ev) = if i < c { (upper, lw) } else { (lw, upper) };
+                e[u][v] = eu;
+                e[v][u] = ev;
+            }
+            if diagonal {
+                let c = modes[v];
+                let wd = term(&e, v, v);
+                let mut x = [0, 1, 2].map(|b| self.r[3 * c + b] - wd[b]);
+                self.pre.solve_diag(c, &mut x);
+                out(3 * c, &x);
+                lower(3 * c, &wd);
+                e[v][v] = x.map(|s| s as f32);
+            }
+        }
+        for u in 0..n {
+            for v in 0..n {
+                if wanted(u, v) {
+                    let at = modes[u] * ld + 3 * modes[v];
+                    // SAFETY: as above
+                    let dst = unsafe { std::slice::from_raw_parts_mut(self.ptr.ye.add(at), 3) };
+                    dst.copy_from_slice(&e[u][v]);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cg::Operator;
+    use faer::Mat;
+
+    /// A symmetric positive definite 3m×3m matrix with every kind of coupling.
+    fn spd(m: usize) -> Mat<f64> {
+        let a = Mat::from_fn(3 * m, 3 * m, |i, j| {
+            (((i * 13 + j * 7) % 17) as f64 - 8.0) / 17.0 + if i == j { 1.5 } else { 0.0 }
+        });
+        &a * a.transpose()
+    }
+
+    /// Columns f(e_q) of a linear map on packed vectors.
+    fn matrix(n: usize, mut f: impl FnMut(&[f64], &mut [f64])) -> Mat<f64> {
+        let mut a = Mat::zeros(n, n);
+        let (mut e, mut out) = (vec![0.0; n], vec![0.0; n]);
+        for q in 0..n {
+            e.iter_mut().for_each(|v| *v = 0.0);
+            e[q] = 1.0;
+            f(&e, &mut out);
+            for (p, v) in out.iter().enumerate() {
+                a[(p, q)] = *v;
+            }
+        }
+        a
+    }
+
+    /// With S_f = (D + L)⁻¹ and S_b = (D + Lᵀ)⁻¹ as the two solves: S_b = S_fᵀ,
+    /// and G = (D + L) + (D + Lᵀ) − D for the operator G (checked as
+    /// S_b + S_f − S_b D S_f = S_b G S_f), which is what Eisenstat's trick needs;
+    /// the returned lower terms are r − D y. Sizes across several leaves and
+    /// odd splits, both modes, a penalty 10⁶ above the data.
+    #[test]
+    fn triangular_solves_split_the_operator() {
+        for m in [1, 2, 5, LEAF + 3, 2 * LEAF + 3, 4 * LEAF + 1] {
+            let h = spd(m);
+            for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
+                let lay = Layout::new(m, symmetric);
+                let n = lay.len();
+                let pre = PairPrecond::new(h.as_ref(), lay, pen);
+                let mut sgs = Sgs::new(h.as_ref(), lay, Par::Seq);
+                sgs.fork = LEAF + 1; // exercise the parallel branches
+                let mut op = Operator::new(h.as_ref(), lay, pen, Par::Seq);
+                let mut work = SgsWork::new(m);
+                let mut lower = vec![0.0; n];
+                let mut worst = 0.0f64;
+                let mut solve = |backward: bool| {
+                    matrix(n, |r, y| {
+                        sgs.solve(&pre, r, y, Some(&mut lower), backward, &mut work);
+                        // lower = r − D y
+                        let mut t = vec![0.0; n];
+                        let mut dy = vec![0.0; n];
+                        pre.mul_factor(y, &mut t, true);
+                        pre.mul_factor(&t, &mut dy, false);
+                        for ((l, r), d) in lower.iter().zip(r).zip(&dy) {
+                            worst = worst.max((l - (r - d)).abs());
+                        }
+                    })
+                };
+                let sf = solve(false);
+                let sb = solve(true);
+                assert!(
+                    worst < 1e-4,
+                    "m={m} sym={symmetric}: lower terms off by {worst}"
+                );
+                let d = matrix(n, |v, out| {
+                    let mut t = vec![0.0; n];
+                    pre.mul_factor(v, &mut t, true);
+                    pre.mul_factor(&t, out, false);
+                });
+                let g = matrix(n, |v, out| op.apply(v, out));
+                let size = sf.norm_max();
+                // single-precision couplings: relative 1e-5
+                let tr = (&sb - sf.transpose()).norm_max();
+                assert!(tr < 1e-5 * size, "m={m} sym={symmetric}: S_b − S_fᵀ = {tr}");
+                let lhs = &sb + &sf - &sb * &d * &sf;
+                let rhs = &sb * &g * &sf;
+                let err = (&lhs - &rhs).norm_max();
+                assert!(err < 1e-4 * rhs.norm_max(), "m={m} sym={symmetric}: {err}");
+            }
+        }
+    }
+
+    /// The solves do the same arithmetic on any number of threads.
+    #[test]
+    fn solves_do_not_depend_on_the_thread_count() {
+        let m = 9 * LEAF + 5;
+        let h = spd(m);
+        for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
+            let lay = Layout::new(m, symmetric);
+            let pre = PairPrecond::new(h.as_ref(), lay, pen);
+            let mut sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
+            sgs.fork = 2 * LEAF;
+            let r = vector(lay.len(), 3);
+            let run = |threads: usize| {
+                crate::with_threads(threads, || {
+                    let mut work = SgsWork::new(m);
+                    let (mut y, mut l) = (vec![0.0; lay.len()], vec![0.0; lay.len()]);
+                    sgs.solve(&pre, &r, &mut y, Some(&mut l), true, &mut work);
+                    (y, l)
+                })
+            };
+            assert_eq!(run(1), run(2), "symmetric={symmetric}");
+        }
+    }
+
+    fn vector(n: usize, seed: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| (((i * 31 + seed * 17) % 23) as f64 - 11.0) / 7.0)
+            .collect()
+    }
+}
