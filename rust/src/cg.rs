@@ -21,7 +21,7 @@ use crate::identify::{check_lam, scaled_gram, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
 use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
-use crate::sgs::{Sgs, SgsWork};
+use crate::sgs::{Ends, Sgs, SgsWork};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
@@ -80,6 +80,8 @@ pub struct Operator<'a> {
     par: Par,
     /// wall time spent in the GEMM so far (the rest of an apply is O(m²))
     pub gemm_seconds: f64,
+    /// wall time [`pcg`] spent in the triangular solves of its preconditioner
+    pub solve_seconds: f64,
 }
 
 impl<'a> Operator<'a> {
@@ -93,6 +95,7 @@ impl<'a> Operator<'a> {
             y: Mat::zeros(m, 3 * m),
             par,
             gemm_seconds: 0.0,
+            solve_seconds: 0.0,
         }
     }
 
@@ -172,9 +175,9 @@ struct Split<'a> {
     pre: &'a PairPrecond,
     sgs: &'a Sgs,
     work: SgsWork,
-    s: Vec<f64>,
+    /// wall time in the triangular solves so far
+    solve_seconds: f64,
     w: Vec<f64>,
-    u: Vec<f64>,
 }
 
 impl<'a> Split<'a> {
@@ -184,43 +187,38 @@ impl<'a> Split<'a> {
             pre,
             sgs,
             work: SgsWork::new(layout.m),
-            s: vec![0.0; n],
+            solve_seconds: 0.0,
             w: vec![0.0; n],
-            u: vec![0.0; n],
         }
     }
 
-    /// q = Ĝ v and t = C⁻ᵀ v.
+    /// q = Ĝ v and t = C⁻ᵀ v (the factor products R v and Rᵀ(t + u) are done
+    /// inside the solves).
     fn apply(&mut self, v: &[f64], q: &mut [f64], t: &mut [f64]) {
-        self.pre.mul_factor(v, &mut self.s, false);
-        self.sgs.solve(
-            self.pre,
-            &self.s,
+        let start = Instant::now();
+        let (pre, sgs) = (self.pre, self.sgs);
+        sgs.solve_with(
+            pre,
+            v,
             t,
             Some(&mut self.w),
             false,
+            Ends::FactorIn,
             &mut self.work,
         );
-        self.pre.correct(t, &mut self.w);
-        self.sgs
-            .solve(self.pre, &self.w, &mut self.u, None, true, &mut self.work);
-        self.s
-            .par_chunks_mut(CHUNK)
-            .zip(t.par_chunks(CHUNK).zip(self.u.par_chunks(CHUNK)))
-            .for_each(|(s, (t, u))| {
-                s.iter_mut()
-                    .zip(t)
-                    .zip(u)
-                    .for_each(|((s, t), u)| *s = t + u)
-            });
-        self.pre.mul_factor(&self.s, q, true);
+        pre.correct(t, &mut self.w);
+        let ends = Ends::FactorOut(Some(t));
+        sgs.solve_with(pre, &self.w, q, None, true, ends, &mut self.work);
+        self.solve_seconds += start.elapsed().as_secs_f64();
     }
 
     /// out = C⁻¹ r.
     fn transform(&mut self, r: &[f64], out: &mut [f64]) {
+        let start = Instant::now();
+        let ends = Ends::FactorOut(None);
         self.sgs
-            .solve(self.pre, r, &mut self.u, None, true, &mut self.work);
-        self.pre.mul_factor(&self.u, out, true);
+            .solve_with(self.pre, r, out, None, true, ends, &mut self.work);
+        self.solve_seconds += start.elapsed().as_secs_f64();
     }
 }
 
@@ -329,16 +327,17 @@ pub fn pcg(
         relative_residual,
         converged: relative_residual <= opts.tol,
     };
+    op.solve_seconds += split.solve_seconds;
     Ok((x, report))
 }
 
 /// Bytes of the solver's O(m²) working set, an upper bound: H with the two
 /// 3m×3m matrices of its change of basis (27m²; afterwards H̃ alone, 9m²),
-/// Z and Z·H̃ (6m²), nine CG vectors, the pair factors and the single-precision
+/// Z and Z·H̃ (6m²), seven CG vectors, the pair factors and the single-precision
 /// H̃ and scratch of the Gauss–Seidel solves.
 pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
     let lay = Layout::new(m, symmetric);
-    let doubles = 33 * m * m + 9 * lay.len() + PairPrecond::doubles(lay);
+    let doubles = 33 * m * m + 7 * lay.len() + PairPrecond::doubles(lay);
     doubles as u128 * 8 + Sgs::bytes(m) as u128
 }
 
@@ -413,6 +412,7 @@ pub fn identify_cg(
             ("basis", basis_seconds),
             ("iterate", iterate_seconds),
             ("gemm", op.gemm_seconds),
+            ("solves", op.solve_seconds),
             ("total", start.elapsed().as_secs_f64()),
         ],
         cg: Some(report),

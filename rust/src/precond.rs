@@ -415,6 +415,24 @@ impl PairPrecond {
         small_solve::<6>(&self.pairs[21 * p..21 * p + 21], x);
     }
 
+    /// x ← R x (or Rᵀ x) on the block of diagonal entry j.
+    #[inline]
+    pub fn factor_diag(&self, j: usize, x: &mut [f64; 3], transpose: bool) {
+        *x = small_mul::<3>(&self.diag[6 * j..6 * j + 6], x, transpose);
+    }
+
+    /// x ← R x (or Rᵀ x) on the 3×3 block of pair p (exact-symmetric mode).
+    #[inline]
+    pub fn factor_sym(&self, p: usize, x: &mut [f64; 3], transpose: bool) {
+        *x = small_mul::<3>(&self.pairs[6 * p..6 * p + 6], x, transpose);
+    }
+
+    /// x ← R x (or Rᵀ x) on the 6×6 block of pair p, x = (σ, τ) (penalty mode).
+    #[inline]
+    pub fn factor_pen(&self, p: usize, x: &mut [f64; 6], transpose: bool) {
+        *x = small_mul::<6>(&self.pairs[21 * p..21 * p + 21], x, transpose);
+    }
+
     /// out = R v (or Rᵀ v) for the block-diagonal Cholesky factor R of D = R Rᵀ.
     pub fn mul_factor(&self, v: &[f64], out: &mut [f64], transpose: bool) {
         let lay = self.layout;

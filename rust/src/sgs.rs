@@ -52,8 +52,14 @@ pub struct Sgs {
     pub fork: usize,
     /// 3m×3m, column-major: H̃(l, c)[b', b] at row 3l + b', column 3c + b
     hm: Vec<f32>,
+    /// the couplings within each tile: tiles[t][u][v] = H̃(l, c) for the modes
+    /// l = t·LEAF + u, c = t·LEAF + v (the leaves read these, not `hm`)
+    tiles: Vec<TileBlocks>,
     par: Par,
 }
+
+/// The LEAF×LEAF blocks H̃(l, c) (3×3, [b'][b]) of one tile.
+type TileBlocks = [[[[f32; 3]; 3]; LEAF]; LEAF];
 
 /// Scratch of one solve: the entries Y and their accumulated lower terms W,
 /// both 3m×m column-major (column i = row i of the entry matrix, mode-major).
@@ -95,10 +101,28 @@ impl Sgs {
                 *v = ht[((r % 3) * m + r / 3, cc)] as f32;
             }
         });
+        let tiles = (0..layout.m.div_ceil(LEAF))
+            .map(|t| {
+                let mut blocks = [[[[0.0f32; 3]; 3]; LEAF]; LEAF];
+                let lo = t * LEAF;
+                let len = LEAF.min(layout.m - lo);
+                for (u, row) in blocks.iter_mut().enumerate().take(len) {
+                    for (v, blk) in row.iter_mut().enumerate().take(len) {
+                        for (bp, r) in blk.iter_mut().enumerate() {
+                            for (b, x) in r.iter_mut().enumerate() {
+                                *x = hm[(3 * (lo + v) + b) * n + 3 * (lo + u) + bp];
+                            }
+                        }
+                    }
+                }
+                blocks
+            })
+            .collect();
         Sgs {
             layout,
             fork: FORK,
             hm,
+            tiles,
             par,
         }
     }
@@ -120,10 +144,31 @@ impl Sgs {
         backward: bool,
         work: &mut SgsWork,
     ) {
+        self.solve_with(pre, r, y, lower, backward, Ends::Plain, work);
+    }
+
+    /// [`Sgs::solve`] with the per-pair products of Eisenstat's split done in
+    /// the leaves (saving passes over the vectors): with R the factor of D,
+    /// the right-hand side is R r if `ends` is [`Ends::FactorIn`], and y is
+    /// written as Rᵀ (y + t) for [`Ends::FactorOut`] (t = 0 if `None`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_with(
+        &self,
+        pre: &PairPrecond,
+        r: &[f64],
+        y: &mut [f64],
+        lower: Option<&mut [f64]>,
+        backward: bool,
+        ends: Ends,
+        work: &mut SgsWork,
+    ) {
         let lay = self.layout;
         let n = lay.len();
         assert!(r.len() == n && y.len() == n && work.y.len() == 3 * lay.m * lay.m);
         assert!(lower.as_ref().is_none_or(|l| l.len() == n));
+        if let Ends::FactorOut(Some(t)) = ends {
+            assert!(t.len() == n);
+        }
         work.w.par_iter_mut().for_each(|v| *v = 0.0);
         let s = Solve {
             sgs: self,
@@ -136,6 +181,7 @@ impl Sgs {
                 lower: lower.map_or(std::ptr::null_mut(), |l| l.as_mut_ptr()),
             },
             backward,
+            ends,
             nested: false,
             n_pairs: lay.n_pairs(),
         };
@@ -162,6 +208,14 @@ struct Ptrs {
 unsafe impl Send for Ptrs {}
 unsafe impl Sync for Ptrs {}
 
+/// Per-pair products at the ends of a solve, see [`Sgs::solve_with`].
+#[derive(Clone, Copy)]
+pub enum Ends<'a> {
+    Plain,
+    FactorIn,
+    FactorOut(Option<&'a [f64]>),
+}
+
 /// One triangular solve in progress (cheap to copy into a parallel branch).
 #[derive(Clone, Copy)]
 struct Solve<'a> {
@@ -170,6 +224,7 @@ struct Solve<'a> {
     r: &'a [f64],
     ptr: Ptrs,
     backward: bool,
+    ends: Ends<'a>,
     /// inside a parallel branch: GEMMs on one thread
     nested: bool,
     n_pairs: usize,
@@ -294,138 +349,189 @@ impl Solve<'_> {
 
     /// Entry by entry: the pairs (i, c), i in `ri`, c in `rc`, `ri` wholly
     /// before `rc`, or (`ri` = `rc`) the diagonal block: pairs i before c and
-    /// the diagonal entries. What the leaf touches of Y and W is copied into
-    /// small local arrays first (local index = position in solve order).
+    /// the diagonal entries. Both ranges are tiles. Local indices count in solve
+    /// order; what the leaf touches of Y and W is copied into small arrays.
     fn leaf(&self, ri: Modes, rc: Modes) {
         let diagonal = ri.lo == rc.lo;
-        let (ni, nc) = (if diagonal { 0 } else { ri.len() }, rc.len());
-        let n = ni + nc;
-        debug_assert!(n <= 2 * LEAF);
+        let (ni, nc) = (ri.len(), rc.len());
         let back = self.backward;
-        let mode = |u: usize| {
-            let (r, k) = if u < ni { (ri, u) } else { (rc, u - ni) };
-            if back {
-                r.hi - 1 - k
-            } else {
-                r.lo + k
-            }
-        };
-        let modes: [usize; 2 * LEAF] = std::array::from_fn(|u| if u < n { mode(u) } else { 0 });
+        // the mode of local index k of range r, and its index within its tile
+        let mode = |r: Modes, k: usize| if back { r.hi - 1 - k } else { r.lo + k };
+        let tile_i = &self.sgs.tiles[ri.lo / LEAF];
+        let tile_c = &self.sgs.tiles[rc.lo / LEAF];
+        let at_i = |k: usize| mode(ri, k) - ri.lo;
+        let at_c = |k: usize| mode(rc, k) - rc.lo;
         let ld = 3 * self.sgs.layout.m;
-        // h[u][v] = H̃(mode u, mode v) for u before v in the same range: h[u][v][b'][b]
-        let mut h = [[[[0.0f32; 3]; 3]; 2 * LEAF]; 2 * LEAF];
-        let same = |u: usize, v: usize| (u < ni) == (v < ni);
-        for v in 0..n {
-            for u in 0..v {
-                if same(u, v) {
-                    let (l, c) = (modes[u], modes[v]);
-                    for (bp, row) in h[u][v].iter_mut().enumerate() {
-                        for (b, x) in row.iter_mut().enumerate() {
-                            *x = self.sgs.hm[(3 * c + b) * ld + 3 * l + bp];
-                        }
-                    }
-                }
-            }
-        }
-        // the entries (row u, col v) of this leaf: their accumulated lower terms
-        // and, once solved, their values
-        let wanted = |u: usize, v: usize| diagonal || !same(u, v);
-        let mut w = [[[0.0f32; 3]; 2 * LEAF]; 2 * LEAF];
-        let mut e = [[[0.0f32; 3]; 2 * LEAF]; 2 * LEAF];
-        for u in 0..n {
-            for v in 0..n {
-                if wanted(u, v) {
-                    let at = modes[u] * ld + 3 * modes[v];
-                    // SAFETY: entry (u, v) belongs to this leaf (see `Ptrs`)
-                    let src = unsafe { std::slice::from_raw_parts(self.ptr.w.add(at), 3) };
-                    w[u][v].copy_from_slice(src);
-                }
-            }
-        }
-        // (row u, col v) sees the columns of v's range before v
-        let term = |e: &[[[f32; 3]; 2 * LEAF]; 2 * LEAF], u: usize, v: usize| -> [f64; 3] {
-            let first = if v < ni { 0 } else { ni };
-            let mut acc = w[u][v];
-            for l in first..v {
-                let (y, hb) = (&e[u][l], &h[l][v]);
-                for b in 0..3 {
-                    acc[b] += hb[0][b] * y[0] + hb[1][b] * y[1] + hb[2][b] * y[2];
-                }
-            }
-            acc.map(|a| a as f64)
+        let load = |src: *const f32, row: usize, col: usize| -> [f32; 3] {
+            // SAFETY: entry (row, col) belongs to this leaf (see `Ptrs`)
+            unsafe { *(src.add(row * ld + 3 * col) as *const [f32; 3]) }
         };
+        // x[a][k]: entry (row i_a, col c_k); z[k][a]: its mirror (row c_k, col i_a)
+        let mut wx = [[[0.0f32; 3]; LEAF]; LEAF];
+        let mut wz = [[[0.0f32; 3]; LEAF]; LEAF];
+        for a in 0..ni {
+            for k in 0..nc {
+                if !diagonal || a <= k {
+                    wx[a][k] = load(self.ptr.w, mode(ri, a), mode(rc, k));
+                    wz[k][a] = load(self.ptr.w, mode(rc, k), mode(ri, a));
+                }
+            }
+        }
+        let mut x = [[[0.0f32; 3]; LEAF]; LEAF];
+        let mut z = [[[0.0f32; 3]; LEAF]; LEAF];
+        // acc += Σ_l H̃(l, c)ᵀ y_l over the earlier local indices l < k of a tile
+        #[inline(always)]
+        fn couple(
+            acc: &mut [f32; 3],
+            tile: &TileBlocks,
+            at: &dyn Fn(usize) -> usize,
+            k: usize,
+            y: &dyn Fn(usize) -> [f32; 3],
+        ) {
+            let c = at(k);
+            for l in 0..k {
+                let (h, v) = (&tile[at(l)][c], y(l));
+                for (b, out) in acc.iter_mut().enumerate() {
+                    *out += h[0][b] * v[0] + h[1][b] * v[1] + h[2][b] * v[2];
+                }
+            }
+        }
         let m = self.sgs.layout.m;
         let symmetric = self.sgs.layout.symmetric;
         // SAFETY (both): the packed coordinates of this leaf's pairs belong to it
-        let out = |at: usize, x: &[f64]| unsafe {
-            std::ptr::copy_nonoverlapping(x.as_ptr(), self.ptr.out.add(at), x.len())
+        let out = |at: usize, v: &[f64]| unsafe {
+            std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.out.add(at), v.len())
         };
-        let lower = |at: usize, x: &[f64]| {
+        let lower = |at: usize, v: &[f64]| {
             if !self.ptr.lower.is_null() {
                 unsafe {
-                    std::ptr::copy_nonoverlapping(x.as_ptr(), self.ptr.lower.add(at), x.len())
+                    std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.lower.add(at), v.len())
                 }
             }
         };
-        for v in ni..n {
-            let rows = if diagonal { 0..v } else { 0..ni };
-            for u in rows {
-                let (i, c) = (modes[u], modes[v]);
-                let wx = term(&e, u, v);
-                let wz = term(&e, v, u);
-                let (j, k) = (i.min(c), i.max(c));
-                let (wu, wl) = if i < c { (wx, wz) } else { (wz, wx) };
-                let p = self.sgs.layout.pair(j, k);
-                let s0 = 3 * m + 3 * p;
-                let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
-                let ls = [0, 1, 2].map(|b| (wu[b] + wl[b]) * RSQRT2);
-                let (upper, lw) = if symmetric {
-                    let mut x = [0, 1, 2].map(|b| self.r[s0 + b] - ls[b]);
-                    self.pre.solve_sym(p, &mut x);
-                    out(s0, &x);
-                    let v = x.map(|s| (s * RSQRT2) as f32);
-                    (v, v)
-                } else {
-                    let lt = [0, 1, 2].map(|b| (wu[b] - wl[b]) * RSQRT2);
-                    let mut x = [0, 1, 2, 3, 4, 5].map(|q| {
-                        if q < 3 {
-                            self.r[s0 + q] - ls[q]
+        for k in 0..nc {
+            let c = mode(rc, k);
+            let rows = if diagonal { k } else { ni };
+            for a in 0..rows {
+                let i = mode(ri, a);
+                // entry (i, c) sees the columns of rc before c; its mirror (c, i)
+                // the columns of ri before i
+                let mut ax = wx[a][k];
+                let mut az = wz[k][a];
+                if diagonal {
+                    // one range: (i, l) for l before c is x[a][l] (l > a), the
+                    // diagonal (a = l) or the mirror z[a][l] (l < a)
+                    couple(&mut ax, tile_c, &at_c, k, &|l| {
+                        if l > a {
+                            x[a][l]
+                        } else if l == a {
+                            x[a][a]
                         } else {
-                            self.r[t0 + q - 3] - lt[q - 3]
+                            z[a][l]
                         }
                     });
-                    self.pre.solve_pen(p, &mut x);
-                    out(s0, &x[..3]);
-                    out(t0, &x[3..]);
+                    couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+                } else {
+                    couple(&mut ax, tile_c, &at_c, k, &|l| x[a][l]);
+                    couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+                }
+                let (j, kk) = (i.min(c), i.max(c));
+                let (wu, wl) = if i < c { (ax, az) } else { (az, ax) };
+                let p = self.sgs.layout.pair(j, kk);
+                let s0 = 3 * m + 3 * p;
+                let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
+                let ls = [0, 1, 2].map(|b| (wu[b] as f64 + wl[b] as f64) * RSQRT2);
+                let (upper, low) = if symmetric {
+                    let mut rhs = [0, 1, 2].map(|b| self.r[s0 + b]);
+                    if let Ends::FactorIn = self.ends {
+                        self.pre.factor_sym(p, &mut rhs, false);
+                    }
+                    let mut v = [0, 1, 2].map(|b| rhs[b] - ls[b]);
+                    self.pre.solve_sym(p, &mut v);
+                    if let Ends::FactorOut(t) = self.ends {
+                        let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[s0 + b]));
+                        self.pre.factor_sym(p, &mut o, true);
+                        out(s0, &o);
+                    } else {
+                        out(s0, &v);
+                    }
+                    let y = v.map(|s| (s * RSQRT2) as f32);
+                    (y, y)
+                } else {
+                    let lt = [0, 1, 2].map(|b| (wu[b] as f64 - wl[b] as f64) * RSQRT2);
+                    let mut rhs = [0, 1, 2, 3, 4, 5].map(|q| {
+                        if q < 3 {
+                            self.r[s0 + q]
+                        } else {
+                            self.r[t0 + q - 3]
+                        }
+                    });
+                    if let Ends::FactorIn = self.ends {
+                        self.pre.factor_pen(p, &mut rhs, false);
+                    }
+                    let mut v = [0, 1, 2, 3, 4, 5].map(|q| {
+                        if q < 3 {
+                            rhs[q] - ls[q]
+                        } else {
+                            rhs[q] - lt[q - 3]
+                        }
+                    });
+                    self.pre.solve_pen(p, &mut v);
+                    if let Ends::FactorOut(t) = self.ends {
+                        let at = |q: usize| if q < 3 { s0 + q } else { t0 + q - 3 };
+                        let mut o = [0, 1, 2, 3, 4, 5].map(|q| v[q] + t.map_or(0.0, |t| t[at(q)]));
+                        self.pre.factor_pen(p, &mut o, true);
+                        out(s0, &o[..3]);
+                        out(t0, &o[3..]);
+                    } else {
+                        out(s0, &v[..3]);
+                        out(t0, &v[3..]);
+                    }
                     lower(t0, &lt);
                     (
-                        [0, 1, 2].map(|b| ((x[b] + x[b + 3]) * RSQRT2) as f32),
-                        [0, 1, 2].map(|b| ((x[b] - x[b + 3]) * RSQRT2) as f32),
+                        [0, 1, 2].map(|b| ((v[b] + v[b + 3]) * RSQRT2) as f32),
+                        [0, 1, 2].map(|b| ((v[b] - v[b + 3]) * RSQRT2) as f32),
                     )
                 };
                 lower(s0, &ls);
-                // Y[j, k] is the upper entry, Y[k, j] the lower one
-                let (eu, ev) = if i < c { (upper, lw) } else { (lw, upper) };
-                e[u][v] = eu;
-                e[v][u] = ev;
+                // Y[j, kk] is the upper entry, Y[kk, j] the lower one
+                let (ex, ez) = if i < c { (upper, low) } else { (low, upper) };
+                x[a][k] = ex;
+                z[k][a] = ez;
             }
             if diagonal {
-                let c = modes[v];
-                let wd = term(&e, v, v);
-                let mut x = [0, 1, 2].map(|b| self.r[3 * c + b] - wd[b]);
-                self.pre.solve_diag(c, &mut x);
-                out(3 * c, &x);
+                // (c, c): the columns before c in row c, i.e. z[k][l] for l < k
+                let mut ad = wx[k][k];
+                couple(&mut ad, tile_c, &at_c, k, &|l| z[k][l]);
+                let wd = ad.map(|v| v as f64);
+                let mut rhs = [0, 1, 2].map(|b| self.r[3 * c + b]);
+                if let Ends::FactorIn = self.ends {
+                    self.pre.factor_diag(c, &mut rhs, false);
+                }
+                let mut v = [0, 1, 2].map(|b| rhs[b] - wd[b]);
+                self.pre.solve_diag(c, &mut v);
+                if let Ends::FactorOut(t) = self.ends {
+                    let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[3 * c + b]));
+                    self.pre.factor_diag(c, &mut o, true);
+                    out(3 * c, &o);
+                } else {
+                    out(3 * c, &v);
+                }
                 lower(3 * c, &wd);
-                e[v][v] = x.map(|s| s as f32);
+                x[k][k] = v.map(|s| s as f32);
             }
         }
-        for u in 0..n {
-            for v in 0..n {
-                if wanted(u, v) {
-                    let at = modes[u] * ld + 3 * modes[v];
-                    // SAFETY: as above
-                    let dst = unsafe { std::slice::from_raw_parts_mut(self.ptr.ye.add(at), 3) };
-                    dst.copy_from_slice(&e[u][v]);
+        let store = |row: usize, col: usize, v: [f32; 3]| {
+            // SAFETY: as `load`
+            unsafe { *(self.ptr.ye.add(row * ld + 3 * col) as *mut [f32; 3]) = v }
+        };
+        for a in 0..ni {
+            for k in 0..nc {
+                if !diagonal || a < k {
+                    store(mode(ri, a), mode(rc, k), x[a][k]);
+                    store(mode(rc, k), mode(ri, a), z[k][a]);
+                } else if a == k {
+                    store(mode(ri, a), mode(rc, k), x[a][k]);
                 }
             }
         }
@@ -537,6 +643,44 @@ mod tests {
                 })
             };
             assert_eq!(run(1), run(2), "symmetric={symmetric}");
+        }
+    }
+
+    /// The per-pair products fused into the solves are those of `mul_factor`.
+    #[test]
+    fn fused_factor_products_match_separate_ones() {
+        let m = 2 * LEAF + 3;
+        let h = spd(m);
+        for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
+            let lay = Layout::new(m, symmetric);
+            let n = lay.len();
+            let pre = PairPrecond::new(h.as_ref(), lay, pen);
+            let sgs = Sgs::new(h.as_ref(), lay, Par::Seq);
+            let mut work = SgsWork::new(m);
+            let (r, t) = (vector(n, 1), vector(n, 2));
+            let close = |a: &[f64], b: &[f64]| {
+                let d = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
+                let s = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
+                assert!(d <= 1e-12 * s, "symmetric={symmetric}: {d} vs {s}");
+            };
+            // FactorIn: the solve of R r
+            let mut rr = vec![0.0; n];
+            pre.mul_factor(&r, &mut rr, false);
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            sgs.solve(&pre, &rr, &mut a, None, false, &mut work);
+            sgs.solve_with(&pre, &r, &mut b, None, false, Ends::FactorIn, &mut work);
+            close(&b, &a);
+            // FactorOut: Rᵀ (y + t)
+            sgs.solve(&pre, &r, &mut a, None, true, &mut work);
+            let sum: Vec<f64> = a.iter().zip(&t).map(|(y, t)| y + t).collect();
+            pre.mul_factor(&sum, &mut a, true);
+            let ends = Ends::FactorOut(Some(&t));
+            sgs.solve_with(&pre, &r, &mut b, None, true, ends, &mut work);
+            close(&b, &a);
         }
     }
 
