@@ -397,6 +397,17 @@ impl PairPrecond {
         }
     }
 
+    /// The packed factors of the pairs p_lo..p_hi.
+    pub fn pair_factors(&self, p_lo: usize, p_hi: usize) -> &[f64] {
+        let width = if self.layout.symmetric { 6 } else { 21 };
+        &self.pairs[width * p_lo..width * p_hi]
+    }
+
+    /// The packed factors of the diagonal entries j_lo..j_hi.
+    pub fn diag_factors(&self, j_lo: usize, j_hi: usize) -> &[f64] {
+        &self.diag[6 * j_lo..6 * j_hi]
+    }
+
     /// Solve D(j) x = r in place (the block of diagonal entry j).
     #[inline]
     pub fn solve_diag(&self, j: usize, x: &mut [f64; 3]) {

@@ -77,6 +77,26 @@ impl SgsWork {
     }
 }
 
+/// Prefetch the cache lines of `len` values from `ptr` into L1 (a hint only).
+#[inline]
+fn prefetch<T>(ptr: *const T, len: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let bytes = len * std::mem::size_of::<T>();
+        let start = ptr as usize & !63;
+        let end = ptr as usize + bytes;
+        let mut line = start;
+        while line < end {
+            // SAFETY: a prefetch never faults, whatever the address
+            unsafe { _mm_prefetch(line as *const i8, _MM_HINT_T0) };
+            line += 64;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (ptr, len);
+}
+
 /// A contiguous range of modes.
 #[derive(Clone, Copy, Debug)]
 struct Modes {
@@ -347,11 +367,75 @@ impl Solve<'_> {
         }
     }
 
+    /// Ask for every cache line the leaf (ri, rc) will touch before it starts:
+    /// its pairs' packed coordinates and factors are small contiguous runs far
+    /// from the previous leaf's, and loaded one pair at a time their misses
+    /// would not overlap.
+    fn prefetch_leaf(&self, ri: Modes, rc: Modes) {
+        let lay = self.sgs.layout;
+        let (m, n_pairs) = (lay.m, self.n_pairs);
+        let (lo, hi) = if ri.lo < rc.lo { (ri, rc) } else { (rc, ri) };
+        let diagonal = ri.lo == rc.lo;
+        let (p_lo, p_hi) = if diagonal && lo.len() < 2 {
+            (0, 0)
+        } else if diagonal {
+            (
+                lay.pair(lo.lo, lo.lo + 1),
+                lay.pair(lo.hi - 2, lo.hi - 1) + 1,
+            )
+        } else {
+            (lay.pair(lo.lo, hi.lo), lay.pair(lo.hi - 1, hi.hi - 1) + 1)
+        };
+        let pairs = 3 * (p_hi - p_lo);
+        let runs = [
+            (3 * m + 3 * p_lo, pairs),
+            (
+                3 * m + 3 * n_pairs + 3 * p_lo,
+                if lay.symmetric { 0 } else { pairs },
+            ),
+            (3 * lo.lo, if diagonal { 3 * lo.len() } else { 0 }),
+        ];
+        let t = match self.ends {
+            Ends::FactorOut(Some(t)) => t.as_ptr(),
+            _ => std::ptr::null(),
+        };
+        for (at, len) in runs.into_iter().filter(|&(_, len)| len > 0) {
+            for base in [
+                self.r.as_ptr(),
+                self.ptr.out as *const f64,
+                self.ptr.lower,
+                t,
+            ] {
+                if !base.is_null() {
+                    // SAFETY: [at, at + len) lies inside the packed vectors
+                    prefetch(unsafe { base.add(at) }, len);
+                }
+            }
+        }
+        let f = self.pre.pair_factors(p_lo, p_hi);
+        prefetch(f.as_ptr(), f.len());
+        if diagonal {
+            let f = self.pre.diag_factors(lo.lo, lo.hi);
+            prefetch(f.as_ptr(), f.len());
+        }
+        // the lower terms and entries of the leaf: (i, c ∈ rc) and (c, i ∈ ri)
+        let ld = 3 * m;
+        for (rows, cols) in [(ri, rc), (rc, ri)] {
+            for col in cols.lo..cols.hi {
+                for buf in [self.ptr.w, self.ptr.ye] {
+                    // SAFETY: inside the 3m×m buffers
+                    prefetch(unsafe { buf.add(col * ld + 3 * rows.lo) }, 3 * rows.len());
+                }
+            }
+        }
+    }
+
     /// Entry by entry: the pairs (i, c), i in `ri`, c in `rc`, `ri` wholly
     /// before `rc`, or (`ri` = `rc`) the diagonal block: pairs i before c and
     /// the diagonal entries. Both ranges are tiles. Local indices count in solve
     /// order; what the leaf touches of Y and W is copied into small arrays.
     fn leaf(&self, ri: Modes, rc: Modes) {
+        self.prefetch_leaf(ri, rc);
         let diagonal = ri.lo == rc.lo;
         let (ni, nc) = (ri.len(), rc.len());
         let back = self.backward;
