@@ -1,24 +1,34 @@
-"""Matrix-free CG benchmark (issue 5): large reduced orders on the full-order chain.
+"""Matrix-free CG benchmark (issues 5 and 13): large reduced orders on the full-order chain.
 
 Problem: ``mass_spring_chain(n)`` identified at full order (R = I, so m = n),
 noise-free, random complex forces on every DOF, s = 2n lines evenly spaced in a
 band: the paper's 20 % band 102.8–122.8 Hz ("narrow") and 50–150 Hz ("wide").
 Modes: exact-symmetric (``symmetric=True``) and the penalty form at the paper's
-λ = 100. Every case runs in its own process (time and peak memory are its own);
-the floor of an iteration — 18m³ flops of the operator's GEMM at the rate faer
-reaches on an m×3m by 3m×3m product — is measured in the same process right
-after the solve.
+λ = 100. Every case runs in its own process (time and peak memory are its own).
 
-    python benches/bench_cg.py                          # m = 100 … 1000 (≈ 30 min)
-    python benches/bench_cg.py --sizes 100,200 --modes sym
-    python benches/bench_cg.py --auto                   # direct vs CG, m = 10 … 60
+The ratios issue 13 asks for, each against a reference measured in the same run:
+
+- "× GEMM": the whole ``identify`` call over one NumPy GEMM of the operator's
+  shape (m×3m by 3m×3m, float64, best of several), timed in the same process
+  right after the solve (target at m = 1000, 20 % band: ≤ 45);
+- "ref / CG": a plain NumPy PCG on the same scaled normal equations (eigenbasis
+  of the summed diagonal blocks of H, diagonal pair preconditioner, same tol),
+  run in its own process, over the ``identify`` time (target at m = 400: ≥ 8);
+- iterations on 50–150 Hz (target at m = 400–1000: ≤ 150).
+
+    python benches/bench_cg.py                      # m = 400, 1000 (≈ 10 min unloaded)
+    python benches/bench_cg.py --sizes 100,200 --modes sym --ref-sizes 100
+    python benches/bench_cg.py --auto               # direct vs CG, m = 10 … 60
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import (  # noqa: E402
@@ -29,15 +39,25 @@ from _common import (  # noqa: E402
     rel_errors,
     run_worker,
     timed,
+    val,
     worker_main,
 )
 
 BANDS = {"narrow": (102.8, 122.8), "wide": (50.0, 150.0)}
 MODES = {"sym": (0.0, True), "pen": (100.0, False)}
+TOL = 1e-11
+
+
+def operator_gemm_seconds(m: int, repeat: int = 3) -> float:
+    """Best time of one NumPy float64 GEMM of the CG operator's shape, m×3m by 3m×3m."""
+    rng = np.random.default_rng(1)
+    z, h = rng.standard_normal((m, 3 * m)), rng.standard_normal((3 * m, 3 * m))
+    z @ h
+    return min(timed(lambda: z @ h)[1] for _ in range(repeat))
 
 
 def solve_case(case: dict) -> dict:
-    from podid_rs import _core, identify
+    from podid_rs import identify
 
     m = case["m"]
     lam, sym = MODES[case["mode"]]
@@ -49,47 +69,184 @@ def solve_case(case: dict) -> dict:
     if case["solver"] == "cg":
         out["iterations"] = res.iterations
         out["residual"] = res.relative_residual
-        out["gflops"] = _core.operator_gemm_gflops(m, max(3, int(1e10 / (18 * m**3))))
+        out["gemm_s"] = operator_gemm_seconds(m)
     out["load"] = [load, load_average()]
     return out
 
 
-def val(r: dict | None, key: str) -> object:
-    return r.get(key) if r and "error" not in r else None
+# ---------------------------------------------------------------------------
+# The plain NumPy reference: PCG with the diagonal pair preconditioner
+
+
+def numpy_pcg(U, F, omega, lam: float, symmetric: bool, tol: float = TOL):
+    """Identify M, C, K by a plain NumPy PCG on the scaled normal equations.
+
+    The formulation of DESIGN §2–4: ω, U, F scaled to O(1); H = Re(V Vᴴ),
+    B = Re(F Vᴴ); Z̃ = [X̃_M X̃_C X̃_K] in the eigenbasis Q of H_MM + H_CC + H_KK;
+    operator Z̃ ↦ Z̃ H̃ (block-symmetrised, or plus 2λ̃²(X̃ − X̃ᵀ) per block); the
+    preconditioner keeps of every block of H̃ its diagonal, which decouples the
+    entry pairs (j, k) into 3×3 (6×6 with the penalty) solves. Returns
+    (M, C, K, iterations).
+    """
+    w0 = np.sqrt(np.mean(omega**2))
+    su, sf = np.sqrt(np.mean(np.abs(U) ** 2)), np.sqrt(np.mean(np.abs(F) ** 2))
+    w, u, f = omega / w0, U / su, F / sf
+    m = u.shape[1]
+    V = np.concatenate([-(w**2)[:, None] * u, 1j * w[:, None] * u, u], axis=1)
+    Vr = np.concatenate([V.real, V.imag])  # (2s, 3m): H = Re(V Vᴴ) = Vrᵀ Vr
+    H = Vr.T @ Vr
+    B = np.concatenate([f.real, f.imag]).T @ Vr
+    blk = [H[b * m : (b + 1) * m, b * m : (b + 1) * m] for b in range(3)]
+    Q = np.linalg.eigh(blk[0] + blk[1] + blk[2])[1]
+    Ht = np.empty_like(H)
+    for b in range(3):
+        for c in range(3):
+            Ht[b * m : (b + 1) * m, c * m : (c + 1) * m] = (
+                Q.T @ H[b * m : (b + 1) * m, c * m : (c + 1) * m] @ Q
+            )
+    Bt = np.concatenate([Q.T @ B[:, b * m : (b + 1) * m] @ Q for b in range(3)], axis=1)
+    factors = sf / su * np.array([1 / w0**2, 1 / w0, 1.0])  # X_b = c_b X̃_b
+    pen = 4 * (lam * factors / sf) ** 2  # 4λ̃_b², λ̃_b = λ c_b / s_f (DESIGN §3)
+
+    # iterate on (S, K): the symmetric and skew parts of the blocks X̃_b, (3, m, m)
+    # each; the penalty acts on K exactly (in plain entries it would swamp S)
+    def op(S, K):
+        Y = (S + K).transpose(1, 0, 2).reshape(m, 3 * m) @ Ht
+        Y = Y.reshape(m, 3, m).transpose(1, 0, 2)
+        Yt = Y.transpose(0, 2, 1)
+        return 0.5 * (Y + Yt), 0.5 * (Y - Yt) + pen[:, None, None] * K
+
+    idx = np.arange(m)
+    D = np.stack([[Ht[b * m + idx, c * m + idx] for c in range(3)] for b in range(3)])
+    D = D.transpose(2, 0, 1)  # D[k] = the 3×3 diagonals of the blocks at column k
+    A = 0.5 * (D[:, None] + D[None, :])  # pair (j, k)
+    C = 0.5 * (D[None, :] - D[:, None])
+    Ainv = np.linalg.inv(A)
+    P6inv = None if symmetric else np.linalg.inv(np.block([[A, C], [C, A + np.diag(pen)]]))
+
+    def precond(S, K):
+        # entries (j, k) of the sym/skew coordinates σ, τ (scaled alike: the
+        # √2 of the orthonormal basis cancels in a block-diagonal solve)
+        s, t = S.transpose(1, 2, 0), K.transpose(1, 2, 0)
+        if symmetric:
+            zs, zt = np.einsum("jkab,jkb->jka", Ainv, s), np.zeros_like(t)
+        else:
+            z = np.einsum("jkab,jkb->jka", P6inv, np.concatenate([s, t], axis=2))
+            zs, zt = z[..., :3], z[..., 3:]
+        # diagonal entries: D(k)⁻¹ (A = D there, C = 0, τ = 0)
+        zs[idx, idx] = np.linalg.solve(D, s[idx, idx][..., None])[..., 0]
+        zs = 0.5 * (zs + zs.transpose(1, 0, 2))
+        zt = 0.5 * (zt - zt.transpose(1, 0, 2))
+        return zs.transpose(2, 0, 1), zt.transpose(2, 0, 1)
+
+    def dot(a, b):
+        return float(np.vdot(a[0], b[0]) + np.vdot(a[1], b[1]))
+
+    Bb = Bt.reshape(m, 3, m).transpose(1, 0, 2)
+    b = (0.5 * (Bb + Bb.transpose(0, 2, 1)), 0.5 * (Bb - Bb.transpose(0, 2, 1)))
+    if symmetric:
+        b = (b[0], np.zeros_like(b[1]))
+    bnorm = np.sqrt(dot(b, b))
+    X = (np.zeros_like(b[0]), np.zeros_like(b[1]))
+    R = (b[0].copy(), b[1].copy())
+    Zr = precond(*R)
+    P = Zr
+    rz = dot(R, Zr)
+    it = 0
+    while it < 20_000:
+        Qp = op(*P)
+        if symmetric:
+            Qp = (Qp[0], np.zeros_like(Qp[1]))
+        alpha = rz / dot(P, Qp)
+        X = (X[0] + alpha * P[0], X[1] + alpha * P[1])
+        R = (R[0] - alpha * Qp[0], R[1] - alpha * Qp[1])
+        it += 1
+        if np.sqrt(dot(R, R)) / bnorm <= tol:
+            # judged on the true residual, as the Rust path
+            GX = op(*X)
+            R = (b[0] - GX[0], b[1] - (0 if symmetric else GX[1]))
+            if np.sqrt(dot(R, R)) / bnorm <= tol:
+                break
+        Zr = precond(*R)
+        rz_new = dot(R, Zr)
+        P = (Zr[0] + (rz_new / rz) * P[0], Zr[1] + (rz_new / rz) * P[1])
+        rz = rz_new
+    Xb = X[0] + X[1]
+    M, C, K = (factors[b] * (Q @ Xb[b] @ Q.T) for b in range(3))
+    return M, C, K, it
+
+
+def reference_case(case: dict) -> dict:
+    m = case["m"]
+    lam, sym = MODES[case["mode"]]
+    sys_, U, F, omega = chain_problem(m, BANDS[case["band"]], 2 * m)
+    load = load_average()
+    t = time.perf_counter()
+    M, C, K, it = numpy_pcg(U, F, omega, lam, sym)
+    secs = time.perf_counter() - t
+    errs = [
+        float(np.linalg.norm(X - T) / np.linalg.norm(T))
+        for X, T in ((M, sys_.M), (C, sys_.C), (K, sys_.K))
+    ]
+    return {"seconds": secs, "iterations": it, "errs": errs, "load": [load, load_average()]}
+
+
+# ---------------------------------------------------------------------------
 
 
 def main_cg(args: argparse.Namespace, me: str) -> str:
-    rows, notes, loads = [], [], []
+    rows, notes, loads, checks = [], [], [], []
+    ref_sizes = {int(x) for x in args.ref_sizes.split(",") if x}
     for band in args.bands.split(","):
         for mode in args.modes.split(","):
             for m in [int(x) for x in args.sizes.split(",")]:
-                r = run_worker(me, {"kind": "solve", "solver": "cg", "m": m,
-                                    "band": band, "mode": mode})  # fmt: skip
+                case = {"kind": "solve", "solver": "cg", "m": m, "band": band, "mode": mode}
+                r = run_worker(me, case)
                 if "error" in r:
                     notes.append(f"{band} {mode} m={m}: {r['error']}")
                     print(notes[-1], flush=True)
                     continue
+                ref = None
+                if m in ref_sizes:
+                    ref = run_worker(me, {**case, "kind": "reference"})
+                    if "error" in ref:
+                        notes.append(f"NumPy reference {band} {mode} m={m}: {ref['error']}")
+                        ref = None
                 it, t_it = r["iterations"], r["t_iterate"]
-                per_it = t_it / it if it else None
-                floor = 18 * m**3 / (r["gflops"] * 1e9)
-                loads += [x for x in r["load"] if x is not None]
-                row = [
-                    band, mode, m, r["n"], r["seconds"], r["t_total"], it, r["residual"],
-                    *r["errs"], r["peak_gb"], per_it, floor,
-                    per_it / floor if per_it else None, t_it / r["t_gemm"], r["gflops"],
-                ]  # fmt: skip
-                rows.append(row)
+                x_gemm = r["seconds"] / r["gemm_s"]
+                loads += [x for x in r["load"] + (ref["load"] if ref else []) if x is not None]
+                speedup = ref["seconds"] / r["seconds"] if ref else None
+                rows.append([
+                    band, mode, m, r["n"], r["seconds"], it, max(r["errs"]), r["peak_gb"],
+                    r["gemm_s"], x_gemm, t_it / it if it else None, r["t_gram"], r["t_setup"],
+                    val(ref, "seconds"), val(ref, "iterations"),
+                    max(ref["errs"]) if ref else None, speedup,
+                    "–".join(f"{x:.1f}" for x in r["load"] if x is not None),
+                ])  # fmt: skip
                 print(
-                    f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s  {it:5d} it  "
-                    f"err {max(r['errs']):.1e}  {r['peak_gb']:.2f} GB  "
-                    f"{per_it * 1e3:.1f} ms/it vs floor {floor * 1e3:.1f} ms  "
-                    f"load {r['load']}",
+                    f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s  {it:4d} it  "
+                    f"err {max(r['errs']):.1e}  {r['peak_gb']:.2f} GB  {x_gemm:.1f}× GEMM"
+                    + (f"  ref {ref['seconds']:.2f}s ({speedup:.1f}×)" if ref else "")
+                    + f"  load {r['load']}",
                     flush=True,
                 )
+                err = max(r["errs"])
+                if band == "narrow" and m == 1000:
+                    checks.append(
+                        f"m = 1000, 20 % band, {mode}: {x_gemm:.1f}× one GEMM (target ≤ 45), "
+                        f"error {err:.1e} (target ≤ 1e-8)"
+                    )
+                if speedup is not None and m == 400:
+                    checks.append(
+                        f"m = 400, {band}, {mode}: {speedup:.1f}× the NumPy PCG reference "
+                        "(target ≥ 8)"
+                    )
+                if band == "wide" and 400 <= m <= 1000:
+                    checks.append(f"50–150 Hz, {mode}, m = {m}: {it} iterations (target ≤ 150)")
     header = [
-        "band", "mode", "m", "unknowns", "time s", "core s", "iterations", "rel. residual",
-        "err M", "err C", "err K", "peak GB", "s/iteration", "floor s/it", "× floor",
-        "× in-loop GEMM", "GEMM GF/s",
+        "band", "mode", "m", "unknowns", "time s", "iterations", "max rel. error", "peak GB",
+        "NumPy GEMM s", "× GEMM", "s/iteration", "gram s", "setup s", "NumPy PCG s",
+        "NumPy PCG it", "NumPy PCG error", "ref / CG", "load",
     ]  # fmt: skip
     load_note = (
         f"1-minute load average during the cases: {min(loads):.1f}–{max(loads):.1f} "
@@ -98,20 +255,18 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         else ""
     )
     return (
-        "CG path (issue 5): full-order chain, noise-free, s = 2m lines, random forces on "
+        "CG path (issue 13): full-order chain, noise-free, s = 2m lines, random forces on "
         "every DOF; bands narrow = 102.8–122.8 Hz, wide = 50–150 Hz; modes sym = "
-        "exact-symmetric, pen = penalty λ = 100; default tol "
-        f"(1e-11). NumPy GEMM {args.numpy_gemm:.1f} GFLOP/s.\n"
-        "time = the whole identify() call; core = the Rust solve (Gram products, "
-        "preconditioner setup, iterations); floor = 18m³ flops per iteration at the "
-        "GEMM rate faer reached on the operator's m×3m by 3m×3m product in the same "
-        "process (best of several); s/iteration includes the preconditioner, packing, "
-        "vector updates and the true-residual checks; × in-loop GEMM = iteration time over "
-        "the time the same iterations spent inside the GEMM (robust to other processes' "
-        "load, which the standalone floor is not).\n"
+        f"exact-symmetric, pen = penalty λ = 100; tol {TOL:g}. "
+        f"NumPy GEMM (n = 4000) {args.numpy_gemm:.1f} GFLOP/s.\n"
+        "time = the whole identify() call; × GEMM = time over one NumPy float64 GEMM of the "
+        "operator's shape (m×3m by 3m×3m) timed in the same process; NumPy PCG = the plain "
+        "NumPy reference (diagonal pair preconditioner, same tol) in its own process; "
+        "ref / CG = its time over identify()'s.\n"
         + load_note
         + "\n\n"
         + markdown_table(header, rows)
+        + ("\n\nTargets:\n" + "\n".join(f"- {c}" for c in checks) if checks else "")
         + ("\n\n" + "\n".join(notes) if notes else "")
     )
 
@@ -136,15 +291,17 @@ def main_auto(args: argparse.Namespace, me: str) -> str:
     ]  # fmt: skip
     return (
         "Direct vs CG (the `solver='auto'` rule): same problems as the CG table, "
-        "Rust core time of each solver.\n\n" + markdown_table(header, rows)
+        f"Rust core time of each solver; load average {load_average()}.\n\n"
+        + markdown_table(header, rows)
     )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="100,200,400,800,1000")
+    ap.add_argument("--sizes", default="400,1000")
     ap.add_argument("--bands", default="narrow,wide")
     ap.add_argument("--modes", default="sym,pen")
+    ap.add_argument("--ref-sizes", default="400", help="sizes that also run the NumPy PCG")
     ap.add_argument("--auto", action="store_true", help="time direct against CG instead")
     ap.add_argument("--auto-sizes", default="10,15,20,25,30,40,50,60")
     ap.add_argument("--out", type=Path, default=None)
@@ -162,6 +319,6 @@ def main() -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) > 2 and sys.argv[1] == "--worker":
-        worker_main({"solve": solve_case})
+        worker_main({"solve": solve_case, "reference": reference_case})
     else:
         main()

@@ -40,7 +40,7 @@ CG_TOL = 1e-11
 CG_MAX_ITER = 10_000
 #: ``solver="auto"`` takes the direct path up to this many unknowns (3m² or
 #: 3m(m+1)/2), CG beyond (see ``identify``).
-AUTO_DIRECT_MAX_UNKNOWNS = 1000
+AUTO_DIRECT_MAX_UNKNOWNS = 650
 
 
 class RankDeficientWarning(UserWarning):
@@ -429,13 +429,13 @@ def identify(
         preconditioned conjugate gradients, Rust backend only: O(m²) memory, about
         18m³ flops per iteration) or ``"auto"``: direct when the problem is
         unregularised (a 3m×3m system), or when it has at most
-        ``AUTO_DIRECT_MAX_UNKNOWNS`` = 1000 unknowns (m ≤ 18 with a penalty,
-        m ≤ 25 exact-symmetric) and its dense matrix takes at most half the
+        ``AUTO_DIRECT_MAX_UNKNOWNS`` = 650 unknowns (m ≤ 14 with a penalty,
+        m ≤ 20 exact-symmetric) and its dense matrix takes at most half the
         available memory; CG otherwise. Measured on the full-order chain
         (``benches/bench_cg.py --auto``, s = 2m lines, both modes, 20 % and
-        50–150 Hz bands): direct was faster or level up to 360–975 unknowns,
-        CG faster from 1200 on (1.6–13× at 1200–2700, 13–97× at 4800–10800).
-        Near the crossover both take under 0.03 s, and the direct path also
+        50–150 Hz bands, Gauss–Seidel-preconditioned CG): direct was faster or
+        level up to 513–630 unknowns, CG faster from 675 on (1.8–3× at 675–975,
+        5–390× at 1200–10800). Near the crossover both take under 0.04 s, and the direct path also
         reveals rank deficiency, which CG cannot.
     tol : CG stops when the relative residual of the scaled normal equations is
         ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to

@@ -22,7 +22,9 @@ pub struct Identified {
     pub min_pivot_ratio: f64,
     pub scaling: Scaling,
     /// wall time per phase, seconds (direct: gram, form, factor, total;
-    /// CG: gram, setup, iterate, gemm (the operator's GEMMs within iterate), total)
+    /// CG: gram, setup (basis: its share choosing Q), iterate, and within
+    /// iterate gemm (the double-precision operator of the residual checks) and
+    /// solves (the preconditioner's triangular solves), total)
     pub timings: Vec<(&'static str, f64)>,
     /// iterations and final residual of the matrix-free solver (None for direct)
     pub cg: Option<CgReport>,

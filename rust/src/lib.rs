@@ -10,7 +10,8 @@
 //! - [`sweep`]: the λ-curves (L-curve, GCV, discrepancy) from one eigendecomposition;
 //! - [`tridiag`]: two-stage symmetric tridiagonalisation (for the sweep);
 //! - [`cg`]: the matrix-free alternative for large m — preconditioned CG on the
-//!   packed sym/skew coordinates of [`pairs`], preconditioned by [`precond`].
+//!   packed sym/skew coordinates of [`pairs`], preconditioned by symmetric
+//!   Gauss–Seidel ([`sgs`]) over the pair blocks of [`precond`].
 //!
 //! The Python bindings live in `python.rs` behind the `python` feature.
 
@@ -26,6 +27,7 @@ pub mod normal;
 pub mod pairs;
 pub mod precond;
 pub mod refine;
+pub mod sgs;
 pub mod sweep;
 pub mod tridiag;
 

@@ -11,7 +11,12 @@
 //!   skew  3P   : τ = (X_b[j,k] − X_b[k,j])/√2, j < k    at 3m + 3P + 3p + b   (penalty mode only)
 //! ```
 //!
-//! with P = m(m−1)/2 pairs, p(j,k) = k(k−1)/2 + j. The map between the entries
+//! with P = m(m−1)/2 pairs numbered p = [`Layout::pair`](j, k) in tiles: the
+//! modes are grouped in tiles of [`TILE`], the pairs of tile rows J ≤ tile
+//! column K form tile (J, K), tiles are stored column by column (K, then J) and
+//! each tile's pairs column by column. A tile is the leaf of the Gauss–Seidel
+//! recursion of [`crate::sgs`], whose data are then contiguous; a tile column
+//! holds exactly the pairs (j, k) with k in tile K. The map between the entries
 //! (X[j,k], X[k,j]) and (σ, τ) is an orthogonal involution, so the Euclidean
 //! inner product of coordinates is the Frobenius inner product of the matrices,
 //! and [`Layout::pack`] of a dense m×3m matrix is the adjoint of [`Layout::unpack`].
@@ -22,6 +27,9 @@ use faer::{ColMut, MatMut, MatRef};
 use rayon::prelude::*;
 
 const RSQRT2: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// Modes per tile of the pair numbering (the leaf size of [`crate::sgs`]).
+pub const TILE: usize = 4;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
@@ -37,6 +45,22 @@ impl Layout {
     /// Number of pairs j < k.
     pub fn n_pairs(&self) -> usize {
         self.m * self.m.saturating_sub(1) / 2
+    }
+
+    /// Index of the pair (j, k), j < k (see the module notes).
+    #[inline]
+    pub fn pair(&self, j: usize, k: usize) -> usize {
+        debug_assert!(j < k && k < self.m);
+        let (tj, tk) = (j / TILE, k / TILE);
+        let k0 = tk * TILE;
+        let nk = TILE.min(self.m - k0);
+        let base = k0 * k0.saturating_sub(1) / 2 + tj * TILE * nk;
+        let (c, r) = (k - k0, j - tj * TILE);
+        base + if tj < tk {
+            c * TILE + r
+        } else {
+            c * c.saturating_sub(1) / 2 + r
+        }
     }
 
     /// Number of coordinates: 3m(m+1)/2 (exact-symmetric) or 3m².
@@ -80,10 +104,9 @@ impl Layout {
             .enumerate()
             .for_each(|(c, ((a, b), d))| {
                 let mut cols = [a, b, d].map(dense);
-                // rows r < c: upper entry of pair (r, c), contiguous in p
-                let base = c * c.saturating_sub(1) / 2;
+                // rows r < c: upper entry of pair (r, c)
                 for r in 0..c {
-                    let i = 3 * (base + r);
+                    let i = 3 * self.pair(r, c);
                     for (blk, col) in cols.iter_mut().enumerate() {
                         let t = if self.symmetric { 0.0 } else { skew[i + blk] };
                         col[r] = RSQRT2 * (sym[i + blk] + t);
@@ -94,7 +117,7 @@ impl Layout {
                 }
                 // rows r > c: lower entry of pair (c, r)
                 for r in c + 1..m {
-                    let i = 3 * (r * (r - 1) / 2 + c);
+                    let i = 3 * self.pair(c, r);
                     for (blk, col) in cols.iter_mut().enumerate() {
                         let t = if self.symmetric { 0.0 } else { skew[i + blk] };
                         col[r] = RSQRT2 * (sym[i + blk] - t);
@@ -104,7 +127,7 @@ impl Layout {
     }
 
     /// Coordinates of Y (m×3m) into x; in the exact-symmetric mode only its
-    /// block-symmetric part is kept. Parallel over the columns k of each pair.
+    /// block-symmetric part is kept. Parallel over the tile columns.
     pub fn pack(&self, y: MatRef<f64>, x: &mut [f64]) {
         let m = self.m;
         assert!(x.len() == self.len() && y.nrows() == m && y.ncols() == 3 * m);
@@ -115,27 +138,65 @@ impl Layout {
                 *v = y[(j, b * m + j)];
             }
         }
-        let sym_cols = split_by_column(sym, m, 3);
+        let sym_cols = self.split_by_tile_column(sym, 3);
         let skew_cols = if symmetric {
-            (0..m).map(|_| &mut [][..]).collect()
+            (0..sym_cols.len()).map(|_| &mut [][..]).collect()
         } else {
-            split_by_column(skew, m, 3)
+            self.split_by_tile_column(skew, 3)
         };
         sym_cols
             .into_par_iter()
             .zip(skew_cols)
             .enumerate()
-            .for_each(|(k, (sk, tk))| {
-                for j in 0..k {
-                    for b in 0..3 {
-                        let (up, lo) = (y[(j, b * m + k)], y[(k, b * m + j)]);
-                        sk[3 * j + b] = RSQRT2 * (up + lo);
-                        if !symmetric {
-                            tk[3 * j + b] = RSQRT2 * (up - lo);
+            .for_each(|(tk, (sk, tau))| {
+                let first = self.pair_of_tile_column(tk);
+                for k in tk * TILE..(tk * TILE + TILE).min(m) {
+                    for j in 0..k {
+                        let at = 3 * (self.pair(j, k) - first);
+                        for b in 0..3 {
+                            let (up, lo) = (y[(j, b * m + k)], y[(k, b * m + j)]);
+                            sk[at + b] = RSQRT2 * (up + lo);
+                            if !symmetric {
+                                tau[at + b] = RSQRT2 * (up - lo);
+                            }
                         }
                     }
                 }
             });
+    }
+
+    /// Number of tiles along each side.
+    pub fn n_tiles(&self) -> usize {
+        self.m.div_ceil(TILE)
+    }
+
+    /// Index of the first pair of tile column `tk` (pairs (j, k), k in that tile).
+    pub fn pair_of_tile_column(&self, tk: usize) -> usize {
+        let k0 = tk * TILE;
+        k0 * k0.saturating_sub(1) / 2
+    }
+
+    /// Split a pair-major array (`width` values per pair) into the runs of its
+    /// tile columns.
+    pub fn split_by_tile_column<'a>(
+        &self,
+        mut a: &'a mut [f64],
+        width: usize,
+    ) -> Vec<&'a mut [f64]> {
+        let nt = self.n_tiles();
+        let mut out = Vec::with_capacity(nt);
+        for tk in 0..nt {
+            let end = if tk + 1 < nt {
+                self.pair_of_tile_column(tk + 1)
+            } else {
+                self.n_pairs()
+            };
+            let len = width * (end - self.pair_of_tile_column(tk));
+            let (head, tail) = std::mem::take(&mut a).split_at_mut(len);
+            out.push(head);
+            a = tail;
+        }
+        out
     }
 }
 
@@ -144,18 +205,6 @@ fn dense(col: ColMut<'_, f64>) -> &mut [f64] {
     col.try_as_col_major_mut()
         .expect("dense column")
         .as_slice_mut()
-}
-
-/// Split a pair-major array (`width` values per pair) into the runs of the pairs
-/// (j, k), j < k, of each column k = 0..m (the run of column k has width·k values).
-pub fn split_by_column(mut a: &mut [f64], m: usize, width: usize) -> Vec<&mut [f64]> {
-    let mut out = Vec::with_capacity(m);
-    for k in 0..m {
-        let (head, tail) = std::mem::take(&mut a).split_at_mut(width * k);
-        out.push(head);
-        a = tail;
-    }
-    out
 }
 
 #[cfg(test)]
@@ -168,6 +217,38 @@ mod tests {
         Mat::from_fn(m, 3 * m, |i, j| {
             (((i * 31 + j * 17) as u64 * 2654435761 + seed) % 1000) as f64 / 500.0 - 1.0
         })
+    }
+
+    /// The tiled numbering is a bijection onto 0..P that keeps each tile and
+    /// each tile column contiguous.
+    #[test]
+    fn pair_numbering_is_tiled_and_complete() {
+        for m in [1, 2, TILE, TILE + 1, 3 * TILE + 2, 5 * TILE] {
+            let lay = Layout::new(m, true);
+            let mut seen = vec![false; lay.n_pairs()];
+            for k in 0..m {
+                for j in 0..k {
+                    let p = lay.pair(j, k);
+                    assert!(!seen[p], "m={m}: ({j}, {k}) numbered twice");
+                    seen[p] = true;
+                    let tk = k / TILE;
+                    assert!(p >= lay.pair_of_tile_column(tk));
+                    if tk + 1 < lay.n_tiles() {
+                        assert!(p < lay.pair_of_tile_column(tk + 1));
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s), "m={m}");
+            // a full off-diagonal tile is one run of TILE² pairs
+            if m >= 2 * TILE {
+                let first = lay.pair(0, TILE);
+                let ps: Vec<usize> = (TILE..2 * TILE)
+                    .flat_map(|k| (0..TILE).map(move |j| (j, k)))
+                    .map(|(j, k)| lay.pair(j, k) - first)
+                    .collect();
+                assert_eq!(ps, (0..TILE * TILE).collect::<Vec<_>>());
+            }
+        }
     }
 
     #[test]

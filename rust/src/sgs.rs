@@ -1,0 +1,776 @@
+//! Symmetric Gauss–Seidel over entry pairs: the preconditioner of the matrix-free
+//! solver (DESIGN §4, issue 13), applied with Eisenstat's trick by [`crate::cg`].
+//!
+//! In the Q basis of [`crate::precond`] the normal operator splits as
+//! G = D + L + Lᵀ: D the pair blocks of [`PairPrecond`] (3×3 per diagonal entry,
+//! 3×3 or 6×6 per pair (j, k)), L the couplings of each pair to the pairs before
+//! it in column-major pair order (larger index k first, then j). Every coupling
+//! outside D comes from the row operator Z ↦ Z H̃ with the mode-diagonal 3×3
+//! blocks of H̃ removed; written on the entry matrix Y (Y_ic ∈ ℝ³, one value per
+//! block) it is
+//!
+//! ```text
+//!   (L Y)_ic = Σ_{l<c} Y_il H̃(l, c)        (H̃(l, c) the 3×3 block of modes l, c)
+//! ```
+//!
+//! i.e. the strictly block-upper part U of H̃ (in mode-major order) acting from
+//! the right, Y ↦ Y U; the entry (i, c) and its mirror (c, i) meet only in D.
+//! The penalty, which can exceed the data by 10¹⁵, lives in D alone, and D is
+//! solved in the sym/skew coordinates (σ, τ), so it never touches the entries.
+//!
+//! The triangular solve (D + L) y = r is a triangular Lyapunov/Sylvester
+//! equation; it is done recursively (RECSY style): split the modes in halves
+//! a|b, solve the a×a part, update the accumulated lower terms of what depends on
+//! it by one GEMM, solve the a×b and b×a entries (a triangular Sylvester problem,
+//! split the same way), update, solve b×b. All couplings across halves are
+//! GEMMs in single precision (H̃ in f32, ≈ 9m³ flops per solve: half an operator
+//! GEMM); only those within leaves of [`LEAF`] modes are done entry by entry.
+//! The solve (D + Lᵀ) is the same recursion in reverse mode order.
+//!
+//! The entries are kept in a 3m×m matrix, column i holding row i of Y in
+//! mode-major order (Y_il[b] at row 3l + b), so that both the GEMMs and the
+//! dot products of the leaves read contiguous memory.
+
+use crate::pairs::Layout;
+use crate::precond::PairPrecond;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef, Par};
+use rayon::prelude::*;
+use std::f64::consts::FRAC_1_SQRT_2 as RSQRT2;
+
+/// Modes per leaf of the recursion (entry-by-entry substitution below this):
+/// the tiles of the pair numbering, so that a leaf's pair data are contiguous.
+pub const LEAF: usize = crate::pairs::TILE;
+
+/// GEMMs below this many flops run on one thread.
+const PAR_FLOPS: f64 = 4e6;
+
+/// H̃ in mode-major order, single precision, for the triangular solves.
+pub struct Sgs {
+    layout: Layout,
+    /// Sylvester blocks with both sides at least this long fork ([`FORK`])
+    pub fork: usize,
+    /// 3m×3m, column-major: H̃(l, c)[b', b] at row 3l + b', column 3c + b
+    hm: Vec<f32>,
+    /// the couplings within each tile: tiles[t][u][v] = H̃(l, c) for the modes
+    /// l = t·LEAF + u, c = t·LEAF + v (the leaves read these, not `hm`)
+    tiles: Vec<TileBlocks>,
+    par: Par,
+}
+
+/// The LEAF×LEAF blocks H̃(l, c) (3×3, [b'][b]) of one tile.
+type TileBlocks = [[[[f32; 3]; 3]; LEAF]; LEAF];
+
+/// Scratch of one solve: the entries Y and their accumulated lower terms W,
+/// both 3m×m column-major (column i = row i of the entry matrix, mode-major).
+pub struct SgsWork {
+    y: Vec<f32>,
+    w: Vec<f32>,
+}
+
+impl SgsWork {
+    pub fn new(m: usize) -> SgsWork {
+        SgsWork {
+            y: vec![0.0; 3 * m * m],
+            w: vec![0.0; 3 * m * m],
+        }
+    }
+}
+
+/// Prefetch the cache lines of `len` values from `ptr` into L1 (a hint only).
+#[inline]
+fn prefetch<T>(ptr: *const T, len: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let bytes = len * std::mem::size_of::<T>();
+        let start = ptr as usize & !63;
+        let end = ptr as usize + bytes;
+        let mut line = start;
+        while line < end {
+            // SAFETY: a prefetch never faults, whatever the address
+            unsafe { _mm_prefetch(line as *const i8, _MM_HINT_T0) };
+            line += 64;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (ptr, len);
+}
+
+/// A contiguous range of modes.
+#[derive(Clone, Copy, Debug)]
+struct Modes {
+    lo: usize,
+    hi: usize,
+}
+
+impl Modes {
+    fn len(self) -> usize {
+        self.hi - self.lo
+    }
+}
+
+impl Sgs {
+    /// From H̃ (3m×3m, block layout: row b·m + l) in the Q basis.
+    pub fn new(ht: MatRef<f64>, layout: Layout, par: Par) -> Sgs {
+        let n = 3 * layout.m;
+        let mut hm = vec![0.0f32; n * n];
+        hm.par_chunks_mut(n).enumerate().for_each(|(c, col)| {
+            let (m, cc) = (layout.m, (c % 3) * layout.m + c / 3);
+            for (r, v) in col.iter_mut().enumerate() {
+                *v = ht[((r % 3) * m + r / 3, cc)] as f32;
+            }
+        });
+        let tiles = (0..layout.m.div_ceil(LEAF))
+            .map(|t| {
+                let mut blocks = [[[[0.0f32; 3]; 3]; LEAF]; LEAF];
+                let lo = t * LEAF;
+                let len = LEAF.min(layout.m - lo);
+                for (u, row) in blocks.iter_mut().enumerate().take(len) {
+                    for (v, blk) in row.iter_mut().enumerate().take(len) {
+                        for (bp, r) in blk.iter_mut().enumerate() {
+                            for (b, x) in r.iter_mut().enumerate() {
+                                *x = hm[(3 * (lo + v) + b) * n + 3 * (lo + u) + bp];
+                            }
+                        }
+                    }
+                }
+                blocks
+            })
+            .collect();
+        Sgs {
+            layout,
+            fork: FORK,
+            hm,
+            tiles,
+            par,
+        }
+    }
+
+    /// Bytes held (for the memory estimate): H̃ in f32 and one [`SgsWork`].
+    pub fn bytes(m: usize) -> usize {
+        4 * (9 * m * m + 6 * m * m)
+    }
+
+    /// Solve (D + L) y = r (`backward`: (D + Lᵀ) y = r) in packed coordinates;
+    /// if `lower` is given, it receives L y (Lᵀ y), the couplings the solve
+    /// subtracted, in the same coordinates.
+    pub fn solve(
+        &self,
+        pre: &PairPrecond,
+        r: &[f64],
+        y: &mut [f64],
+        lower: Option<&mut [f64]>,
+        backward: bool,
+        work: &mut SgsWork,
+    ) {
+        self.solve_with(pre, r, y, lower, backward, Ends::Plain, work);
+    }
+
+    /// [`Sgs::solve`] with the per-pair products of Eisenstat's split done in
+    /// the leaves (saving passes over the vectors): with R the factor of D,
+    /// the right-hand side is R r if `ends` is [`Ends::FactorIn`], and y is
+    /// written as Rᵀ (y + t) for [`Ends::FactorOut`] (t = 0 if `None`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_with(
+        &self,
+        pre: &PairPrecond,
+        r: &[f64],
+        y: &mut [f64],
+        lower: Option<&mut [f64]>,
+        backward: bool,
+        ends: Ends,
+        work: &mut SgsWork,
+    ) {
+        let lay = self.layout;
+        let n = lay.len();
+        assert!(r.len() == n && y.len() == n && work.y.len() == 3 * lay.m * lay.m);
+        assert!(lower.as_ref().is_none_or(|l| l.len() == n));
+        if let Ends::FactorOut(Some(t)) = ends {
+            assert!(t.len() == n);
+        }
+        work.w.par_iter_mut().for_each(|v| *v = 0.0);
+        let s = Solve {
+            sgs: self,
+            pre,
+            r,
+            ptr: Ptrs {
+                ye: work.y.as_mut_ptr(),
+                w: work.w.as_mut_ptr(),
+                out: y.as_mut_ptr(),
+                lower: lower.map_or(std::ptr::null_mut(), |l| l.as_mut_ptr()),
+            },
+            backward,
+            ends,
+            nested: false,
+            n_pairs: lay.n_pairs(),
+        };
+        s.lyap(Modes { lo: 0, hi: lay.m });
+    }
+}
+
+/// Where one solve writes: the entries Y and lower terms W (3m×m each), the
+/// solution and the lower terms in packed coordinates (null if not wanted).
+///
+/// Safety: the recursion of [`Solve`] runs two branches at once only on
+/// disjoint sets of entries (i, c) and their mirrors (c, i); each branch writes
+/// Y, W and the packed outputs of its own entries only, and reads Y only of its
+/// own entries or of entries finished before the branches were forked. The
+/// buffers outlive the solve (they are borrowed by [`Sgs::solve`]).
+#[derive(Clone, Copy)]
+struct Ptrs {
+    ye: *mut f32,
+    w: *mut f32,
+    out: *mut f64,
+    lower: *mut f64,
+}
+
+unsafe impl Send for Ptrs {}
+unsafe impl Sync for Ptrs {}
+
+/// Per-pair products at the ends of a solve, see [`Sgs::solve_with`].
+#[derive(Clone, Copy)]
+pub enum Ends<'a> {
+    Plain,
+    FactorIn,
+    FactorOut(Option<&'a [f64]>),
+}
+
+/// One triangular solve in progress (cheap to copy into a parallel branch).
+#[derive(Clone, Copy)]
+struct Solve<'a> {
+    sgs: &'a Sgs,
+    pre: &'a PairPrecond,
+    r: &'a [f64],
+    ptr: Ptrs,
+    backward: bool,
+    ends: Ends<'a>,
+    /// inside a parallel branch: GEMMs on one thread
+    nested: bool,
+    n_pairs: usize,
+}
+
+/// Both ranges of a Sylvester block at least this long: its two independent
+/// quarters run in parallel.
+const FORK: usize = 32;
+
+impl Solve<'_> {
+    /// The two halves of `r` in solve order, split at a tile boundary.
+    fn split(&self, r: Modes) -> (Modes, Modes) {
+        let mid = (r.lo + r.len() / 2 + LEAF / 2) / LEAF * LEAF;
+        let mid = mid.clamp(r.lo + 1, r.hi - 1);
+        let (a, b) = (Modes { lo: r.lo, hi: mid }, Modes { lo: mid, hi: r.hi });
+        if self.backward {
+            (b, a)
+        } else {
+            (a, b)
+        }
+    }
+
+    /// W[dst, rows] += H̃[dst, src] · Y[src, rows]: the lower terms that the
+    /// entries in rows `rows`, columns `dst` receive from columns `src`.
+    fn update(&self, dst: Modes, src: Modes, rows: Modes) {
+        let (d, s, n) = (3 * dst.len(), 3 * src.len(), rows.len());
+        if d == 0 || s == 0 || n == 0 {
+            return;
+        }
+        let flops = 2.0 * d as f64 * s as f64 * n as f64;
+        let par = if self.nested || flops < PAR_FLOPS {
+            Par::Seq
+        } else {
+            self.sgs.par
+        };
+        let ld = 3 * self.sgs.layout.m;
+        // SAFETY: W[dst, rows] belongs to this branch and Y[src, rows] is final
+        // (see `Ptrs`); both views lie inside the 3m×m buffers.
+        let (w, y) = unsafe {
+            (
+                MatMut::from_raw_parts_mut(
+                    self.ptr.w.add(rows.lo * ld + 3 * dst.lo),
+                    d,
+                    n,
+                    1,
+                    ld as isize,
+                ),
+                MatRef::from_raw_parts(
+                    self.ptr.ye.add(rows.lo * ld + 3 * src.lo) as *const f32,
+                    s,
+                    n,
+                    1,
+                    ld as isize,
+                ),
+            )
+        };
+        let h = MatRef::from_column_major_slice(&self.sgs.hm[..], ld, ld);
+        matmul(
+            w,
+            Accum::Add,
+            h.submatrix(3 * dst.lo, 3 * src.lo, d, s),
+            y,
+            1.0f32,
+            par,
+        );
+    }
+
+    /// Diagonal block r×r of Y.
+    fn lyap(&self, r: Modes) {
+        if r.len() <= LEAF {
+            return self.leaf(r, r);
+        }
+        let (a, b) = self.split(r);
+        self.lyap(a);
+        self.update(b, a, a);
+        self.sylv(a, b);
+        self.update(b, a, b);
+        self.lyap(b);
+    }
+
+    /// Entries (i, c) and (c, i), i in `ri`, c in `rc`, `ri` wholly before `rc`.
+    /// (i, c) depends on (i, l) for l before c, its mirror (c, i) on (c, l) for l
+    /// before i: of the four quarters, (ri₂, rc₁) and (ri₁, rc₂) are independent.
+    fn sylv(&self, ri: Modes, rc: Modes) {
+        let (li, lc) = (ri.len(), rc.len());
+        if li <= LEAF && lc <= LEAF {
+            return self.leaf(ri, rc);
+        }
+        if li > LEAF && lc > LEAF {
+            let (i1, i2) = self.split(ri);
+            let (c1, c2) = self.split(rc);
+            self.sylv(i1, c1);
+            self.update(c2, c1, i1);
+            self.update(i2, i1, c1);
+            if li.min(lc) >= self.sgs.fork {
+                let inner = Solve {
+                    nested: true,
+                    ..*self
+                };
+                rayon::join(|| inner.sylv(i1, c2), || inner.sylv(i2, c1));
+            } else {
+                self.sylv(i1, c2);
+                self.sylv(i2, c1);
+            }
+            self.update(c2, c1, i2);
+            self.update(i2, i1, c2);
+            self.sylv(i2, c2);
+        } else if lc > LEAF {
+            let (a, b) = self.split(rc);
+            self.sylv(ri, a);
+            // entries (i, c ∈ b) depend on (i, l ∈ a)
+            self.update(b, a, ri);
+            self.sylv(ri, b);
+        } else {
+            let (a, b) = self.split(ri);
+            self.sylv(a, rc);
+            // entries (c, i ∈ b) depend on (c, l ∈ a)
+            self.update(b, a, rc);
+            self.sylv(b, rc);
+        }
+    }
+
+    /// Ask for every cache line the leaf (ri, rc) will touch before it starts:
+    /// its pairs' packed coordinates and factors are small contiguous runs far
+    /// from the previous leaf's, and loaded one pair at a time their misses
+    /// would not overlap.
+    fn prefetch_leaf(&self, ri: Modes, rc: Modes) {
+        let lay = self.sgs.layout;
+        let (m, n_pairs) = (lay.m, self.n_pairs);
+        let (lo, hi) = if ri.lo < rc.lo { (ri, rc) } else { (rc, ri) };
+        let diagonal = ri.lo == rc.lo;
+        let (p_lo, p_hi) = if diagonal && lo.len() < 2 {
+            (0, 0)
+        } else if diagonal {
+            (
+                lay.pair(lo.lo, lo.lo + 1),
+                lay.pair(lo.hi - 2, lo.hi - 1) + 1,
+            )
+        } else {
+            (lay.pair(lo.lo, hi.lo), lay.pair(lo.hi - 1, hi.hi - 1) + 1)
+        };
+        let pairs = 3 * (p_hi - p_lo);
+        let runs = [
+            (3 * m + 3 * p_lo, pairs),
+            (
+                3 * m + 3 * n_pairs + 3 * p_lo,
+                if lay.symmetric { 0 } else { pairs },
+            ),
+            (3 * lo.lo, if diagonal { 3 * lo.len() } else { 0 }),
+        ];
+        let t = match self.ends {
+            Ends::FactorOut(Some(t)) => t.as_ptr(),
+            _ => std::ptr::null(),
+        };
+        for (at, len) in runs.into_iter().filter(|&(_, len)| len > 0) {
+            for base in [
+                self.r.as_ptr(),
+                self.ptr.out as *const f64,
+                self.ptr.lower,
+                t,
+            ] {
+                if !base.is_null() {
+                    // SAFETY: [at, at + len) lies inside the packed vectors
+                    prefetch(unsafe { base.add(at) }, len);
+                }
+            }
+        }
+        let f = self.pre.pair_factors(p_lo, p_hi);
+        prefetch(f.as_ptr(), f.len());
+        if diagonal {
+            let f = self.pre.diag_factors(lo.lo, lo.hi);
+            prefetch(f.as_ptr(), f.len());
+        }
+        // the lower terms and entries of the leaf: (i, c ∈ rc) and (c, i ∈ ri)
+        let ld = 3 * m;
+        for (rows, cols) in [(ri, rc), (rc, ri)] {
+            for col in cols.lo..cols.hi {
+                for buf in [self.ptr.w, self.ptr.ye] {
+                    // SAFETY: inside the 3m×m buffers
+                    prefetch(unsafe { buf.add(col * ld + 3 * rows.lo) }, 3 * rows.len());
+                }
+            }
+        }
+    }
+
+    /// Entry by entry: the pairs (i, c), i in `ri`, c in `rc`, `ri` wholly
+    /// before `rc`, or (`ri` = `rc`) the diagonal block: pairs i before c and
+    /// the diagonal entries. Both ranges are tiles. Local indices count in solve
+    /// order; what the leaf touches of Y and W is copied into small arrays.
+    fn leaf(&self, ri: Modes, rc: Modes) {
+        self.prefetch_leaf(ri, rc);
+        let diagonal = ri.lo == rc.lo;
+        let (ni, nc) = (ri.len(), rc.len());
+        let back = self.backward;
+        // the mode of local index k of range r, and its index within its tile
+        let mode = |r: Modes, k: usize| if back { r.hi - 1 - k } else { r.lo + k };
+        let tile_i = &self.sgs.tiles[ri.lo / LEAF];
+        let tile_c = &self.sgs.tiles[rc.lo / LEAF];
+        let at_i = |k: usize| mode(ri, k) - ri.lo;
+        let at_c = |k: usize| mode(rc, k) - rc.lo;
+        let ld = 3 * self.sgs.layout.m;
+        let load = |src: *const f32, row: usize, col: usize| -> [f32; 3] {
+            // SAFETY: entry (row, col) belongs to this leaf (see `Ptrs`)
+            unsafe { *(src.add(row * ld + 3 * col) as *const [f32; 3]) }
+        };
+        // x[a][k]: entry (row i_a, col c_k); z[k][a]: its mirror (row c_k, col i_a)
+        let mut wx = [[[0.0f32; 3]; LEAF]; LEAF];
+        let mut wz = [[[0.0f32; 3]; LEAF]; LEAF];
+        for a in 0..ni {
+            for k in 0..nc {
+                if !diagonal || a <= k {
+                    wx[a][k] = load(self.ptr.w, mode(ri, a), mode(rc, k));
+                    wz[k][a] = load(self.ptr.w, mode(rc, k), mode(ri, a));
+                }
+            }
+        }
+        let mut x = [[[0.0f32; 3]; LEAF]; LEAF];
+        let mut z = [[[0.0f32; 3]; LEAF]; LEAF];
+        // acc += Σ_l H̃(l, c)ᵀ y_l over the earlier local indices l < k of a tile
+        #[inline(always)]
+        fn couple(
+            acc: &mut [f32; 3],
+            tile: &TileBlocks,
+            at: &dyn Fn(usize) -> usize,
+            k: usize,
+            y: &dyn Fn(usize) -> [f32; 3],
+        ) {
+            let c = at(k);
+            for l in 0..k {
+                let (h, v) = (&tile[at(l)][c], y(l));
+                for (b, out) in acc.iter_mut().enumerate() {
+                    *out += h[0][b] * v[0] + h[1][b] * v[1] + h[2][b] * v[2];
+                }
+            }
+        }
+        let m = self.sgs.layout.m;
+        let symmetric = self.sgs.layout.symmetric;
+        // SAFETY (both): the packed coordinates of this leaf's pairs belong to it
+        let out = |at: usize, v: &[f64]| unsafe {
+            std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.out.add(at), v.len())
+        };
+        let lower = |at: usize, v: &[f64]| {
+            if !self.ptr.lower.is_null() {
+                unsafe {
+                    std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.lower.add(at), v.len())
+                }
+            }
+        };
+        for k in 0..nc {
+            let c = mode(rc, k);
+            let rows = if diagonal { k } else { ni };
+            for a in 0..rows {
+                let i = mode(ri, a);
+                // entry (i, c) sees the columns of rc before c; its mirror (c, i)
+                // the columns of ri before i
+                let mut ax = wx[a][k];
+                let mut az = wz[k][a];
+                if diagonal {
+                    // one range: (i, l) for l before c is x[a][l] (l > a), the
+                    // diagonal (a = l) or the mirror z[a][l] (l < a)
+                    couple(&mut ax, tile_c, &at_c, k, &|l| {
+                        if l > a {
+                            x[a][l]
+                        } else if l == a {
+                            x[a][a]
+                        } else {
+                            z[a][l]
+                        }
+                    });
+                    couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+                } else {
+                    couple(&mut ax, tile_c, &at_c, k, &|l| x[a][l]);
+                    couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+                }
+                let (j, kk) = (i.min(c), i.max(c));
+                let (wu, wl) = if i < c { (ax, az) } else { (az, ax) };
+                let p = self.sgs.layout.pair(j, kk);
+                let s0 = 3 * m + 3 * p;
+                let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
+                let ls = [0, 1, 2].map(|b| (wu[b] as f64 + wl[b] as f64) * RSQRT2);
+                let (upper, low) = if symmetric {
+                    let mut rhs = [0, 1, 2].map(|b| self.r[s0 + b]);
+                    if let Ends::FactorIn = self.ends {
+                        self.pre.factor_sym(p, &mut rhs, false);
+                    }
+                    let mut v = [0, 1, 2].map(|b| rhs[b] - ls[b]);
+                    self.pre.solve_sym(p, &mut v);
+                    if let Ends::FactorOut(t) = self.ends {
+                        let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[s0 + b]));
+                        self.pre.factor_sym(p, &mut o, true);
+                        out(s0, &o);
+                    } else {
+                        out(s0, &v);
+                    }
+                    let y = v.map(|s| (s * RSQRT2) as f32);
+                    (y, y)
+                } else {
+                    let lt = [0, 1, 2].map(|b| (wu[b] as f64 - wl[b] as f64) * RSQRT2);
+                    let mut rhs = [0, 1, 2, 3, 4, 5].map(|q| {
+                        if q < 3 {
+                            self.r[s0 + q]
+                        } else {
+                            self.r[t0 + q - 3]
+                        }
+                    });
+                    if let Ends::FactorIn = self.ends {
+                        self.pre.factor_pen(p, &mut rhs, false);
+                    }
+                    let mut v = [0, 1, 2, 3, 4, 5].map(|q| {
+                        if q < 3 {
+                            rhs[q] - ls[q]
+                        } else {
+                            rhs[q] - lt[q - 3]
+                        }
+                    });
+                    self.pre.solve_pen(p, &mut v);
+                    if let Ends::FactorOut(t) = self.ends {
+                        let at = |q: usize| if q < 3 { s0 + q } else { t0 + q - 3 };
+                        let mut o = [0, 1, 2, 3, 4, 5].map(|q| v[q] + t.map_or(0.0, |t| t[at(q)]));
+                        self.pre.factor_pen(p, &mut o, true);
+                        out(s0, &o[..3]);
+                        out(t0, &o[3..]);
+                    } else {
+                        out(s0, &v[..3]);
+                        out(t0, &v[3..]);
+                    }
+                    lower(t0, &lt);
+                    (
+                        [0, 1, 2].map(|b| ((v[b] + v[b + 3]) * RSQRT2) as f32),
+                        [0, 1, 2].map(|b| ((v[b] - v[b + 3]) * RSQRT2) as f32),
+                    )
+                };
+                lower(s0, &ls);
+                // Y[j, kk] is the upper entry, Y[kk, j] the lower one
+                let (ex, ez) = if i < c { (upper, low) } else { (low, upper) };
+                x[a][k] = ex;
+                z[k][a] = ez;
+            }
+            if diagonal {
+                // (c, c): the columns before c in row c, i.e. z[k][l] for l < k
+                let mut ad = wx[k][k];
+                couple(&mut ad, tile_c, &at_c, k, &|l| z[k][l]);
+                let wd = ad.map(|v| v as f64);
+                let mut rhs = [0, 1, 2].map(|b| self.r[3 * c + b]);
+                if let Ends::FactorIn = self.ends {
+                    self.pre.factor_diag(c, &mut rhs, false);
+                }
+                let mut v = [0, 1, 2].map(|b| rhs[b] - wd[b]);
+                self.pre.solve_diag(c, &mut v);
+                if let Ends::FactorOut(t) = self.ends {
+                    let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[3 * c + b]));
+                    self.pre.factor_diag(c, &mut o, true);
+                    out(3 * c, &o);
+                } else {
+                    out(3 * c, &v);
+                }
+                lower(3 * c, &wd);
+                x[k][k] = v.map(|s| s as f32);
+            }
+        }
+        let store = |row: usize, col: usize, v: [f32; 3]| {
+            // SAFETY: as `load`
+            unsafe { *(self.ptr.ye.add(row * ld + 3 * col) as *mut [f32; 3]) = v }
+        };
+        for a in 0..ni {
+            for k in 0..nc {
+                if !diagonal || a < k {
+                    store(mode(ri, a), mode(rc, k), x[a][k]);
+                    store(mode(rc, k), mode(ri, a), z[k][a]);
+                } else if a == k {
+                    store(mode(ri, a), mode(rc, k), x[a][k]);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cg::Operator;
+    use faer::Mat;
+
+    /// A symmetric positive definite 3m×3m matrix with every kind of coupling.
+    fn spd(m: usize) -> Mat<f64> {
+        let a = Mat::from_fn(3 * m, 3 * m, |i, j| {
+            (((i * 13 + j * 7) % 17) as f64 - 8.0) / 17.0 + if i == j { 1.5 } else { 0.0 }
+        });
+        &a * a.transpose()
+    }
+
+    /// Columns f(e_q) of a linear map on packed vectors.
+    fn matrix(n: usize, mut f: impl FnMut(&[f64], &mut [f64])) -> Mat<f64> {
+        let mut a = Mat::zeros(n, n);
+        let (mut e, mut out) = (vec![0.0; n], vec![0.0; n]);
+        for q in 0..n {
+            e.iter_mut().for_each(|v| *v = 0.0);
+            e[q] = 1.0;
+            f(&e, &mut out);
+            for (p, v) in out.iter().enumerate() {
+                a[(p, q)] = *v;
+            }
+        }
+        a
+    }
+
+    /// With S_f = (D + L)⁻¹ and S_b = (D + Lᵀ)⁻¹ as the two solves: S_b = S_fᵀ,
+    /// and G = (D + L) + (D + Lᵀ) − D for the operator G (checked as
+    /// S_b + S_f − S_b D S_f = S_b G S_f), which is what Eisenstat's trick needs;
+    /// the returned lower terms are r − D y. Sizes across several leaves and
+    /// odd splits, both modes, a penalty 10⁶ above the data.
+    #[test]
+    fn triangular_solves_split_the_operator() {
+        for m in [1, 2, 5, LEAF + 3, 2 * LEAF + 3, 4 * LEAF + 1] {
+            let h = spd(m);
+            for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
+                let lay = Layout::new(m, symmetric);
+                let n = lay.len();
+                let pre = PairPrecond::new(h.as_ref(), lay, pen);
+                let mut sgs = Sgs::new(h.as_ref(), lay, Par::Seq);
+                sgs.fork = LEAF + 1; // exercise the parallel branches
+                let mut op = Operator::new(h.as_ref(), lay, pen, Par::Seq);
+                let mut work = SgsWork::new(m);
+                let mut lower = vec![0.0; n];
+                let mut worst = 0.0f64;
+                let mut solve = |backward: bool| {
+                    matrix(n, |r, y| {
+                        sgs.solve(&pre, r, y, Some(&mut lower), backward, &mut work);
+                        // lower = r − D y
+                        let mut t = vec![0.0; n];
+                        let mut dy = vec![0.0; n];
+                        pre.mul_factor(y, &mut t, true);
+                        pre.mul_factor(&t, &mut dy, false);
+                        for ((l, r), d) in lower.iter().zip(r).zip(&dy) {
+                            worst = worst.max((l - (r - d)).abs());
+                        }
+                    })
+                };
+                let sf = solve(false);
+                let sb = solve(true);
+                assert!(
+                    worst < 1e-4,
+                    "m={m} sym={symmetric}: lower terms off by {worst}"
+                );
+                let d = matrix(n, |v, out| {
+                    let mut t = vec![0.0; n];
+                    pre.mul_factor(v, &mut t, true);
+                    pre.mul_factor(&t, out, false);
+                });
+                let g = matrix(n, |v, out| op.apply(v, out));
+                let size = sf.norm_max();
+                // single-precision couplings: relative 1e-5
+                let tr = (&sb - sf.transpose()).norm_max();
+                assert!(tr < 1e-5 * size, "m={m} sym={symmetric}: S_b − S_fᵀ = {tr}");
+                let lhs = &sb + &sf - &sb * &d * &sf;
+                let rhs = &sb * &g * &sf;
+                let err = (&lhs - &rhs).norm_max();
+                assert!(err < 1e-4 * rhs.norm_max(), "m={m} sym={symmetric}: {err}");
+            }
+        }
+    }
+
+    /// The solves do the same arithmetic on any number of threads.
+    #[test]
+    fn solves_do_not_depend_on_the_thread_count() {
+        let m = 9 * LEAF + 5;
+        let h = spd(m);
+        for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
+            let lay = Layout::new(m, symmetric);
+            let pre = PairPrecond::new(h.as_ref(), lay, pen);
+            let mut sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
+            sgs.fork = 2 * LEAF;
+            let r = vector(lay.len(), 3);
+            let run = |threads: usize| {
+                crate::with_threads(threads, || {
+                    let mut work = SgsWork::new(m);
+                    let (mut y, mut l) = (vec![0.0; lay.len()], vec![0.0; lay.len()]);
+                    sgs.solve(&pre, &r, &mut y, Some(&mut l), true, &mut work);
+                    (y, l)
+                })
+            };
+            assert_eq!(run(1), run(2), "symmetric={symmetric}");
+        }
+    }
+
+    /// The per-pair products fused into the solves are those of `mul_factor`.
+    #[test]
+    fn fused_factor_products_match_separate_ones() {
+        let m = 2 * LEAF + 3;
+        let h = spd(m);
+        for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
+            let lay = Layout::new(m, symmetric);
+            let n = lay.len();
+            let pre = PairPrecond::new(h.as_ref(), lay, pen);
+            let sgs = Sgs::new(h.as_ref(), lay, Par::Seq);
+            let mut work = SgsWork::new(m);
+            let (r, t) = (vector(n, 1), vector(n, 2));
+            let close = |a: &[f64], b: &[f64]| {
+                let d = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
+                let s = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
+                assert!(d <= 1e-12 * s, "symmetric={symmetric}: {d} vs {s}");
+            };
+            // FactorIn: the solve of R r
+            let mut rr = vec![0.0; n];
+            pre.mul_factor(&r, &mut rr, false);
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            sgs.solve(&pre, &rr, &mut a, None, false, &mut work);
+            sgs.solve_with(&pre, &r, &mut b, None, false, Ends::FactorIn, &mut work);
+            close(&b, &a);
+            // FactorOut: Rᵀ (y + t)
+            sgs.solve(&pre, &r, &mut a, None, true, &mut work);
+            let sum: Vec<f64> = a.iter().zip(&t).map(|(y, t)| y + t).collect();
+            pre.mul_factor(&sum, &mut a, true);
+            let ends = Ends::FactorOut(Some(&t));
+            sgs.solve_with(&pre, &r, &mut b, None, true, ends, &mut work);
+            close(&b, &a);
+        }
+    }
+
+    fn vector(n: usize, seed: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| (((i * 31 + seed * 17) % 23) as f64 - 11.0) / 7.0)
+            .collect()
+    }
+}
