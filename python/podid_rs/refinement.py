@@ -202,6 +202,7 @@ def refine(
     log_diagonal: bool = True,
     progress: bool | Callable[[int, float], object] = False,
     threads: int | None = None,
+    solver: Literal["auto", "dense", "matrix-free"] = "auto",
 ) -> IdentificationResult:
     """Refine ``model`` to the least output error on the data (DESIGN §6).
 
@@ -226,6 +227,11 @@ def refine(
     progress : ``True`` draws a progress line on stderr; a callable is called as
         ``progress(iteration, cost)``. Ctrl-C stops the refinement and propagates.
     threads : worker threads (None = all cores).
+    solver : how each Gauss–Newton step is solved: ``"dense"`` forms and factors the
+        normal matrix (fastest for small m, but (3m(m+1)/2)² doubles), ``"matrix-free"``
+        runs preconditioned CG on products line by line (memory O(s·m²)), ``"auto"``
+        (default) dense up to m = 40, matrix-free beyond (measured:
+        ``benches/bench_refine.py``). Both reach the same model.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
@@ -277,6 +283,8 @@ def refine(
             f"progress must be a bool or a callable(iteration, cost), got {progress!r}"
         )
     threads = _check_threads(threads)
+    if solver not in ("auto", "dense", "matrix-free"):
+        raise ValueError(f"solver must be 'auto', 'dense' or 'matrix-free', got {solver!r}")
 
     # weights: a scalar per column, or per-entry weights reduced to a metric per column
     const = 0.0
@@ -324,7 +332,7 @@ def refine(
         out = _core.refine_output_error(
             Uc, Fc, targets.omega, p, (M1, C1, K1), **weight_kw,
             max_iter=int(max_iter), ftol=ftol, log_diagonal=bool(log_diagonal),
-            progress=callback, threads=threads,
+            progress=callback, threads=threads, solver=solver,
         )
     finally:
         if bar is not None:
@@ -353,6 +361,8 @@ def refine(
         "start": start_report,
         "timings": dict(out["timings"]),
         "scaling": tuple(out["scaling"]),
+        "solver": str(out["solver"]),
+        "solver_stats": dict(out["solver_stats"]),
     }
     if out["stop"] == "max_iter reached":
         warnings.warn(

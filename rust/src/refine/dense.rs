@@ -60,7 +60,13 @@ impl StepSolver for DenseNormal {
         ]
     }
 
-    fn step(&mut self, g: &[f64], mu: f64, par: Par) -> Option<Vec<f64>> {
+    fn step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        _cancelled: &mut dyn FnMut() -> bool,
+    ) -> Option<Vec<f64>> {
         let n = g.len();
         let dmax = (0..n).map(|i| self.nth[i * n + i]).fold(0.0f64, f64::max);
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);

@@ -37,6 +37,7 @@
 
 mod dense;
 mod lines;
+mod matfree;
 
 use crate::cg::Progress;
 use crate::data::Scaling;
@@ -139,6 +140,8 @@ pub struct OeOptions {
     pub xtol: f64,
     /// diagonals of the factors as exp(θ): M, C, K positive definite for every θ
     pub log_diagonal: bool,
+    /// how each Gauss–Newton step is solved
+    pub solver: StepKind,
 }
 
 impl Default for OeOptions {
@@ -148,9 +151,64 @@ impl Default for OeOptions {
             ftol: 1e-7,
             xtol: 1e-12,
             log_diagonal: true,
+            solver: StepKind::Auto,
         }
     }
 }
+
+/// The linear algebra of a Gauss–Newton step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepKind {
+    /// N_θ formed and factored: (3m(m+1)/2)² doubles, O(s·m⁴ + m⁶) flops per step
+    Dense,
+    /// preconditioned CG with N v applied line by line: O(s·m²) memory
+    MatrixFree,
+    /// dense while N_θ is small (see [`StepKind::resolve`]), matrix-free beyond
+    Auto,
+}
+
+impl StepKind {
+    /// The names the Python API uses: "dense", "matrix-free", "auto".
+    pub fn from_name(name: &str) -> Result<StepKind, PodidError> {
+        match name {
+            "dense" => Ok(StepKind::Dense),
+            "matrix-free" => Ok(StepKind::MatrixFree),
+            "auto" => Ok(StepKind::Auto),
+            _ => Err(PodidError::Invalid(format!(
+                "solver must be 'dense', 'matrix-free' or 'auto', got {name:?}"
+            ))),
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            StepKind::Dense => "dense",
+            StepKind::MatrixFree => "matrix-free",
+            StepKind::Auto => "auto",
+        }
+    }
+
+    /// Dense or matrix-free for order m on s lines with `terms` Gram terms per line.
+    pub fn resolve(&self, m: usize, _s: usize, _terms: usize) -> StepKind {
+        match self {
+            StepKind::Auto => {
+                if m <= AUTO_DENSE_MAX_M {
+                    StepKind::Dense
+                } else {
+                    StepKind::MatrixFree
+                }
+            }
+            k => *k,
+        }
+    }
+}
+
+/// Largest order the automatic choice solves densely (measured: see
+/// `benches/bench_refine.py --crossover`).
+pub const AUTO_DENSE_MAX_M: usize = 40;
+
+/// Most CG iterations of one matrix-free step.
+pub const MAX_CG_ITER: usize = 500;
 
 /// Why the iteration stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -197,8 +255,12 @@ pub struct OeReport {
     /// (iteration, cost) after every accepted step, caller's units
     pub history: Vec<(usize, f64)>,
     pub scaling: Scaling,
-    /// wall time per phase, seconds: evaluate, normal, solve, total
+    /// wall time per phase, seconds: evaluate, normal, solve, total, and the step
+    /// solver's own parts
     pub timings: Vec<(&'static str, f64)>,
+    /// the step solver used ("dense" or "matrix-free") and its counts
+    pub solver: &'static str,
+    pub solver_stats: Vec<(&'static str, f64)>,
 }
 
 /// The linear algebra of one Gauss–Newton step. At the current point `prepare`
@@ -214,10 +276,22 @@ pub(crate) trait StepSolver {
         ev: &Evaluation,
         par: Par,
     ) -> Vec<f64>;
-    fn step(&mut self, g: &[f64], mu: f64, par: Par) -> Option<Vec<f64>>;
+    /// `cancelled` is polled during long solves; when it returns true the solver
+    /// stops (its answer is then ignored).
+    fn step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        cancelled: &mut dyn FnMut() -> bool,
+    ) -> Option<Vec<f64>>;
     fn quad(&mut self, step: &[f64], par: Par) -> f64;
     /// Wall time of the solver's own parts, seconds (for the report).
     fn timings(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+    /// Counts of the solver's work (for the report).
+    fn stats(&self) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
 }
@@ -614,7 +688,11 @@ pub fn refine(
     let mut accepted = 0;
     let mut stop = Stop::MaxIter;
     let mut fresh = true; // the step solver must be prepared at the new point
-    let mut solver: Box<dyn StepSolver> = Box::new(DenseNormal::default());
+    let kind = opts.solver.resolve(m, data.s(), lines::terms_per_line(&pb));
+    let mut solver: Box<dyn StepSolver> = match kind {
+        StepKind::MatrixFree => Box::new(matfree::MatrixFree::new(MAX_CG_ITER)),
+        _ => Box::new(DenseNormal::default()),
+    };
     let mut gth = Vec::new();
     while iterations < opts.max_iter {
         if fresh {
@@ -633,8 +711,21 @@ pub fn refine(
         }
         iterations += 1;
         let t0 = Instant::now();
-        let step = solver.step(&gth, mu, par);
+        let mut cancelled = false;
+        let step = {
+            let cost_now = ev.cost * su2;
+            let mut poll = || {
+                if let Some(cb) = progress.as_mut() {
+                    cancelled |= cb(iterations, cost_now).is_break();
+                }
+                cancelled
+            };
+            solver.step(&gth, mu, par, &mut poll)
+        };
         t_solve += t0.elapsed().as_secs_f64();
+        if cancelled {
+            return Err(PodidError::Interrupted);
+        }
         let Some(step) = step else {
             mu *= nu;
             nu *= 2.0;
@@ -728,6 +819,8 @@ pub fn refine(
         .into_iter()
         .chain(solver.timings())
         .collect(),
+        solver: kind.name(),
+        solver_stats: solver.stats(),
     })
 }
 
@@ -958,6 +1051,65 @@ mod tests {
     }
 
     #[test]
+    fn matrix_free_products_and_diagonal_match_the_dense_matrix() {
+        let mut rng = Lcg(9);
+        for (m, p, log_diagonal, matrix) in [
+            (1, 2, true, false),
+            (3, 1, false, false),
+            (4, 2, true, false),
+            (3, 2, true, true),
+        ] {
+            let (omega, u, f, wscal, wmat) = noisy_data(m, p, 8, &mut rng);
+            let weights = if matrix {
+                Weights::Matrix(&wmat)
+            } else {
+                Weights::Scalar(&wscal)
+            };
+            let data = OeData {
+                omega: &omega,
+                u: &u,
+                f: &f,
+                weights,
+                m,
+                p,
+            };
+            let pb = problem(data);
+            let params = Params { m, log_diagonal };
+            let lf = system(m, &mut rng).map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
+            let mck = lf.clone().map(|x| gram_lower(&x));
+            let ev = pb.evaluate(&mck).unwrap();
+            let (nth, gth) =
+                dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
+            let mut mf = matfree::MatrixFree::new(MAX_CG_ITER);
+            let g2 = mf.prepare(&pb, &params, &lf, &ev, Par::Seq);
+            let n = params.len();
+            let scale = (0..n).map(|i| nth[i * n + i].abs()).fold(0.0, f64::max);
+            for q in 0..n {
+                assert!((g2[q] - gth[q]).abs() <= 1e-13 * scale.sqrt() * (1.0 + gth[q].abs()));
+                // the damping diagonal leaves out the floor's O(ε) terms
+                assert!(
+                    (mf.diagonal()[q] - nth[q * n + q]).abs() <= 1e-9 * scale,
+                    "m {m} diag[{q}]: {} vs {}",
+                    mf.diagonal()[q],
+                    nth[q * n + q]
+                );
+            }
+            for _ in 0..3 {
+                let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+                let nv = mf.apply(&v, Par::Seq);
+                for a in 0..n {
+                    let want: f64 = (0..n).map(|b| nth[b * n + a] * v[b]).sum();
+                    assert!(
+                        (nv[a] - want).abs() <= 1e-12 * scale * n as f64,
+                        "m {m} (Nv)[{a}]: {} vs {want}",
+                        nv[a]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn gauss_newton_matrix_and_gradient_match_finite_differences() {
         let mut rng = Lcg(7);
         let m = 3;
@@ -1051,28 +1203,32 @@ mod tests {
                 let d = Mat::from_fn(m, m, |_, _| 0.05 * rng.next());
                 Mat::from_fn(m, m, |i, j| x[(i, j)] * (1.0 + d[(i, j)] + d[(j, i)]))
             });
-            let opts = OeOptions {
-                log_diagonal,
-                ..Default::default()
-            };
-            let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
-            assert!(rep.stop.converged(), "{:?}", rep.stop);
-            for b in 0..3 {
-                let num: f64 = (0..m)
-                    .flat_map(|i| (0..m).map(move |j| (i, j)))
-                    .map(|(i, j)| (rep.mck[b][(i, j)] - truth[b][(i, j)]).powi(2))
-                    .sum();
-                let den: f64 = (0..m)
-                    .flat_map(|i| (0..m).map(move |j| (i, j)))
-                    .map(|(i, j)| truth[b][(i, j)].powi(2))
-                    .sum();
-                assert!(
-                    (num / den).sqrt() < 1e-8,
-                    "m {m} block {b}: {}",
-                    (num / den).sqrt()
-                );
+            for solver in [StepKind::Dense, StepKind::MatrixFree] {
+                let opts = OeOptions {
+                    log_diagonal,
+                    solver,
+                    ..Default::default()
+                };
+                let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
+                assert!(rep.stop.converged(), "{:?}", rep.stop);
+                assert_eq!(rep.solver, solver.name());
+                for b in 0..3 {
+                    let num: f64 = (0..m)
+                        .flat_map(|i| (0..m).map(move |j| (i, j)))
+                        .map(|(i, j)| (rep.mck[b][(i, j)] - truth[b][(i, j)]).powi(2))
+                        .sum();
+                    let den: f64 = (0..m)
+                        .flat_map(|i| (0..m).map(move |j| (i, j)))
+                        .map(|(i, j)| truth[b][(i, j)].powi(2))
+                        .sum();
+                    assert!(
+                        (num / den).sqrt() < 1e-8,
+                        "m {m} block {b}: {}",
+                        (num / den).sqrt()
+                    );
+                }
+                assert!(rep.cost < 1e-20 * rep.cost_start.max(1e-300) || rep.cost < 1e-24);
             }
-            assert!(rep.cost < 1e-20 * rep.cost_start.max(1e-300) || rep.cost < 1e-24);
         }
     }
 }

@@ -1,0 +1,440 @@
+//! The matrix-free Gauss–Newton step for large m: (N + μ·diag N) δ = −g by
+//! preconditioned conjugate gradients, N v = Jᵀ(J v) applied line by line.
+//!
+//! At each point the Gram matrix G = Aᴴ A (A = T D⁻¹) of every line (or column,
+//! with matrix weights) is stored: s·m² complex numbers, no m⁴ array. One product
+//! N v costs ≈ 32 m² flops per column:
+//!
+//! ```text
+//!     δX_b = P_b v_b,   y = δD x = (−ω² δM + iω δC + δK) x,   z = G y,
+//!     (N v)_b = P_bᵀ Re Σ z (φ_b x)ᴴ,       φ = (−ω², iω, 1),
+//! ```
+//!
+//! the first and last by GEMMs over all columns, the middle one per line. The exact
+//! diagonal of N (the LM damping, and the Jacobi preconditioner) costs one G L
+//! product per line: from X = L Lᵀ, θ = (j, k) moves δX = e_j ℓ_kᵀ + ℓ_k e_jᵀ, so
+//!
+//! ```text
+//!     N_(jk),(jk) = Σ |φ_b|² [G_jj |a_k|² + (LᵀGL)_kk X̄_jj + 2 Re((GL)_jk conj(a_k) x_j)] · s_jk²
+//! ```
+//!
+//! with a = Lᵀx and X̄_jj = |x_j|² summed over the term's columns (the floor's
+//! O(ε) terms are left out of the damping), s_jk = L_jj on a logged diagonal.
+
+use super::lines::{self, line_pieces, response_weight, terms_per_line};
+use super::{n_per_block, tri, Evaluation, Params, Problem, StepSolver};
+use faer::linalg::matmul::matmul;
+use faer::{c64, Accum, Mat, MatRef, Par};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Stopping rule of the inner CG: relative residual below
+/// min(CG_ETA_MAX, sqrt(‖g‖/‖g₀‖)) (a forcing term that tightens as the gradient
+/// falls, so that the outer iteration keeps its fast final convergence) and never
+/// above CG_ETA_MIN.
+const CG_ETA_MAX: f64 = 0.1;
+const CG_ETA_MIN: f64 = 1e-10;
+
+/// The matrix-free step solver.
+pub(crate) struct MatrixFree {
+    m: usize,
+    p: usize,
+    log_diagonal: bool,
+    /// G of every term, row-major m×m each
+    g: Vec<c64>,
+    /// model responses x of every column, and w² (1 with matrix weights)
+    x: Vec<c64>,
+    xw: Vec<f64>,
+    /// scaled ω of every line
+    w: Vec<f64>,
+    tpl: usize,
+    l: [Mat<f64>; 3],
+    /// diag(N_θ)
+    diag: Vec<f64>,
+    /// ‖g‖ at the first point, for the forcing term
+    g0: f64,
+    /// δᵀNδ of the last step
+    last: Option<(Vec<f64>, f64)>,
+    /// how many CG iterations, and N products
+    pub cg_iterations: usize,
+    pub products: usize,
+    pub cg_cap_hits: usize,
+    t_prepare: f64,
+    t_products: f64,
+    /// the CG iteration cap (after which the current iterate is the step)
+    max_cg: usize,
+}
+
+impl MatrixFree {
+    pub(crate) fn new(max_cg: usize) -> Self {
+        MatrixFree {
+            m: 0,
+            p: 0,
+            log_diagonal: true,
+            g: Vec::new(),
+            x: Vec::new(),
+            xw: Vec::new(),
+            w: Vec::new(),
+            tpl: 1,
+            l: [Mat::zeros(0, 0), Mat::zeros(0, 0), Mat::zeros(0, 0)],
+            diag: Vec::new(),
+            g0: 0.0,
+            last: None,
+            cg_iterations: 0,
+            products: 0,
+            cg_cap_hits: 0,
+            t_prepare: 0.0,
+            t_products: 0.0,
+            max_cg,
+        }
+    }
+
+    /// diag(N_θ) at the prepared point.
+    #[cfg(test)]
+    pub(crate) fn diagonal(&self) -> &[f64] {
+        &self.diag
+    }
+
+    fn params(&self) -> Params {
+        Params {
+            m: self.m,
+            log_diagonal: self.log_diagonal,
+        }
+    }
+
+    /// N_θ v.
+    pub(crate) fn apply(&mut self, v: &[f64], par: Par) -> Vec<f64> {
+        let t0 = Instant::now();
+        let (m, p) = (self.m, self.p);
+        let n = self.x.len() / m; // columns
+        let nb = n_per_block(m);
+        let params = self.params();
+        let dx: Vec<Mat<f64>> = (0..3)
+            .map(|b| lines::tangent(&params, &self.l[b], &v[b * nb..(b + 1) * nb]))
+            .collect();
+        // [δM δC δK] X over all columns, X as [Re X | Im X] (m × 2n)
+        let xr = MatRef::from_column_major_slice(&self.x, m, n);
+        let xri = Mat::<f64>::from_fn(m, 2 * n, |r, c| {
+            if c < n {
+                xr[(r, c)].re
+            } else {
+                xr[(r, c - n)].im
+            }
+        });
+        let mut stacked = Mat::<f64>::zeros(3 * m, m);
+        for (b, d) in dx.iter().enumerate() {
+            stacked
+                .as_mut()
+                .submatrix_mut(b * m, 0, m, m)
+                .copy_from(d.as_ref());
+        }
+        let mut prod = Mat::<f64>::zeros(3 * m, 2 * n);
+        matmul(
+            prod.as_mut(),
+            Accum::Replace,
+            stacked.as_ref(),
+            xri.as_ref(),
+            1.0,
+            par,
+        );
+        // per column: y = −ω² δM x + iω δC x + δK x, z = G y; z'_b = conj(φ_b) z
+        let mut zs = Mat::<f64>::zeros(3 * m, 2 * n); // [Re z'_b | Im z'_b] stacked by block
+        {
+            let (tpl, mm) = (self.tpl, m * m);
+            let g = &self.g;
+            let (w, xw) = (&self.w, &self.xw);
+            let prod = &prod;
+            let cols: Vec<Vec<c64>> = (0..n)
+                .into_par_iter()
+                .map(|col| {
+                    let i = col / p;
+                    let om = w[i];
+                    let y: Vec<c64> = (0..m)
+                        .map(|r| {
+                            let pm = c64::new(prod[(r, col)], prod[(r, n + col)]);
+                            let pc = c64::new(prod[(m + r, col)], prod[(m + r, n + col)]);
+                            let pk = c64::new(prod[(2 * m + r, col)], prod[(2 * m + r, n + col)]);
+                            pm * (-om * om) + pc * c64::new(0.0, om) + pk
+                        })
+                        .collect();
+                    let t = if tpl == 1 { i } else { col };
+                    let gt = &g[t * mm..(t + 1) * mm];
+                    let sc = xw[col];
+                    (0..m)
+                        .map(|r| {
+                            let row = &gt[r * m..(r + 1) * m];
+                            row.iter().zip(&y).map(|(a, b)| a * b).sum::<c64>() * sc
+                        })
+                        .collect()
+                })
+                .collect();
+            for (col, z) in cols.iter().enumerate() {
+                let om = w[col / p];
+                for r in 0..m {
+                    let zr = z[r];
+                    // conj(φ): −ω², −iω, 1
+                    let z0 = zr * (-om * om);
+                    let z1 = zr * c64::new(0.0, -om);
+                    for (b, zb) in [z0, z1, zr].into_iter().enumerate() {
+                        zs[(b * m + r, col)] = zb.re;
+                        zs[(b * m + r, n + col)] = zb.im;
+                    }
+                }
+            }
+        }
+        // R_b = Re Σ z'_b xᴴ = [Re z'_b | Im z'_b] [Re x | Im x]ᵀ
+        let mut rz = Mat::<f64>::zeros(3 * m, m);
+        matmul(
+            rz.as_mut(),
+            Accum::Replace,
+            zs.as_ref(),
+            xri.transpose(),
+            1.0,
+            par,
+        );
+        let mut out = vec![0.0; 3 * nb];
+        for b in 0..3 {
+            lines::tangent_adjoint(
+                &params,
+                &self.l[b],
+                |r, c| rz[(b * m + r, c)],
+                &mut out[b * nb..(b + 1) * nb],
+            );
+        }
+        self.products += 1;
+        self.t_products += t0.elapsed().as_secs_f64();
+        out
+    }
+}
+
+/// diag(N_θ) at the current point from the stored G (see the module note).
+fn diagonal(solver: &MatrixFree, par: Par) -> Vec<f64> {
+    let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
+    let mm = m * m;
+    let nb = n_per_block(m);
+    let s = solver.w.len();
+    // [L_M L_C L_K] (m × 3m)
+    let l3 = Mat::<f64>::from_fn(m, 3 * m, |r, c| solver.l[c / m][(r, c % m)]);
+    let parts: Vec<Vec<f64>> = (0..s * tpl)
+        .into_par_iter()
+        .map(|t| {
+            let i = if tpl == 1 { t } else { t / p };
+            let om = solver.w[i];
+            let phi2 = [om.powi(4), om * om, 1.0];
+            let gt = MatRef::from_row_major_slice(&solver.g[t * mm..(t + 1) * mm], m, m);
+            // G L3 as [Re G; Im G] L3
+            let gri = Mat::<f64>::from_fn(2 * m, m, |r, c| {
+                if r < m {
+                    gt[(r, c)].re
+                } else {
+                    gt[(r - m, c)].im
+                }
+            });
+            let mut gl = Mat::<f64>::zeros(2 * m, 3 * m);
+            matmul(
+                gl.as_mut(),
+                Accum::Replace,
+                gri.as_ref(),
+                l3.as_ref(),
+                1.0,
+                Par::Seq,
+            );
+            let cols: Vec<usize> = if tpl == 1 {
+                (0..p).map(|j| i * p + j).collect()
+            } else {
+                vec![t]
+            };
+            let mut out = vec![0.0; 3 * nb];
+            for b in 0..3 {
+                let l = &solver.l[b];
+                // (LᵀGL)_kk = Σ_j L_jk (GL)_jk (real: G Hermitian)
+                let lgl: Vec<f64> = (0..m)
+                    .map(|k| (k..m).map(|j| l[(j, k)] * gl[(j, b * m + k)]).sum())
+                    .collect();
+                for &col in &cols {
+                    let x = &solver.x[col * m..(col + 1) * m];
+                    let sc = solver.xw[col] * phi2[b];
+                    let a: Vec<c64> = (0..m)
+                        .map(|k| (k..m).map(|c| x[c] * l[(c, k)]).sum())
+                        .collect();
+                    for j in 0..m {
+                        let gjj = gt[(j, j)].re;
+                        let xj2 = x[j].norm_sqr();
+                        for k in 0..=j {
+                            let glc = c64::new(gl[(j, b * m + k)], gl[(m + j, b * m + k)]);
+                            let cross = (glc * a[k].conj() * x[j]).re;
+                            let v = gjj * a[k].norm_sqr() + lgl[k] * xj2 + 2.0 * cross;
+                            out[b * nb + tri(j, k)] += sc * v;
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let _ = par;
+    let mut d = vec![0.0; 3 * nb];
+    for part in &parts {
+        for (a, b) in d.iter_mut().zip(part) {
+            *a += b;
+        }
+    }
+    // the log scale s_jk²
+    for b in 0..3 {
+        let l = &solver.l[b];
+        for j in 0..m {
+            for k in 0..=j {
+                let s = lines::theta_scale(&solver.params(), l, j, k);
+                d[b * nb + tri(j, k)] *= s * s;
+            }
+        }
+    }
+    d
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+impl StepSolver for MatrixFree {
+    fn prepare(
+        &mut self,
+        pb: &Problem,
+        params: &Params,
+        l: &[Mat<f64>; 3],
+        ev: &Evaluation,
+        par: Par,
+    ) -> Vec<f64> {
+        let t0 = Instant::now();
+        let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+        let mm = m * m;
+        let tpl = terms_per_line(pb);
+        self.m = m;
+        self.p = p;
+        self.log_diagonal = params.log_diagonal;
+        self.tpl = tpl;
+        self.l = l.clone();
+        self.w = pb.w.clone();
+        self.x = ev.x.clone();
+        self.xw = (0..s * p).map(|col| response_weight(pb, col)).collect();
+        self.g.resize(s * tpl * mm, c64::new(0.0, 0.0));
+        let mut a = vec![c64::new(0.0, 0.0); s * p * m];
+        self.g
+            .par_chunks_mut(tpl * mm)
+            .zip(a.par_chunks_mut(p * m))
+            .enumerate()
+            .for_each(|(i, (g, a))| line_pieces(pb, ev, i, g, a));
+        let gz = lines::gradient_z(pb, ev, &a, par);
+        let grad = lines::theta_gradient(params, l, &gz);
+        self.diag = diagonal(self, par);
+        let gn = dot(&grad, &grad).sqrt();
+        if self.g0 == 0.0 {
+            self.g0 = gn;
+        }
+        self.last = None;
+        self.t_prepare += t0.elapsed().as_secs_f64();
+        grad
+    }
+
+    fn step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        cancelled: &mut dyn FnMut() -> bool,
+    ) -> Option<Vec<f64>> {
+        let n = g.len();
+        let dmax = self.diag.iter().fold(0.0f64, |a, v| a.max(*v));
+        let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
+        let damp: Vec<f64> = self.diag.iter().map(|d| mu * d.max(floor)).collect();
+        // Jacobi preconditioner of N + μD
+        let pre: Vec<f64> = self
+            .diag
+            .iter()
+            .zip(&damp)
+            .map(|(d, e)| 1.0 / (d.max(floor) + e))
+            .collect();
+        let gn = dot(g, g).sqrt();
+        let eta = (gn / self.g0.max(f64::MIN_POSITIVE))
+            .sqrt()
+            .clamp(CG_ETA_MIN, CG_ETA_MAX);
+        // CG on A δ = b, A = N + μD, b = −g, from δ = 0
+        let mut x = vec![0.0; n];
+        let mut r: Vec<f64> = g.iter().map(|v| -v).collect();
+        let mut z: Vec<f64> = r.iter().zip(&pre).map(|(a, b)| a * b).collect();
+        let mut d = z.clone();
+        let mut rz = dot(&r, &z);
+        let bn = gn;
+        let mut it = 0;
+        loop {
+            if cancelled() {
+                return None;
+            }
+            let mut ad = self.apply(&d, par);
+            for (q, v) in ad.iter_mut().enumerate() {
+                *v += damp[q] * d[q];
+            }
+            let dad = dot(&d, &ad);
+            if dad.is_nan() || dad <= 0.0 {
+                // not positive definite along d: stop with what we have
+                break;
+            }
+            let alpha = rz / dad;
+            for q in 0..n {
+                x[q] += alpha * d[q];
+                r[q] -= alpha * ad[q];
+            }
+            it += 1;
+            let rn = dot(&r, &r).sqrt();
+            if rn <= eta * bn || it >= self.max_cg {
+                if it >= self.max_cg && rn > eta * bn {
+                    self.cg_cap_hits += 1;
+                }
+                break;
+            }
+            for q in 0..n {
+                z[q] = r[q] * pre[q];
+            }
+            let rz2 = dot(&r, &z);
+            let beta = rz2 / rz;
+            rz = rz2;
+            for q in 0..n {
+                d[q] = z[q] + beta * d[q];
+            }
+        }
+        self.cg_iterations += it;
+        if it == 0 || !x.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        // δᵀNδ = δᵀAδ − μ δᵀDδ, δᵀAδ = δᵀ(b − r) = −gᵀδ − rᵀδ
+        let xax = -dot(g, &x) - dot(&r, &x);
+        let xdx: f64 = x.iter().zip(&damp).map(|(a, e)| a * a * e).sum();
+        self.last = Some((x.clone(), xax - xdx));
+        Some(x)
+    }
+
+    fn quad(&mut self, step: &[f64], par: Par) -> f64 {
+        if let Some((x, q)) = &self.last {
+            if x.as_slice() == step {
+                return *q;
+            }
+        }
+        let nv = self.apply(step, par);
+        dot(step, &nv)
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("matfree_prepare", self.t_prepare),
+            ("matfree_products", self.t_products),
+        ]
+    }
+
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("cg_iterations", self.cg_iterations as f64),
+            ("products", self.products as f64),
+            ("cg_cap_hits", self.cg_cap_hits as f64),
+        ]
+    }
+}
