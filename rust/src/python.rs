@@ -522,6 +522,15 @@ fn refine_output_error<'py>(
     d.set_item("timings", timings_dict(py, &rep.timings)?)?;
     d.set_item("solver", rep.solver)?;
     d.set_item("solver_stats", timings_dict(py, &rep.solver_stats)?)?;
+    // (s·p, m) like the data columns
+    let rows = |x: &[Complex64]| {
+        use numpy::PyArrayMethods;
+        PyArray1::from_slice(py, x).reshape([x.len() / m, m])
+    };
+    if let Some(x) = &rep.responses_start {
+        d.set_item("responses_start", rows(x)?)?;
+    }
+    d.set_item("responses", rows(&rep.responses)?)?;
     Ok(d)
 }
 

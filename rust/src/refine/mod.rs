@@ -261,6 +261,11 @@ pub struct OeReport {
     /// the step solver used ("dense" or "matrix-free") and its counts
     pub solver: &'static str,
     pub solver_stats: Vec<(&'static str, f64)>,
+    /// model responses D(ω)⁻¹ f of the start as given and of the answer, caller's
+    /// units, in the layout of the data (column after column); the start's is None
+    /// when it has a pole on a measured line
+    pub responses_start: Option<Vec<c64>>,
+    pub responses: Vec<c64>,
 }
 
 /// The linear algebra of one Gauss–Newton step. At the current point `prepare`
@@ -681,6 +686,9 @@ pub fn refine(
     }
     let su2 = scaling.su * scaling.su;
     let cost_start = ev.cost;
+    // responses of the start as given (before the damping floor), for the report
+    let given = [0, 1, 2].map(|b| scaled[b].clone());
+    let responses_start = pb.evaluate(&given).ok().map(|e| e.x);
     let mut history = vec![(0usize, cost_start * su2)];
     let mut mu = 0.0;
     let mut nu = 2.0;
@@ -821,6 +829,8 @@ pub fn refine(
         .collect(),
         solver: kind.name(),
         solver_stats: solver.stats(),
+        responses_start: responses_start.map(|x| x.into_iter().map(|v| v * scaling.su).collect()),
+        responses: ev.x.iter().map(|v| v * scaling.su).collect(),
     })
 }
 
