@@ -1,18 +1,22 @@
 //! The matrix-free Gauss–Newton step for large m: (N + μ·diag N) δ = −g by
 //! preconditioned conjugate gradients, N v = Jᵀ(J v) applied line by line.
 //!
-//! At each point the Gram matrix G = Aᴴ A (A = T D⁻¹) of every line (or column,
-//! with matrix weights) is stored: s·m² complex numbers, no m⁴ array. One product
-//! N v costs ≈ 32 m² flops per column:
+//! Nothing of size m⁴ and no per-line Gram matrix is formed: the step keeps the LU
+//! factors of every line from the evaluation (s·m² complex numbers) and applies
+//! G = Aᴴ A (A = T D⁻¹) by two triangular-pair solves. One product N v costs
+//! ≈ 64 m² flops per column (plus 2 m² per matrix weight):
 //!
 //! ```text
-//!     δX_b = P_b v_b,   y = δD x = (−ω² δM + iω δC + δK) x,   z = G y,
+//!     δX_b = P_b v_b,   y = δD x = (−ω² δM + iω δC + δK) x,   z = D⁻ᴴ TᵀT D⁻¹ y,
 //!     (N v)_b = P_bᵀ Re Σ z (φ_b x)ᴴ,       φ = (−ω², iω, 1),
 //! ```
 //!
-//! the first and last by GEMMs over all columns, the middle one per line. The exact
-//! diagonal of N (the LM damping, and the Jacobi preconditioner) costs one G L
-//! product per line: from X = L Lᵀ, θ = (j, k) moves δX = e_j ℓ_kᵀ + ℓ_k e_jᵀ, so
+//! the first and last by GEMMs over all columns, the middle one per line. The
+//! exact diagonal of N (the LM damping, and the Jacobi preconditioner) needs G and
+//! G L per line, O(s·m³): it is computed at the first point and refreshed every
+//! [`DIAG_REFRESH`] accepted steps (Marquardt's scaling need not be current; the
+//! converged point does not depend on it). From X = L Lᵀ, θ = (j, k) moves
+//! δX = e_j ℓ_kᵀ + ℓ_k e_jᵀ, so
 //!
 //! ```text
 //!     N_(jk),(jk) = Σ |φ_b|² [G_jj |a_k|² + (LᵀGL)_kk X̄_jj + 2 Re((GL)_jk conj(a_k) x_j)] · s_jk²
@@ -22,26 +26,38 @@
 //! O(ε) terms are left out of the damping), s_jk = L_jj on a logged diagonal.
 
 use super::lines::{self, line_pieces, response_weight, terms_per_line};
-use super::{n_per_block, tri, Evaluation, Params, Problem, StepSolver};
+use super::{
+    n_per_block, solve_lines, solve_lines_adjoint, tri, Evaluation, Params, Problem, StepSolver,
+    Weights,
+};
 use faer::linalg::matmul::matmul;
 use faer::{c64, Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Stopping rule of the inner CG: relative residual below
-/// min(CG_ETA_MAX, sqrt(‖g‖/‖g₀‖)) (a forcing term that tightens as the gradient
-/// falls, so that the outer iteration keeps its fast final convergence) and never
-/// above CG_ETA_MIN.
-const CG_ETA_MAX: f64 = 0.1;
-const CG_ETA_MIN: f64 = 1e-10;
+/// Stopping rule of the inner CG: relative residual below CG_ETA. Measured at m = 20,
+/// s = 800 (benches/bench_refine.py problem): a forcing term tightening as
+/// sqrt(‖g‖/‖g₀‖) with a cap of 500 products spent 18 900 products in 77 steps; a
+/// fixed 0.1 with a cap of 100 took 7 500 in 84 steps to the same cost (1e-4
+/// relative), 30 products a step did not converge in 200.
+const CG_ETA: f64 = 0.1;
+
+/// The diagonal of N_θ (damping and preconditioner) is recomputed at every this
+/// many accepted steps: it costs O(s·m³), the rest of a step O(s·m²) per product.
+pub const DIAG_REFRESH: usize = 5;
 
 /// The matrix-free step solver.
 pub(crate) struct MatrixFree {
     m: usize,
     p: usize,
     log_diagonal: bool,
-    /// G of every term, row-major m×m each
-    g: Vec<c64>,
+    /// LU factors and row permutations of every line (from the evaluation)
+    lu: Vec<c64>,
+    perm: Vec<usize>,
+    /// T of every column, row-major m×m (matrix weights only)
+    tw: Option<Vec<f64>>,
+    /// points prepared so far
+    prepares: usize,
     /// model responses x of every column, and w² (1 with matrix weights)
     x: Vec<c64>,
     xw: Vec<f64>,
@@ -51,8 +67,6 @@ pub(crate) struct MatrixFree {
     l: [Mat<f64>; 3],
     /// diag(N_θ)
     diag: Vec<f64>,
-    /// ‖g‖ at the first point, for the forcing term
-    g0: f64,
     /// δᵀNδ of the last step
     last: Option<(Vec<f64>, f64)>,
     /// how many CG iterations, and N products
@@ -60,6 +74,7 @@ pub(crate) struct MatrixFree {
     pub products: usize,
     pub cg_cap_hits: usize,
     t_prepare: f64,
+    t_diagonal: f64,
     t_products: f64,
     /// the CG iteration cap (after which the current iterate is the step)
     max_cg: usize,
@@ -71,19 +86,22 @@ impl MatrixFree {
             m: 0,
             p: 0,
             log_diagonal: true,
-            g: Vec::new(),
+            lu: Vec::new(),
+            perm: Vec::new(),
+            tw: None,
+            prepares: 0,
             x: Vec::new(),
             xw: Vec::new(),
             w: Vec::new(),
             tpl: 1,
             l: [Mat::zeros(0, 0), Mat::zeros(0, 0), Mat::zeros(0, 0)],
             diag: Vec::new(),
-            g0: 0.0,
             last: None,
             cg_iterations: 0,
             products: 0,
             cg_cap_hits: 0,
             t_prepare: 0.0,
+            t_diagonal: 0.0,
             t_products: 0.0,
             max_cg,
         }
@@ -137,47 +155,64 @@ impl MatrixFree {
             1.0,
             par,
         );
-        // per column: y = −ω² δM x + iω δC x + δK x, z = G y; z'_b = conj(φ_b) z
+        // per column: y = −ω² δM x + iω δC x + δK x, z = D⁻ᴴ TᵀT D⁻¹ y; z'_b = conj(φ_b) z
         let mut zs = Mat::<f64>::zeros(3 * m, 2 * n); // [Re z'_b | Im z'_b] stacked by block
         {
-            let (tpl, mm) = (self.tpl, m * m);
-            let g = &self.g;
+            let mm = m * m;
             let (w, xw) = (&self.w, &self.xw);
+            let (lu, perm, tw) = (&self.lu, &self.perm, &self.tw);
             let prod = &prod;
-            let cols: Vec<Vec<c64>> = (0..n)
+            let lines: Vec<Vec<c64>> = (0..w.len())
                 .into_par_iter()
-                .map(|col| {
-                    let i = col / p;
+                .map(|i| {
                     let om = w[i];
-                    let y: Vec<c64> = (0..m)
-                        .map(|r| {
+                    let mut y: Vec<c64> = (0..p * m)
+                        .map(|q| {
+                            let (col, r) = (i * p + q / m, q % m);
                             let pm = c64::new(prod[(r, col)], prod[(r, n + col)]);
                             let pc = c64::new(prod[(m + r, col)], prod[(m + r, n + col)]);
                             let pk = c64::new(prod[(2 * m + r, col)], prod[(2 * m + r, n + col)]);
                             pm * (-om * om) + pc * c64::new(0.0, om) + pk
                         })
                         .collect();
-                    let t = if tpl == 1 { i } else { col };
-                    let gt = &g[t * mm..(t + 1) * mm];
-                    let sc = xw[col];
-                    (0..m)
-                        .map(|r| {
-                            let row = &gt[r * m..(r + 1) * m];
-                            row.iter().zip(&y).map(|(a, b)| a * b).sum::<c64>() * sc
-                        })
-                        .collect()
+                    let lui = MatRef::from_column_major_slice(&lu[i * mm..(i + 1) * mm], m, m);
+                    let pi = &perm[i * m..(i + 1) * m];
+                    solve_lines(lui, pi, &mut y, m, p);
+                    if let Some(t) = tw {
+                        for j in 0..p {
+                            let tc = &t[(i * p + j) * mm..(i * p + j + 1) * mm];
+                            let yj = &mut y[j * m..(j + 1) * m];
+                            let ty: Vec<c64> = (0..m)
+                                .map(|r| (0..m).map(|q| yj[q] * tc[r * m + q]).sum())
+                                .collect();
+                            for (q, v) in yj.iter_mut().enumerate() {
+                                *v = (0..m).map(|r| ty[r] * tc[r * m + q]).sum();
+                            }
+                        }
+                    }
+                    solve_lines_adjoint(lui, pi, &mut y, m, p);
+                    for j in 0..p {
+                        let sc = xw[i * p + j];
+                        for v in &mut y[j * m..(j + 1) * m] {
+                            *v *= sc;
+                        }
+                    }
+                    y
                 })
                 .collect();
-            for (col, z) in cols.iter().enumerate() {
-                let om = w[col / p];
-                for r in 0..m {
-                    let zr = z[r];
-                    // conj(φ): −ω², −iω, 1
-                    let z0 = zr * (-om * om);
-                    let z1 = zr * c64::new(0.0, -om);
-                    for (b, zb) in [z0, z1, zr].into_iter().enumerate() {
-                        zs[(b * m + r, col)] = zb.re;
-                        zs[(b * m + r, n + col)] = zb.im;
+            for (i, z) in lines.iter().enumerate() {
+                let om = w[i];
+                for j in 0..p {
+                    let col = i * p + j;
+                    for r in 0..m {
+                        let zr = z[j * m + r];
+                        // conj(φ): −ω², −iω, 1
+                        let z0 = zr * (-om * om);
+                        let z1 = zr * c64::new(0.0, -om);
+                        for (b, zb) in [z0, z1, zr].into_iter().enumerate() {
+                            zs[(b * m + r, col)] = zb.re;
+                            zs[(b * m + r, n + col)] = zb.im;
+                        }
                     }
                 }
             }
@@ -207,72 +242,28 @@ impl MatrixFree {
     }
 }
 
-/// diag(N_θ) at the current point from the stored G (see the module note).
-fn diagonal(solver: &MatrixFree, par: Par) -> Vec<f64> {
+/// diag(N_θ) at the current point (see the module note): G of each line formed,
+/// used and dropped, O(s·m³) flops, O(m²) memory per thread.
+fn diagonal(solver: &MatrixFree, pb: &Problem, ev: &Evaluation) -> Vec<f64> {
     let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
     let mm = m * m;
     let nb = n_per_block(m);
     let s = solver.w.len();
     // [L_M L_C L_K] (m × 3m)
     let l3 = Mat::<f64>::from_fn(m, 3 * m, |r, c| solver.l[c / m][(r, c % m)]);
-    let parts: Vec<Vec<f64>> = (0..s * tpl)
+    let parts: Vec<Vec<f64>> = (0..s)
         .into_par_iter()
-        .map(|t| {
-            let i = if tpl == 1 { t } else { t / p };
-            let om = solver.w[i];
-            let phi2 = [om.powi(4), om * om, 1.0];
-            let gt = MatRef::from_row_major_slice(&solver.g[t * mm..(t + 1) * mm], m, m);
-            // G L3 as [Re G; Im G] L3
-            let gri = Mat::<f64>::from_fn(2 * m, m, |r, c| {
-                if r < m {
-                    gt[(r, c)].re
-                } else {
-                    gt[(r - m, c)].im
-                }
-            });
-            let mut gl = Mat::<f64>::zeros(2 * m, 3 * m);
-            matmul(
-                gl.as_mut(),
-                Accum::Replace,
-                gri.as_ref(),
-                l3.as_ref(),
-                1.0,
-                Par::Seq,
-            );
-            let cols: Vec<usize> = if tpl == 1 {
-                (0..p).map(|j| i * p + j).collect()
-            } else {
-                vec![t]
-            };
+        .map(|i| {
+            let mut g = vec![c64::new(0.0, 0.0); tpl * mm];
+            let mut a = vec![c64::new(0.0, 0.0); p * m];
+            line_pieces(pb, ev, i, &mut g, &mut a);
             let mut out = vec![0.0; 3 * nb];
-            for b in 0..3 {
-                let l = &solver.l[b];
-                // (LᵀGL)_kk = Σ_j L_jk (GL)_jk (real: G Hermitian)
-                let lgl: Vec<f64> = (0..m)
-                    .map(|k| (k..m).map(|j| l[(j, k)] * gl[(j, b * m + k)]).sum())
-                    .collect();
-                for &col in &cols {
-                    let x = &solver.x[col * m..(col + 1) * m];
-                    let sc = solver.xw[col] * phi2[b];
-                    let a: Vec<c64> = (0..m)
-                        .map(|k| (k..m).map(|c| x[c] * l[(c, k)]).sum())
-                        .collect();
-                    for j in 0..m {
-                        let gjj = gt[(j, j)].re;
-                        let xj2 = x[j].norm_sqr();
-                        for k in 0..=j {
-                            let glc = c64::new(gl[(j, b * m + k)], gl[(m + j, b * m + k)]);
-                            let cross = (glc * a[k].conj() * x[j]).re;
-                            let v = gjj * a[k].norm_sqr() + lgl[k] * xj2 + 2.0 * cross;
-                            out[b * nb + tri(j, k)] += sc * v;
-                        }
-                    }
-                }
+            for tl in 0..tpl {
+                line_diagonal(solver, i, tl, &g[tl * mm..(tl + 1) * mm], &l3, &mut out);
             }
             out
         })
         .collect();
-    let _ = par;
     let mut d = vec![0.0; 3 * nb];
     for part in &parts {
         for (a, b) in d.iter_mut().zip(part) {
@@ -290,6 +281,68 @@ fn diagonal(solver: &MatrixFree, par: Par) -> Vec<f64> {
         }
     }
     d
+}
+
+/// The part of diag(N_θ) of line `i`, term `tl` (of Gram matrix `g`, row-major).
+fn line_diagonal(
+    solver: &MatrixFree,
+    i: usize,
+    tl: usize,
+    g: &[c64],
+    l3: &Mat<f64>,
+    out: &mut [f64],
+) {
+    let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
+    let nb = n_per_block(m);
+    let om = solver.w[i];
+    let phi2 = [om.powi(4), om * om, 1.0];
+    let gt = MatRef::from_row_major_slice(g, m, m);
+    // G L3 as [Re G; Im G] L3
+    let gri = Mat::<f64>::from_fn(2 * m, m, |r, c| {
+        if r < m {
+            gt[(r, c)].re
+        } else {
+            gt[(r - m, c)].im
+        }
+    });
+    let mut gl = Mat::<f64>::zeros(2 * m, 3 * m);
+    matmul(
+        gl.as_mut(),
+        Accum::Replace,
+        gri.as_ref(),
+        l3.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    let cols: Vec<usize> = if tpl == 1 {
+        (0..p).map(|j| i * p + j).collect()
+    } else {
+        vec![i * p + tl]
+    };
+    for b in 0..3 {
+        let l = &solver.l[b];
+        // (LᵀGL)_kk = Σ_j L_jk (GL)_jk (real: G Hermitian)
+        let lgl: Vec<f64> = (0..m)
+            .map(|k| (k..m).map(|j| l[(j, k)] * gl[(j, b * m + k)]).sum())
+            .collect();
+        for &col in &cols {
+            let x = &solver.x[col * m..(col + 1) * m];
+            let sc = solver.xw[col] * phi2[b];
+            let a: Vec<c64> = (0..m)
+                .map(|k| (k..m).map(|c| x[c] * l[(c, k)]).sum())
+                .collect();
+            for j in 0..m {
+                let gjj = gt[(j, j)].re;
+                let xj2 = x[j].norm_sqr();
+                for k in 0..=j {
+                    let glc = c64::new(gl[(j, b * m + k)], gl[(m + j, b * m + k)]);
+                    let cross = (glc * a[k].conj() * x[j]).re;
+                    let v = gjj * a[k].norm_sqr() + lgl[k] * xj2 + 2.0 * cross;
+                    out[b * nb + tri(j, k)] += sc * v;
+                }
+            }
+        }
+    }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -317,20 +370,51 @@ impl StepSolver for MatrixFree {
         self.w = pb.w.clone();
         self.x = ev.x.clone();
         self.xw = (0..s * p).map(|col| response_weight(pb, col)).collect();
-        self.g.resize(s * tpl * mm, c64::new(0.0, 0.0));
+        self.lu.clone_from(&ev.lu);
+        self.perm.clone_from(&ev.perm);
+        self.tw = match pb.data.weights {
+            Weights::Matrix(t) => Some(t.to_vec()),
+            Weights::Scalar(_) => None,
+        };
+        // a = Aᴴ r per column = D⁻ᴴ TᵀT (x − u) (w² with scalar weights)
         let mut a = vec![c64::new(0.0, 0.0); s * p * m];
-        self.g
-            .par_chunks_mut(tpl * mm)
-            .zip(a.par_chunks_mut(p * m))
-            .enumerate()
-            .for_each(|(i, (g, a))| line_pieces(pb, ev, i, g, a));
+        {
+            let (lu, perm, tw, xw) = (&self.lu, &self.perm, &self.tw, &self.xw);
+            a.par_chunks_mut(p * m).enumerate().for_each(|(i, ai)| {
+                let off = i * p * m;
+                for (q, v) in ai.iter_mut().enumerate() {
+                    *v = ev.x[off + q] - pb.u[off + q];
+                }
+                if let Some(t) = tw {
+                    for j in 0..p {
+                        let tc = &t[(i * p + j) * mm..(i * p + j + 1) * mm];
+                        let rj = &mut ai[j * m..(j + 1) * m];
+                        let tr: Vec<c64> = (0..m)
+                            .map(|r| (0..m).map(|q| rj[q] * tc[r * m + q]).sum())
+                            .collect();
+                        for (q, v) in rj.iter_mut().enumerate() {
+                            *v = (0..m).map(|r| tr[r] * tc[r * m + q]).sum();
+                        }
+                    }
+                }
+                let lui = MatRef::from_column_major_slice(&lu[i * mm..(i + 1) * mm], m, m);
+                solve_lines_adjoint(lui, &perm[i * m..(i + 1) * m], ai, m, p);
+                for j in 0..p {
+                    let sc = xw[i * p + j];
+                    for v in &mut ai[j * m..(j + 1) * m] {
+                        *v *= sc;
+                    }
+                }
+            });
+        }
         let gz = lines::gradient_z(pb, ev, &a, par);
         let grad = lines::theta_gradient(params, l, &gz);
-        self.diag = diagonal(self, par);
-        let gn = dot(&grad, &grad).sqrt();
-        if self.g0 == 0.0 {
-            self.g0 = gn;
+        if self.prepares.is_multiple_of(DIAG_REFRESH) {
+            let t1 = Instant::now();
+            self.diag = diagonal(self, pb, ev);
+            self.t_diagonal += t1.elapsed().as_secs_f64();
         }
+        self.prepares += 1;
         self.last = None;
         self.t_prepare += t0.elapsed().as_secs_f64();
         grad
@@ -355,9 +439,7 @@ impl StepSolver for MatrixFree {
             .map(|(d, e)| 1.0 / (d.max(floor) + e))
             .collect();
         let gn = dot(g, g).sqrt();
-        let eta = (gn / self.g0.max(f64::MIN_POSITIVE))
-            .sqrt()
-            .clamp(CG_ETA_MIN, CG_ETA_MAX);
+        let eta = CG_ETA;
         // CG on A δ = b, A = N + μD, b = −g, from δ = 0
         let mut x = vec![0.0; n];
         let mut r: Vec<f64> = g.iter().map(|v| -v).collect();
@@ -426,6 +508,7 @@ impl StepSolver for MatrixFree {
     fn timings(&self) -> Vec<(&'static str, f64)> {
         vec![
             ("matfree_prepare", self.t_prepare),
+            ("matfree_diagonal", self.t_diagonal),
             ("matfree_products", self.t_products),
         ]
     }

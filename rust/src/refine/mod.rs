@@ -208,7 +208,7 @@ impl StepKind {
 pub const AUTO_DENSE_MAX_M: usize = 40;
 
 /// Most CG iterations of one matrix-free step.
-pub const MAX_CG_ITER: usize = 500;
+pub const MAX_CG_ITER: usize = 100;
 
 /// Why the iteration stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -547,6 +547,34 @@ pub(crate) fn solve_lines(lu: MatRef<c64>, perm: &[usize], x: &mut [c64], m: usi
         Par::Seq,
     ));
     lu_solve::solve_in_place(lu, lu, permref, rhs, Par::Seq, MemStack::new(&mut mem));
+}
+
+/// Solve D(ω)ᴴ z = x in place for the p columns of x (m×p, column-major), from
+/// the LU of D.
+pub(crate) fn solve_lines_adjoint(
+    lu: MatRef<c64>,
+    perm: &[usize],
+    x: &mut [c64],
+    m: usize,
+    p: usize,
+) {
+    let pinv = inverse_perm(perm);
+    let permref = faer::perm::PermRef::new_checked(perm, &pinv, m);
+    let rhs = MatMut::from_column_major_slice_mut(x, m, p);
+    let mut mem = MemBuffer::new(lu_solve::solve_transpose_in_place_scratch::<usize, c64>(
+        m,
+        p,
+        Par::Seq,
+    ));
+    lu_solve::solve_transpose_in_place_with_conj(
+        lu,
+        lu,
+        permref,
+        faer::Conj::Yes,
+        rhs,
+        Par::Seq,
+        MemStack::new(&mut mem),
+    );
 }
 
 fn inverse_perm(perm: &[usize]) -> Vec<usize> {
