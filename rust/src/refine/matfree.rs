@@ -67,8 +67,9 @@ pub(crate) struct MatrixFree {
     w: Vec<f64>,
     tpl: usize,
     l: [Mat<f64>; 3],
-    /// diag(N_θ)
+    /// diag(N_θ), and the 3×3 blocks coupling M, C, K at each (j, k)
     diag: Vec<f64>,
+    blocks: Vec<f64>,
     /// ‖g‖ at the first point, for the forcing term
     g0: f64,
     /// δᵀNδ of the last step
@@ -100,6 +101,7 @@ impl MatrixFree {
             tpl: 1,
             l: [Mat::zeros(0, 0), Mat::zeros(0, 0), Mat::zeros(0, 0)],
             diag: Vec::new(),
+            blocks: Vec::new(),
             last: None,
             g0: 0.0,
             cg_iterations: 0,
@@ -116,6 +118,17 @@ impl MatrixFree {
     #[cfg(test)]
     pub(crate) fn diagonal(&self) -> &[f64] {
         &self.diag
+    }
+
+    /// N_θ[(b, t), (b', t)] at the prepared point, t = tri(j, k).
+    #[cfg(test)]
+    pub(crate) fn block(&self, b: usize, bp: usize, t: usize) -> f64 {
+        let nb = self.diag.len() / 3;
+        let q = PAIRS
+            .iter()
+            .position(|&pr| pr == (b.min(bp), b.max(bp)))
+            .unwrap();
+        self.blocks[q * nb + t]
     }
 
     fn params(&self) -> Params {
@@ -247,7 +260,8 @@ impl MatrixFree {
     }
 }
 
-/// diag(N_θ) at the current point (see the module note): G of each line formed,
+/// The 3×3 blocks of N_θ coupling M, C, K at each (j, k) (see the module note;
+/// layout: pair q of [`PAIRS`] at q·nb + tri(j, k), the diagonal first): G of each line formed,
 /// used and dropped, O(s·m³) flops, O(m²) memory per thread.
 fn diagonal(solver: &MatrixFree, pb: &Problem, ev: &Evaluation) -> Vec<f64> {
     let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
@@ -262,26 +276,26 @@ fn diagonal(solver: &MatrixFree, pb: &Problem, ev: &Evaluation) -> Vec<f64> {
             let mut g = vec![c64::new(0.0, 0.0); tpl * mm];
             let mut a = vec![c64::new(0.0, 0.0); p * m];
             line_pieces(pb, ev, i, &mut g, &mut a);
-            let mut out = vec![0.0; 3 * nb];
+            let mut out = vec![0.0; 6 * nb];
             for tl in 0..tpl {
                 line_diagonal(solver, i, tl, &g[tl * mm..(tl + 1) * mm], &l3, &mut out);
             }
             out
         })
         .collect();
-    let mut d = vec![0.0; 3 * nb];
+    let mut d = vec![0.0; 6 * nb];
     for part in &parts {
         for (a, b) in d.iter_mut().zip(part) {
             *a += b;
         }
     }
-    // the log scale s_jk²
-    for b in 0..3 {
-        let l = &solver.l[b];
+    // the log scales s_b,jk s_b',jk
+    let sc =
+        |b: usize, j: usize, k: usize| lines::theta_scale(&solver.params(), &solver.l[b], j, k);
+    for (q, &(b, bp)) in PAIRS.iter().enumerate() {
         for j in 0..m {
             for k in 0..=j {
-                let s = lines::theta_scale(&solver.params(), l, j, k);
-                d[b * nb + tri(j, k)] *= s * s;
+                d[q * nb + tri(j, k)] *= sc(b, j, k) * sc(bp, j, k);
             }
         }
     }
@@ -300,7 +314,6 @@ fn line_diagonal(
     let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
     let nb = n_per_block(m);
     let om = solver.w[i];
-    let phi2 = [om.powi(4), om * om, 1.0];
     let gt = MatRef::from_row_major_slice(g, m, m);
     // G L3 as [Re G; Im G] L3
     let gri = Mat::<f64>::from_fn(2 * m, m, |r, c| {
@@ -324,30 +337,87 @@ fn line_diagonal(
     } else {
         vec![i * p + tl]
     };
-    for b in 0..3 {
-        let l = &solver.l[b];
-        // (LᵀGL)_kk = Σ_j L_jk (GL)_jk (real: G Hermitian)
-        let lgl: Vec<f64> = (0..m)
-            .map(|k| (k..m).map(|j| l[(j, k)] * gl[(j, b * m + k)]).sum())
+    let phi = [
+        c64::new(-om * om, 0.0),
+        c64::new(0.0, om),
+        c64::new(1.0, 0.0),
+    ];
+    let glc = |j: usize, b: usize, k: usize| c64::new(gl[(j, b * m + k)], gl[(m + j, b * m + k)]);
+    // (L_bᵀ G L_b')_kk = Σ_j L_b,jk (G L_b')_jk for the six pairs
+    let lgl: Vec<Vec<c64>> = PAIRS
+        .iter()
+        .map(|&(b, bp)| {
+            let l = &solver.l[b];
+            (0..m)
+                .map(|k| (k..m).map(|j| glc(j, bp, k) * l[(j, k)]).sum())
+                .collect()
+        })
+        .collect();
+    for &col in &cols {
+        let x = &solver.x[col * m..(col + 1) * m];
+        let a: Vec<Vec<c64>> = (0..3)
+            .map(|b| {
+                let l = &solver.l[b];
+                (0..m)
+                    .map(|k| (k..m).map(|c| x[c] * l[(c, k)]).sum())
+                    .collect()
+            })
             .collect();
-        for &col in &cols {
-            let x = &solver.x[col * m..(col + 1) * m];
-            let sc = solver.xw[col] * phi2[b];
-            let a: Vec<c64> = (0..m)
-                .map(|k| (k..m).map(|c| x[c] * l[(c, k)]).sum())
-                .collect();
+        for (q, &(b, bp)) in PAIRS.iter().enumerate() {
+            let sc = phi[b].conj() * phi[bp] * solver.xw[col];
             for j in 0..m {
                 let gjj = gt[(j, j)].re;
-                let xj2 = x[j].norm_sqr();
+                let xj = x[j];
+                let xj2 = xj.norm_sqr();
                 for k in 0..=j {
-                    let glc = c64::new(gl[(j, b * m + k)], gl[(m + j, b * m + k)]);
-                    let cross = (glc * a[k].conj() * x[j]).re;
-                    let v = gjj * a[k].norm_sqr() + lgl[k] * xj2 + 2.0 * cross;
-                    out[b * nb + tri(j, k)] += sc * v;
+                    let (ab, abp) = (a[b][k], a[bp][k]);
+                    let v = ab.conj() * abp * gjj
+                        + ab.conj() * xj * glc(j, bp, k)
+                        + xj.conj() * abp * glc(j, b, k).conj()
+                        + lgl[q][k] * xj2;
+                    out[q * nb + tri(j, k)] += (sc * v).re;
                 }
             }
         }
     }
+}
+
+/// Block pairs (b, b') of the 3×3 blocks of N_θ kept per unknown (j, k): the
+/// diagonal first, then M–C, M–K, C–K.
+const PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+/// Inverse of a symmetric positive definite 3×3 matrix (upper triangle of `a`) as
+/// [00, 11, 22, 01, 02, 12], by Cholesky; None when it is not numerically positive.
+fn inverse3(a: [[f64; 3]; 3]) -> Option<[f64; 6]> {
+    let l00 = a[0][0].sqrt();
+    let l10 = a[0][1] / l00;
+    let l20 = a[0][2] / l00;
+    let d1 = a[1][1] - l10 * l10;
+    if l00.is_nan() || l00 <= 0.0 || d1.is_nan() || d1 <= 1e-12 * a[1][1] {
+        return None;
+    }
+    let l11 = d1.sqrt();
+    let l21 = (a[1][2] - l20 * l10) / l11;
+    let d2 = a[2][2] - l20 * l20 - l21 * l21;
+    if d2.is_nan() || d2 <= 1e-12 * a[2][2] {
+        return None;
+    }
+    let l22 = d2.sqrt();
+    // L⁻¹ (lower), then A⁻¹ = L⁻ᵀ L⁻¹
+    let i00 = 1.0 / l00;
+    let i11 = 1.0 / l11;
+    let i22 = 1.0 / l22;
+    let i10 = -l10 * i00 / l11;
+    let i21 = -l21 * i11 / l22;
+    let i20 = -(l20 * i00 + l21 * i10) / l22;
+    Some([
+        i00 * i00 + i10 * i10 + i20 * i20,
+        i11 * i11 + i21 * i21,
+        i22 * i22,
+        i10 * i11 + i20 * i21,
+        i20 * i22,
+        i21 * i22,
+    ])
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -416,7 +486,9 @@ impl StepSolver for MatrixFree {
         let grad = lines::theta_gradient(params, l, &gz);
         if self.prepares.is_multiple_of(DIAG_REFRESH) {
             let t1 = Instant::now();
-            self.diag = diagonal(self, pb, ev);
+            let blocks = diagonal(self, pb, ev);
+            self.diag = blocks[..3 * n_per_block(m)].to_vec();
+            self.blocks = blocks;
             self.t_diagonal += t1.elapsed().as_secs_f64();
         }
         self.prepares += 1;
@@ -436,13 +508,30 @@ impl StepSolver for MatrixFree {
         let dmax = self.diag.iter().fold(0.0f64, |a, v| a.max(*v));
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
         let damp: Vec<f64> = self.diag.iter().map(|d| mu * d.max(floor)).collect();
-        // Jacobi preconditioner of N + μD
-        let pre: Vec<f64> = self
-            .diag
-            .iter()
-            .zip(&damp)
-            .map(|(d, e)| 1.0 / (d.max(floor) + e))
+        // preconditioner: N + μD restricted to the 3×3 blocks (M, C, K at one (j, k)),
+        // inverted per block (Jacobi where a block is not numerically positive)
+        let nb = n / 3;
+        let pre: Vec<[f64; 6]> = (0..nb)
+            .map(|t| {
+                let e = |b: usize| self.diag[b * nb + t].max(floor) + damp[b * nb + t];
+                let a = [
+                    [e(0), self.blocks[3 * nb + t], self.blocks[4 * nb + t]],
+                    [0.0, e(1), self.blocks[5 * nb + t]],
+                    [0.0, 0.0, e(2)],
+                ];
+                inverse3(a).unwrap_or([1.0 / e(0), 1.0 / e(1), 1.0 / e(2), 0.0, 0.0, 0.0])
+            })
             .collect();
+        let precondition = |r: &[f64]| -> Vec<f64> {
+            let mut z = vec![0.0; n];
+            for (t, q) in pre.iter().enumerate() {
+                let (r0, r1, r2) = (r[t], r[nb + t], r[2 * nb + t]);
+                z[t] = q[0] * r0 + q[3] * r1 + q[4] * r2;
+                z[nb + t] = q[3] * r0 + q[1] * r1 + q[5] * r2;
+                z[2 * nb + t] = q[4] * r0 + q[5] * r1 + q[2] * r2;
+            }
+            z
+        };
         let gn = dot(g, g).sqrt();
         if self.g0 == 0.0 {
             self.g0 = gn;
@@ -451,7 +540,7 @@ impl StepSolver for MatrixFree {
         // CG on A δ = b, A = N + μD, b = −g, from δ = 0
         let mut x = vec![0.0; n];
         let mut r: Vec<f64> = g.iter().map(|v| -v).collect();
-        let mut z: Vec<f64> = r.iter().zip(&pre).map(|(a, b)| a * b).collect();
+        let mut z = precondition(&r);
         let mut d = z.clone();
         let mut rz = dot(&r, &z);
         let bn = gn;
@@ -482,9 +571,7 @@ impl StepSolver for MatrixFree {
                 }
                 break;
             }
-            for q in 0..n {
-                z[q] = r[q] * pre[q];
-            }
+            z = precondition(&r);
             let rz2 = dot(&r, &z);
             let beta = rz2 / rz;
             rz = rz2;

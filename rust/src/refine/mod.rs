@@ -1132,6 +1132,18 @@ mod tests {
                     nth[q * n + q]
                 );
             }
+            // the 3×3 blocks of the preconditioner
+            let nb = n / 3;
+            for t in 0..nb {
+                for (b, bp) in [(0, 1), (0, 2), (1, 2)] {
+                    let want = nth[(b * nb + t) * n + bp * nb + t];
+                    assert!(
+                        (mf.block(b, bp, t) - want).abs() <= 1e-9 * scale,
+                        "m {m} block ({b}, {bp}) at {t}: {} vs {want}",
+                        mf.block(b, bp, t)
+                    );
+                }
+            }
             for _ in 0..3 {
                 let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
                 let nv = mf.apply(&v, Par::Seq);
