@@ -231,15 +231,16 @@ def refine(
         normal matrix (fastest for small m, but (3m(m+1)/2)² doubles), ``"matrix-free"``
         runs preconditioned CG on products line by line (memory O(s·m²)), ``"auto"``
         (default) dense up to m = 40, matrix-free beyond (measured:
-        ``benches/bench_refine.py``). Both reach the same model.
+        ``benches/bench_refine.py --crossover``). Both reach the same model.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
     ``cost`` (the weighted output error Σ‖W(x − u)‖² before and after), ``stop``,
     ``converged``, ``accepted`` steps, ``history`` [(iteration, cost)], the median
     and 95th-percentile |dB| error of the model's responses against ``U`` before and
-    after (``db_before``, ``db_after``: (median, p95)), the weights used and how the
-    start was made physical. ``residual_norm`` is the equation error ‖Ax − y‖ (eq.
+    after (``db_before``, ``db_after``: (median, p95)), the weights used, how the
+    start was made physical, and the step ``solver`` used with its ``solver_stats``
+    (CG products for the matrix-free step). ``residual_norm`` is the equation error ‖Ax − y‖ (eq.
     28) of the refined model, for comparison with the paper's estimator.
 
     Raises ``ValueError`` for malformed data, weights or options, a start that
