@@ -211,6 +211,7 @@ def refine(
     log_diagonal: bool = True,
     progress: bool | Callable[[int, float], object] = False,
     threads: int | None = None,
+    solver: Literal["auto", "dense", "matrix-free"] = "auto",
 ) -> IdentificationResult:
     """Refine ``model`` to the least output error on the data (DESIGN §6).
 
@@ -235,14 +236,20 @@ def refine(
     progress : ``True`` draws a progress line on stderr; a callable is called as
         ``progress(iteration, cost)``. Ctrl-C stops the refinement and propagates.
     threads : worker threads (None = all cores).
+    solver : how each Gauss–Newton step is solved: ``"dense"`` forms and factors the
+        normal matrix (fastest for small m, but (3m(m+1)/2)² doubles), ``"matrix-free"``
+        runs preconditioned CG on products line by line (memory O(s·m²)), ``"auto"``
+        (default) dense up to m = 40, matrix-free beyond (measured:
+        ``benches/bench_refine.py --crossover``). Both reach the same model.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
     ``cost`` (the weighted output error Σ‖W(x − u)‖² before and after), ``stop``,
     ``converged``, ``accepted`` steps, ``history`` [(iteration, cost)], the median
     and 95th-percentile |dB| error of the model's responses against ``U`` before and
-    after (``db_before``, ``db_after``: (median, p95)), the weights used and how the
-    start was made physical. ``residual_norm`` is the equation error ‖Ax − y‖ (eq.
+    after (``db_before``, ``db_after``: (median, p95)), the weights used, how the
+    start was made physical, and the step ``solver`` used with its ``solver_stats``
+    (CG products for the matrix-free step). ``residual_norm`` is the equation error ‖Ax − y‖ (eq.
     28) of the refined model, for comparison with the paper's estimator.
 
     Raises ``ValueError`` for malformed data, weights or options, a start that
@@ -286,6 +293,8 @@ def refine(
             f"progress must be a bool or a callable(iteration, cost), got {progress!r}"
         )
     threads = _check_threads(threads)
+    if solver not in ("auto", "dense", "matrix-free"):
+        raise ValueError(f"solver must be 'auto', 'dense' or 'matrix-free', got {solver!r}")
 
     # weights: a scalar per column, or per-entry weights reduced to a metric per column
     const = 0.0
@@ -333,7 +342,7 @@ def refine(
         out = _core.refine_output_error(
             Uc, Fc, targets.omega, p, (M1, C1, K1), **weight_kw,
             max_iter=int(max_iter), ftol=ftol, log_diagonal=bool(log_diagonal),
-            progress=callback, threads=threads,
+            progress=callback, threads=threads, solver=solver,
         )
     finally:
         if bar is not None:
@@ -345,9 +354,14 @@ def refine(
         X = SecondOrderSystem(Mx, Cx, Kx).response(data.omega, data.F)
         return X if R is None else np.einsum("nm,smp->snp", R, X)
 
+    def returned(key: str) -> np.ndarray:  # the core's (s·p, m) responses, as (s, m, p)
+        X = out[key].reshape(data.s, p, m).transpose(0, 2, 1)
+        return X if R is None else np.einsum("nm,smp->snp", R, X)
+
     measured = data.U if R is None else U3
-    before = db_errors(responses(M1, C1, K1), measured)
-    after = db_errors(responses(M, C, K), measured)
+    X0 = returned("responses_start") if "responses_start" in out else responses(M1, C1, K1)
+    before = db_errors(X0, measured)
+    after = db_errors(returned("responses"), measured)
     summary = lambda e: (float(np.median(e)), float(np.percentile(e, 95)))  # noqa: E731
     report = {
         "cost_start": float(out["cost_start"]) + const,
@@ -362,6 +376,8 @@ def refine(
         "start": start_report,
         "timings": dict(out["timings"]),
         "scaling": tuple(out["scaling"]),
+        "solver": str(out["solver"]),
+        "solver_stats": dict(out["solver_stats"]),
     }
     if out["stop"] == "max_iter reached":
         warnings.warn(

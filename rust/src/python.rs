@@ -441,7 +441,7 @@ fn sweep_memory_bytes(m: usize) -> u128 {
 #[pyfunction]
 #[pyo3(signature = (u, f, omega, p, start, weights = None, weight_matrices = None,
     max_iter = 200, ftol = 1e-7, xtol = 1e-12, log_diagonal = true, progress = None,
-    threads = 0))]
+    threads = 0, solver = "auto"))]
 #[allow(clippy::too_many_arguments)]
 fn refine_output_error<'py>(
     py: Python<'py>,
@@ -462,8 +462,10 @@ fn refine_output_error<'py>(
     log_diagonal: bool,
     progress: Option<Py<PyAny>>,
     threads: usize,
+    solver: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use crate::refine::{OeData, OeOptions, Weights};
+    use crate::refine::{OeData, OeOptions, StepKind, Weights};
+    let solver = StepKind::from_name(solver).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let err = |_| PyValueError::new_err("arrays must be C-contiguous");
     let (us, fs, ws) = (
         u.as_slice().map_err(err)?,
@@ -499,6 +501,7 @@ fn refine_output_error<'py>(
         ftol,
         xtol,
         log_diagonal,
+        solver,
     };
     let rep = run_iterative(py, threads, progress, |report| {
         crate::refine::refine(data, &start, opts, Par::rayon(0), Some(report))
@@ -517,6 +520,17 @@ fn refine_output_error<'py>(
     let sc = rep.scaling;
     d.set_item("scaling", (sc.omega0, sc.su, sc.sf))?;
     d.set_item("timings", timings_dict(py, &rep.timings)?)?;
+    d.set_item("solver", rep.solver)?;
+    d.set_item("solver_stats", timings_dict(py, &rep.solver_stats)?)?;
+    // (s·p, m) like the data columns
+    let rows = |x: &[Complex64]| {
+        use numpy::PyArrayMethods;
+        PyArray1::from_slice(py, x).reshape([x.len() / m, m])
+    };
+    if let Some(x) = &rep.responses_start {
+        d.set_item("responses_start", rows(x)?)?;
+    }
+    d.set_item("responses", rows(&rep.responses)?)?;
     Ok(d)
 }
 

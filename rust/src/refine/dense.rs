@@ -1,21 +1,41 @@
 //! The dense Gauss–Newton step: N_θ formed explicitly (DESIGN §6), factored by
-//! Cholesky. Memory: the Kronecker sum S (m(m+1)/2 × 9m²) and N_θ ((3m(m+1)/2)²),
-//! so for orders up to a few tens.
+//! Cholesky.
+//!
+//! In Z-coordinates N_Z[(r,c),(r',c')] = Re Σ_k G_k[r,r'] κ_bb'(ω_k) X̄_k[c,c'] for
+//! columns c, c' in blocks b, b', with X̄ = Σ_j w_j² conj(x_j) x_jᵀ over the term's
+//! columns and κ_bb' = conj(φ_b) φ_b' for φ = (−ω², iω, 1): only five moments
+//! ω⁰ … ω⁴ occur. G and X̄ are Hermitian, so the sums split into four real GEMMs
+//! over the pairs r ≤ r', c ≤ c' — ≈ 5m⁴ flops per term. The congruence
+//! N_θ = Pᵀ N_Z P uses the structure of the tangent map, P = (I + Π)(I ⊗ L) on the
+//! lower triangle (Π the transpose): per block pair two GEMMs of 2m⁵ flops on the
+//! symmetrised N_Z, plus the rank-one terms of the floor ε tr(L Lᵀ) I.
+//! Memory: the moments (m(m+1)/2 × 5m(m+1)/2, twice), O(m⁴), and N_θ.
 
-use super::{
-    inverse_of, n_per_block, tri, weighted_residual, Evaluation, Params, Problem, StepSolver,
-    Weights, CONDITION_FLOOR,
-};
+use super::lines::{line_pieces, response_weight, terms_per_line};
+use super::{lines, n_per_block, tri, Evaluation, Params, Problem, StepSolver, CONDITION_FLOOR};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::linalg::matmul::matmul;
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
+use std::time::Instant;
+
+/// Wall time of the parts of forming N_θ, seconds.
+#[derive(Default, Clone, Copy)]
+pub(crate) struct Clock {
+    /// per-line pieces (D⁻¹, G, X̄) and the gradient
+    pub lines: f64,
+    /// the moment GEMMs
+    pub gemm: f64,
+    /// symmetrisation and congruence to θ
+    pub congruence: f64,
+}
 
 /// N_θ of the current point, column-major.
 #[derive(Default)]
 pub(crate) struct DenseNormal {
     nth: Vec<f64>,
+    clock: Clock,
 }
 
 impl StepSolver for DenseNormal {
@@ -27,12 +47,26 @@ impl StepSolver for DenseNormal {
         ev: &Evaluation,
         par: Par,
     ) -> Vec<f64> {
-        let (nth, g) = normal_equations(pb, params, l, ev, par);
+        let (nth, g) = normal_equations(pb, params, l, ev, par, &mut self.clock);
         self.nth = nth;
         g
     }
 
-    fn step(&mut self, g: &[f64], mu: f64, par: Par) -> Option<Vec<f64>> {
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("normal_lines", self.clock.lines),
+            ("normal_gemm", self.clock.gemm),
+            ("normal_congruence", self.clock.congruence),
+        ]
+    }
+
+    fn step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        _cancelled: &mut dyn FnMut() -> bool,
+    ) -> Option<Vec<f64>> {
         let n = g.len();
         let dmax = (0..n).map(|i| self.nth[i * n + i]).fold(0.0f64, f64::max);
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
@@ -47,8 +81,263 @@ impl StepSolver for DenseNormal {
     }
 }
 
-/// Lines processed together when forming the normal matrix (bounds memory).
-const NORMAL_CHUNK: usize = 256;
+/// Terms processed together when forming the moments (bounds memory).
+const NORMAL_CHUNK: usize = 512;
+
+/// Index of the pair (r, r') with r ≤ r' among the m(m+1)/2 pairs, row by row.
+#[inline]
+fn pair(r: usize, r2: usize, m: usize) -> usize {
+    r * (2 * m - r - 1) / 2 + r2
+}
+
+/// Pair index and the sign of the imaginary part of a Hermitian entry (r, r').
+#[inline]
+fn pair_sign(r: usize, r2: usize, m: usize) -> (usize, f64) {
+    if r <= r2 {
+        (pair(r, r2, m), 1.0)
+    } else {
+        (pair(r2, r, m), -1.0)
+    }
+}
+
+/// The moment sums over all terms (np = nx = m(m+1)/2 pairs):
+/// `re` = Σ [Re X̄·ω⁰, Re X̄·ω², Re X̄·ω⁴, Im X̄·ω, Im X̄·ω³] ⊗ Re G,
+/// `im` = Σ [Im X̄·ω⁰, Im X̄·ω², Im X̄·ω⁴, Re X̄·ω, Re X̄·ω³] ⊗ Im G,
+/// each 5nx × np column-major: row slot·nx + pair(c, c'), column pair(r, r'), so
+/// that a column holds every (c, c') of one (r, r') contiguously.
+struct Moments {
+    re: Mat<f64>,
+    im: Mat<f64>,
+    m: usize,
+    /// pair index and imaginary sign of every (r, r'), row-major m×m
+    pairs: Vec<(usize, f64)>,
+}
+
+impl Moments {
+    /// N_Z entry [(r, c), (r', c')] of block pair (b, b'), b ≤ b':
+    /// Re Σ G[r,r'] κ_bb' X̄[c,c'].
+    #[inline]
+    fn entry(&self, kind: (usize, f64), r: usize, c: usize, r2: usize, c2: usize) -> f64 {
+        let m = self.m;
+        let nx = m * (m + 1) / 2;
+        let (pr, sr) = self.pairs[r * m + r2];
+        let (pc, sc) = self.pairs[c * m + c2];
+        let (q, sign) = kind;
+        if q % 2 == 0 {
+            // Re(G X̄) = Re G Re X̄ − Im G Im X̄
+            let row = (q / 2) * nx + pc;
+            sign * (self.re[(row, pr)] - sr * sc * self.im[(row, pr)])
+        } else {
+            // Re(i G X̄) = −(Re G Im X̄ + Im G Re X̄)
+            let row = (3 + q / 2) * nx + pc;
+            -sign * (sc * self.re[(row, pr)] + sr * self.im[(row, pr)])
+        }
+    }
+}
+
+/// κ_bb' = conj(φ_b) φ_b' as (power q of ω, sign), with iω^q for odd q:
+/// (M,M) ω⁴, (M,C) −iω³, (M,K) −ω², (C,C) ω², (C,K) −iω, (K,K) 1.
+fn kappa(b: usize, bp: usize) -> (usize, f64) {
+    match (b, bp) {
+        (0, 0) => (4, 1.0),
+        (0, 1) => (3, -1.0),
+        (0, 2) => (2, -1.0),
+        (1, 1) => (2, 1.0),
+        (1, 2) => (1, -1.0),
+        (2, 2) => (0, 1.0),
+        _ => unreachable!("block pairs are ordered b ≤ b'"),
+    }
+}
+
+/// The moments and the gradient in Z, all lines.
+fn moments(pb: &Problem, ev: &Evaluation, par: Par, clock: &mut Clock) -> (Moments, Mat<f64>) {
+    let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+    let mm = m * m;
+    let np = m * (m + 1) / 2;
+    let nx = np;
+    let tpl = terms_per_line(pb);
+    let mut mo = Moments {
+        re: Mat::zeros(5 * nx, np),
+        im: Mat::zeros(5 * nx, np),
+        m,
+        pairs: (0..m * m).map(|q| pair_sign(q / m, q % m, m)).collect(),
+    };
+    let mut a_all = vec![c64::new(0.0, 0.0); s * p * m];
+    let chunk_lines = (NORMAL_CHUNK / tpl).max(1);
+    for start in (0..s).step_by(chunk_lines) {
+        let nl = chunk_lines.min(s - start);
+        let k = nl * tpl;
+        // column-major buffers, one column per term
+        let mut gre = vec![0.0; np * k];
+        let mut gim = vec![0.0; np * k];
+        let mut x1 = vec![0.0; 5 * nx * k];
+        let mut x2 = vec![0.0; 5 * nx * k];
+        let t0 = Instant::now();
+        gre.par_chunks_mut(np * tpl)
+            .zip(gim.par_chunks_mut(np * tpl))
+            .zip(x1.par_chunks_mut(5 * nx * tpl))
+            .zip(x2.par_chunks_mut(5 * nx * tpl))
+            .zip(a_all[start * p * m..(start + nl) * p * m].par_chunks_mut(p * m))
+            .enumerate()
+            .for_each(|(li, ((((gre, gim), x1), x2), a))| {
+                let i = start + li;
+                let mut g = vec![c64::new(0.0, 0.0); tpl * mm];
+                line_pieces(pb, ev, i, &mut g, a);
+                let w = pb.w[i];
+                let pw = [1.0, w * w, w.powi(4), w, w.powi(3)];
+                let mut xbar = vec![c64::new(0.0, 0.0); nx];
+                for t in 0..tpl {
+                    let gt = &g[t * mm..(t + 1) * mm];
+                    for r in 0..m {
+                        for r2 in r..m {
+                            let q = pair(r, r2, m);
+                            gre[t * np + q] = gt[r * m + r2].re;
+                            gim[t * np + q] = gt[r * m + r2].im;
+                        }
+                    }
+                    // X̄ = Σ_j w_j² conj(x_j) x_jᵀ over the term's columns
+                    xbar.iter_mut().for_each(|z| *z = c64::new(0.0, 0.0));
+                    let cols = if tpl == 1 { 0..p } else { t..t + 1 };
+                    for j in cols {
+                        let col = i * p + j;
+                        let sc = response_weight(pb, col);
+                        let x = &ev.x[col * m..(col + 1) * m];
+                        for c in 0..m {
+                            let xc = x[c].conj() * sc;
+                            for c2 in c..m {
+                                xbar[pair(c, c2, m)] += xc * x[c2];
+                            }
+                        }
+                    }
+                    let (o1, o2) = (&mut x1[t * 5 * nx..], &mut x2[t * 5 * nx..]);
+                    for (q, z) in xbar.iter().enumerate() {
+                        for slot in 0..3 {
+                            o1[slot * nx + q] = z.re * pw[slot];
+                            o2[slot * nx + q] = z.im * pw[slot];
+                        }
+                        for slot in 3..5 {
+                            o1[slot * nx + q] = z.im * pw[slot];
+                            o2[slot * nx + q] = z.re * pw[slot];
+                        }
+                    }
+                }
+            });
+        clock.lines += t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
+        let gre = MatRef::from_column_major_slice(&gre, np, k);
+        let gim = MatRef::from_column_major_slice(&gim, np, k);
+        let x1 = MatRef::from_column_major_slice(&x1, 5 * nx, k);
+        let x2 = MatRef::from_column_major_slice(&x2, 5 * nx, k);
+        matmul(mo.re.as_mut(), Accum::Add, x1, gre.transpose(), 1.0, par);
+        matmul(mo.im.as_mut(), Accum::Add, x2, gim.transpose(), 1.0, par);
+        clock.gemm += t0.elapsed().as_secs_f64();
+    }
+    let t0 = Instant::now();
+    let gz = lines::gradient_z(pb, ev, &a_all, par);
+    clock.lines += t0.elapsed().as_secs_f64();
+    (mo, gz)
+}
+
+/// Block (b, b') of N_θ (n_b × n_b, column-major), b ≤ b'.
+fn block_pair(
+    mo: &Moments,
+    params: &Params,
+    l: &[Mat<f64>; 3],
+    b: usize,
+    bp: usize,
+    par: Par,
+) -> Mat<f64> {
+    let m = params.m;
+    let (m2, m3) = (m * m, m * m * m);
+    let nb = n_per_block(m);
+    let kind = kappa(b, bp);
+    let n = |r: usize, c: usize, r2: usize, c2: usize| mo.entry(kind, r, c, r2, c2);
+    // N_Z of the block pair, row-major m² × m²: nz[(r m + c) m² + r' m + c']
+    let mut nz = vec![0.0; m2 * m2];
+    nz.par_chunks_mut(m * m2).enumerate().for_each(|(r, rows)| {
+        for r2 in 0..m {
+            for c in 0..m {
+                for c2 in 0..m {
+                    rows[c * m2 + r2 * m + c2] = n(r, c, r2, c2);
+                }
+            }
+        }
+    });
+    // A[(j, j', c), c'] = Ñ[(j,c),(j',c')], Ñ = (I+Π) N (I+Π); row-major m³ × m
+    let mut a = vec![0.0; m3 * m];
+    a.par_chunks_mut(m3).enumerate().for_each(|(j, aj)| {
+        for c in 0..m {
+            let n1 = &nz[(j * m + c) * m2..(j * m + c + 1) * m2];
+            let n2 = &nz[(c * m + j) * m2..(c * m + j + 1) * m2];
+            for j2 in 0..m {
+                let out = &mut aj[(j2 * m + c) * m..(j2 * m + c + 1) * m];
+                for (c2, o) in out.iter_mut().enumerate() {
+                    *o = n1[j2 * m + c2] + n2[j2 * m + c2] + n1[c2 * m + j2] + n2[c2 * m + j2];
+                }
+            }
+        }
+    });
+    drop(nz);
+    let (lb, lbp) = (&l[b], &l[bp]);
+    // B = A L' (column-major m³ × m): B[(j,j',c), k'] = Σ_c' Ñ[(j,c),(j',c')] L'[c',k']
+    let mut bcol = vec![0.0; m3 * m];
+    matmul(
+        MatMut::from_column_major_slice_mut(&mut bcol, m3, m),
+        Accum::Replace,
+        MatRef::from_row_major_slice(&a, m3, m),
+        lbp.as_ref(),
+        1.0,
+        par,
+    );
+    drop(a);
+    // read B as row-major m³ × m with row (j m + j') + m² k', column c; D = B L
+    let mut dm = Mat::<f64>::zeros(m3, m);
+    matmul(
+        dm.as_mut(),
+        Accum::Replace,
+        MatRef::from_row_major_slice(&bcol, m3, m),
+        lb.as_ref(),
+        1.0,
+        par,
+    );
+    drop(bcol);
+    // the floor: Y[r,c] = Σ_c' N[(r,c),(c',c')], Y'[r',c'] = Σ_c N[(c,c),(r',c')], e = Σ Y[c,c]
+    let y = Mat::from_fn(m, m, |r, c| (0..m).map(|c2| n(r, c, c2, c2)).sum::<f64>());
+    let y2 = Mat::from_fn(m, m, |r2, c2| (0..m).map(|c| n(c, c, r2, c2)).sum::<f64>());
+    let e: f64 = (0..m).map(|c| y[(c, c)]).sum();
+    // u = P₀ᵀ Y, u' = P₀'ᵀ Y' (without the log scale, applied below)
+    let p0t = |yy: &Mat<f64>, lx: &Mat<f64>| -> Vec<f64> {
+        let mut out = vec![0.0; nb];
+        for j in 0..m {
+            for k in 0..=j {
+                out[tri(j, k)] = (k..m).map(|c| (yy[(j, c)] + yy[(c, j)]) * lx[(c, k)]).sum();
+            }
+        }
+        out
+    };
+    let (u, u2) = (p0t(&y, lb), p0t(&y2, lbp));
+    let eps = CONDITION_FLOOR;
+    let mut out = Mat::<f64>::zeros(nb, nb);
+    for j2 in 0..m {
+        for k2 in 0..=j2 {
+            let col = tri(j2, k2);
+            let s2 = lines::theta_scale(params, lbp, j2, k2);
+            let l2 = lbp[(j2, k2)];
+            for j in 0..m {
+                for k in 0..=j {
+                    let row = tri(j, k);
+                    let s1 = lines::theta_scale(params, lb, j, k);
+                    let l1 = lb[(j, k)];
+                    let v = dm[((j * m + j2) + m2 * k2, k)]
+                        + 2.0 * eps * (l2 * u[row] + l1 * u2[col])
+                        + 4.0 * eps * eps * l1 * l2 * e;
+                    out[(row, col)] = s1 * s2 * v;
+                }
+            }
+        }
+    }
+    out
+}
 
 /// Gauss–Newton matrix N_θ (column-major, n×n) and gradient g_θ = Jᵀr at the
 /// current point (scaled units).
@@ -58,216 +347,16 @@ pub(crate) fn normal_equations(
     l: &[Mat<f64>; 3],
     ev: &Evaluation,
     par: Par,
+    clock: &mut Clock,
 ) -> (Vec<f64>, Vec<f64>) {
-    let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
-    let mm = m * m;
-    let m3 = 3 * m;
-    let vv = m3 * m3;
-    // pairs r ≤ r' of the row index of G
-    let pairs: Vec<(usize, usize)> = (0..m).flat_map(|r| (r..m).map(move |q| (r, q))).collect();
-    let np = pairs.len();
-    let matrix_weights = matches!(pb.data.weights, Weights::Matrix(_));
-    // one "term" (G, V̄) per line (scalar weights: G shared by its load cases) or per column
-    let terms_per_line = if matrix_weights { p } else { 1 };
-
-    let mut s_mat = Mat::<f64>::zeros(np, vv); // S[(r≤r'), (c,c')]
-    let mut grad_z = Mat::<f64>::zeros(m, m3);
-
-    for start in (0..s).step_by(NORMAL_CHUNK) {
-        let lines = NORMAL_CHUNK.min(s - start);
-        let k = lines * terms_per_line;
-        // columns: [Re G_1 … Re G_k, −Im G_1 … −Im G_k] and [Re V̄ …, Im V̄ …]
-        let mut xg = Mat::<f64>::zeros(np, 2 * k);
-        let mut yv = Mat::<f64>::zeros(vv, 2 * k);
-        let per_line: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = (start..start + lines)
-            .into_par_iter()
-            .map(|i| {
-                let lu = MatRef::from_column_major_slice(&ev.lu[i * mm..(i + 1) * mm], m, m);
-                let dinv = inverse_of(lu, &ev.perm[i * m..(i + 1) * m], m);
-                let w = pb.w[i];
-                let mut gvals = Vec::with_capacity(terms_per_line * 2 * np);
-                let mut vvals = Vec::with_capacity(terms_per_line * 2 * vv);
-                let mut grad = vec![0.0; m * m3];
-                let mut vbar = vec![c64::new(0.0, 0.0); vv];
-                let mut g = vec![c64::new(0.0, 0.0); mm];
-                let mut a = vec![c64::new(0.0, 0.0); mm];
-                let mut r = vec![c64::new(0.0, 0.0); m];
-                let mut ahr = vec![c64::new(0.0, 0.0); m];
-                let mut vhat = vec![c64::new(0.0, 0.0); m3];
-                let push = |g: &[c64], vbar: &[c64], gvals: &mut Vec<f64>, vvals: &mut Vec<f64>| {
-                    gvals.extend(pairs.iter().map(|&(r1, r2)| g[r1 * m + r2].re));
-                    gvals.extend(pairs.iter().map(|&(r1, r2)| -g[r1 * m + r2].im));
-                    vvals.extend(vbar.iter().map(|z| z.re));
-                    vvals.extend(vbar.iter().map(|z| z.im));
-                };
-                // G = Aᴴ A (row-major); with scalar weights the line's G is (D⁻¹)ᴴ D⁻¹ and
-                // each column's w² goes into the line's V̄
-                let gram_of = |a: &[c64], g: &mut [c64], row_major: bool| {
-                    for r1 in 0..m {
-                        for r2 in 0..m {
-                            g[r1 * m + r2] = (0..m)
-                                .map(|row| {
-                                    let (x1, x2) = if row_major {
-                                        (a[row * m + r1], a[row * m + r2])
-                                    } else {
-                                        (a[r1 * m + row], a[r2 * m + row])
-                                    };
-                                    x1.conj() * x2
-                                })
-                                .sum();
-                        }
-                    }
-                };
-                if !matrix_weights {
-                    gram_of(&dinv, &mut g, false);
-                }
-                for j in 0..p {
-                    let col = i * p + j;
-                    let (t, wt) = pb.column_weight(col);
-                    let x = &ev.x[col * m..(col + 1) * m];
-                    weighted_residual(t, wt, x, &pb.u[col * m..(col + 1) * m], &mut r);
-                    // A = T D⁻¹ (row-major a[row·m + k]); dinv is column-major
-                    for row in 0..m {
-                        for kk in 0..m {
-                            a[row * m + kk] = match t {
-                                None => dinv[kk * m + row] * wt,
-                                Some(t) => (0..m).map(|q| dinv[kk * m + q] * t[row * m + q]).sum(),
-                            };
-                        }
-                    }
-                    for kk in 0..m {
-                        ahr[kk] = (0..m).map(|row| a[row * m + kk].conj() * r[row]).sum();
-                    }
-                    for q in 0..m {
-                        vhat[q] = x[q] * (-w * w);
-                        vhat[m + q] = x[q] * c64::new(0.0, w);
-                        vhat[2 * m + q] = x[q];
-                    }
-                    // gradient in Z: −Re((Aᴴ r) v̂ᴴ)
-                    for row in 0..m {
-                        for c in 0..m3 {
-                            grad[row * m3 + c] -= (ahr[row] * vhat[c].conj()).re;
-                        }
-                    }
-                    let scale = if matrix_weights { 1.0 } else { wt * wt };
-                    if matrix_weights {
-                        gram_of(&a, &mut g, true);
-                        vbar.iter_mut().for_each(|z| *z = c64::new(0.0, 0.0));
-                    }
-                    for c1 in 0..m3 {
-                        let a1 = vhat[c1].conj() * scale;
-                        for c2 in 0..m3 {
-                            vbar[c1 * m3 + c2] += a1 * vhat[c2];
-                        }
-                    }
-                    if matrix_weights {
-                        push(&g, &vbar, &mut gvals, &mut vvals);
-                    }
-                }
-                if !matrix_weights {
-                    push(&g, &vbar, &mut gvals, &mut vvals);
-                }
-                (gvals, vvals, grad)
-            })
-            .collect();
-        for (li, (gvals, vvals, grad)) in per_line.iter().enumerate() {
-            for t in 0..terms_per_line {
-                let col = li * terms_per_line + t;
-                let gv = &gvals[t * 2 * np..(t + 1) * 2 * np];
-                let vvv = &vvals[t * 2 * vv..(t + 1) * 2 * vv];
-                for q in 0..np {
-                    xg[(q, col)] = gv[q];
-                    xg[(q, k + col)] = gv[np + q];
-                }
-                for q in 0..vv {
-                    yv[(q, col)] = vvv[q];
-                    yv[(q, k + col)] = vvv[vv + q];
-                }
-            }
-            for row in 0..m {
-                for c in 0..m3 {
-                    grad_z[(row, c)] += grad[row * m3 + c];
-                }
-            }
-        }
-        matmul(
-            s_mat.as_mut(),
-            Accum::Add,
-            xg.as_ref(),
-            yv.as_ref().transpose(),
-            1.0,
-            par,
-        );
-    }
-
-    // pair index of (r, r'), and whether it is transposed
-    let mut pair_of = vec![0usize; mm];
-    for (q, &(r1, r2)) in pairs.iter().enumerate() {
-        pair_of[r1 * m + r2] = q;
-        pair_of[r2 * m + r1] = q;
-    }
-    // N_Z block (b, b'), row-major entry index (r·m + col): S[(r,r'),(bm+col, b'm+col')],
-    // read as S[(r',r),(b'm+col', bm+col)] when r > r'
-    let nz_block = |b: usize, bp: usize| -> Mat<f64> {
-        Mat::from_fn(mm, mm, |row, colp| {
-            let (r1, c1) = (row / m, row % m);
-            let (r2, c2) = (colp / m, colp % m);
-            let q = pair_of[r1 * m + r2];
-            if r1 <= r2 {
-                s_mat[(q, (b * m + c1) * m3 + bp * m + c2)]
-            } else {
-                s_mat[(q, (bp * m + c2) * m3 + b * m + c1)]
-            }
-        })
-    };
-    // tangent maps P_b (m² × n_b): vec_rowmajor(δX_b) = P_b δθ_b
-    let nb = n_per_block(m);
-    let tangents: Vec<Mat<f64>> = (0..3)
-        .map(|b| {
-            let lb = &l[b];
-            let mut pm = Mat::<f64>::zeros(mm, nb);
-            for j in 0..m {
-                for k in 0..=j {
-                    let col = tri(j, k);
-                    let scale = if j == k && params.logged(b) {
-                        lb[(j, j)]
-                    } else {
-                        1.0
-                    };
-                    for c in 0..m {
-                        pm[(j * m + c, col)] += scale * lb[(c, k)];
-                        pm[(c * m + j, col)] += scale * lb[(c, k)];
-                        // the floor ε‖L‖²_F I
-                        pm[(c * m + c, col)] += scale * 2.0 * CONDITION_FLOOR * lb[(j, k)];
-                    }
-                }
-            }
-            pm
-        })
-        .collect();
+    let (mo, gz) = moments(pb, ev, par, clock);
+    let t0 = Instant::now();
+    let nb = n_per_block(params.m);
     let n = params.len();
     let mut nth = vec![0.0; n * n];
     for b in 0..3 {
         for bp in b..3 {
-            let blk = nz_block(b, bp);
-            let mut tmp = Mat::<f64>::zeros(mm, nb);
-            matmul(
-                tmp.as_mut(),
-                Accum::Replace,
-                blk.as_ref(),
-                tangents[bp].as_ref(),
-                1.0,
-                par,
-            );
-            let mut out = Mat::<f64>::zeros(nb, nb);
-            matmul(
-                out.as_mut(),
-                Accum::Replace,
-                tangents[b].as_ref().transpose(),
-                tmp.as_ref(),
-                1.0,
-                par,
-            );
+            let out = block_pair(&mo, params, l, b, bp, par);
             for jc in 0..nb {
                 for ir in 0..nb {
                     let (gi, gj) = (b * nb + ir, bp * nb + jc);
@@ -277,25 +366,9 @@ pub(crate) fn normal_equations(
             }
         }
     }
-    // g_θ,b[(j,k)] = ((g_b + g_bᵀ) L_b)[j,k] (times L_jj for a logged diagonal)
-    let mut gth = vec![0.0; n];
-    for b in 0..3 {
-        let lb = &l[b];
-        for j in 0..m {
-            for k in 0..=j {
-                let trace_g: f64 = (0..m).map(|c| grad_z[(c, b * m + c)]).sum();
-                let mut acc = 2.0 * CONDITION_FLOOR * trace_g * lb[(j, k)];
-                for c in 0..m {
-                    acc += (grad_z[(j, b * m + c)] + grad_z[(c, b * m + j)]) * lb[(c, k)];
-                }
-                if j == k && params.logged(b) {
-                    acc *= lb[(j, j)];
-                }
-                gth[b * nb + tri(j, k)] = acc;
-            }
-        }
-    }
-    (nth, gth)
+    let g = lines::theta_gradient(params, l, &gz);
+    clock.congruence += t0.elapsed().as_secs_f64();
+    (nth, g)
 }
 
 /// Solve (N + μ diag(N)) δ = −g by Cholesky; None if it is not positive definite.

@@ -34,8 +34,15 @@
 //! formed by one real GEMM over all lines; the chain rule to the factors is a
 //! congruence N_θ = Pᵀ N_Z P with the sparse tangent map P of δL ↦ δX. Everything is
 //! done on data scaled as in DESIGN §3 (ω by its RMS, u and f by theirs).
+//!
+//! The step (N_θ + μ diag N_θ) δ = −g is solved densely (`dense.rs`: N_θ formed and
+//! factored, (3m(m+1)/2)² doubles) or matrix-free (`matfree.rs`: preconditioned CG
+//! with N_θ v applied line by line through the LU factors, O(s·m²) memory);
+//! [`StepKind::Auto`] picks by m.
 
 mod dense;
+mod lines;
+mod matfree;
 
 use crate::cg::Progress;
 use crate::data::Scaling;
@@ -138,6 +145,8 @@ pub struct OeOptions {
     pub xtol: f64,
     /// diagonals of the factors as exp(θ): M, C, K positive definite for every θ
     pub log_diagonal: bool,
+    /// how each Gauss–Newton step is solved
+    pub solver: StepKind,
 }
 
 impl Default for OeOptions {
@@ -147,9 +156,69 @@ impl Default for OeOptions {
             ftol: 1e-7,
             xtol: 1e-12,
             log_diagonal: true,
+            solver: StepKind::Auto,
         }
     }
 }
+
+/// The linear algebra of a Gauss–Newton step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepKind {
+    /// N_θ formed and factored: (3m(m+1)/2)² doubles, O(s·m⁴ + m⁶) flops per step
+    Dense,
+    /// preconditioned CG with N v applied line by line: O(s·m²) memory
+    MatrixFree,
+    /// dense while N_θ is small (see [`StepKind::resolve`]), matrix-free beyond
+    Auto,
+}
+
+impl StepKind {
+    /// The names the Python API uses: "dense", "matrix-free", "auto".
+    pub fn from_name(name: &str) -> Result<StepKind, PodidError> {
+        match name {
+            "dense" => Ok(StepKind::Dense),
+            "matrix-free" => Ok(StepKind::MatrixFree),
+            "auto" => Ok(StepKind::Auto),
+            _ => Err(PodidError::Invalid(format!(
+                "solver must be 'dense', 'matrix-free' or 'auto', got {name:?}"
+            ))),
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            StepKind::Dense => "dense",
+            StepKind::MatrixFree => "matrix-free",
+            StepKind::Auto => "auto",
+        }
+    }
+
+    /// Dense or matrix-free for order m on s lines with `terms` Gram terms per line.
+    pub fn resolve(&self, m: usize, _s: usize, _terms: usize) -> StepKind {
+        match self {
+            StepKind::Auto => {
+                if m <= AUTO_DENSE_MAX_M {
+                    StepKind::Dense
+                } else {
+                    StepKind::MatrixFree
+                }
+            }
+            k => *k,
+        }
+    }
+}
+
+/// Largest order the automatic choice solves densely. Measured
+/// (`benches/bench_refine.py --crossover`, s = 800, chain with 0.1 % noise): the dense
+/// step is 8×, 22×, 16× faster per converged fit at m = 10, 20, 30 and 2.6× at m = 40,
+/// where one step costs the same either way (1.2–1.3 s) but the matrix-free CG steps
+/// are inexact and LM needs about 3× as many. The dense step grows as ~m⁶ per step
+/// (0.21 s at m = 30, 1.26 s at m = 40), the matrix-free one as ~m²·(CG products);
+/// above m = 40 the matrix-free step is chosen, with O(s·m²) memory.
+pub const AUTO_DENSE_MAX_M: usize = 40;
+
+/// Most CG iterations of one matrix-free step.
+pub const MAX_CG_ITER: usize = 100;
 
 /// Why the iteration stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -196,8 +265,17 @@ pub struct OeReport {
     /// (iteration, cost) after every accepted step, caller's units
     pub history: Vec<(usize, f64)>,
     pub scaling: Scaling,
-    /// wall time per phase, seconds: evaluate, normal, solve, total
+    /// wall time per phase, seconds: evaluate, normal, solve, total, and the step
+    /// solver's own parts
     pub timings: Vec<(&'static str, f64)>,
+    /// the step solver used ("dense" or "matrix-free") and its counts
+    pub solver: &'static str,
+    pub solver_stats: Vec<(&'static str, f64)>,
+    /// model responses D(ω)⁻¹ f of the start as given and of the answer, caller's
+    /// units, in the layout of the data (column after column); the start's is None
+    /// when it has a pole on a measured line
+    pub responses_start: Option<Vec<c64>>,
+    pub responses: Vec<c64>,
 }
 
 /// The linear algebra of one Gauss–Newton step. At the current point `prepare`
@@ -213,8 +291,24 @@ pub(crate) trait StepSolver {
         ev: &Evaluation,
         par: Par,
     ) -> Vec<f64>;
-    fn step(&mut self, g: &[f64], mu: f64, par: Par) -> Option<Vec<f64>>;
+    /// `cancelled` is polled during long solves; when it returns true the solver
+    /// stops (its answer is then ignored).
+    fn step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        cancelled: &mut dyn FnMut() -> bool,
+    ) -> Option<Vec<f64>>;
     fn quad(&mut self, step: &[f64], par: Par) -> f64;
+    /// Wall time of the solver's own parts, seconds (for the report).
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+    /// Counts of the solver's work (for the report).
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
 }
 
 /// Unknowns per block: the lower triangle of L.
@@ -465,6 +559,34 @@ pub(crate) fn solve_lines(lu: MatRef<c64>, perm: &[usize], x: &mut [c64], m: usi
     lu_solve::solve_in_place(lu, lu, permref, rhs, Par::Seq, MemStack::new(&mut mem));
 }
 
+/// Solve D(ω)ᴴ z = x in place for the p columns of x (m×p, column-major), from
+/// the LU of D.
+pub(crate) fn solve_lines_adjoint(
+    lu: MatRef<c64>,
+    perm: &[usize],
+    x: &mut [c64],
+    m: usize,
+    p: usize,
+) {
+    let pinv = inverse_perm(perm);
+    let permref = faer::perm::PermRef::new_checked(perm, &pinv, m);
+    let rhs = MatMut::from_column_major_slice_mut(x, m, p);
+    let mut mem = MemBuffer::new(lu_solve::solve_transpose_in_place_scratch::<usize, c64>(
+        m,
+        p,
+        Par::Seq,
+    ));
+    lu_solve::solve_transpose_in_place_with_conj(
+        lu,
+        lu,
+        permref,
+        faer::Conj::Yes,
+        rhs,
+        Par::Seq,
+        MemStack::new(&mut mem),
+    );
+}
+
 fn inverse_perm(perm: &[usize]) -> Vec<usize> {
     let mut inv = vec![0; perm.len()];
     for (i, &p) in perm.iter().enumerate() {
@@ -602,6 +724,9 @@ pub fn refine(
     }
     let su2 = scaling.su * scaling.su;
     let cost_start = ev.cost;
+    // responses of the start as given (before the damping floor), for the report
+    let given = [0, 1, 2].map(|b| scaled[b].clone());
+    let responses_start = pb.evaluate(&given).ok().map(|e| e.x);
     let mut history = vec![(0usize, cost_start * su2)];
     let mut mu = 0.0;
     let mut nu = 2.0;
@@ -609,7 +734,11 @@ pub fn refine(
     let mut accepted = 0;
     let mut stop = Stop::MaxIter;
     let mut fresh = true; // the step solver must be prepared at the new point
-    let mut solver: Box<dyn StepSolver> = Box::new(DenseNormal::default());
+    let kind = opts.solver.resolve(m, data.s(), lines::terms_per_line(&pb));
+    let mut solver: Box<dyn StepSolver> = match kind {
+        StepKind::MatrixFree => Box::new(matfree::MatrixFree::new(MAX_CG_ITER)),
+        _ => Box::new(DenseNormal::default()),
+    };
     let mut gth = Vec::new();
     while iterations < opts.max_iter {
         if fresh {
@@ -628,8 +757,21 @@ pub fn refine(
         }
         iterations += 1;
         let t0 = Instant::now();
-        let step = solver.step(&gth, mu, par);
+        let mut cancelled = false;
+        let step = {
+            let cost_now = ev.cost * su2;
+            let mut poll = || {
+                if let Some(cb) = progress.as_mut() {
+                    cancelled |= cb(iterations, cost_now).is_break();
+                }
+                cancelled
+            };
+            solver.step(&gth, mu, par, &mut poll)
+        };
         t_solve += t0.elapsed().as_secs_f64();
+        if cancelled {
+            return Err(PodidError::Interrupted);
+        }
         let Some(step) = step else {
             mu *= nu;
             nu *= 2.0;
@@ -714,12 +856,19 @@ pub fn refine(
         stop,
         history,
         scaling,
-        timings: vec![
+        timings: [
             ("evaluate", t_eval),
             ("normal", t_normal),
             ("solve", t_solve),
             ("total", t_total.elapsed().as_secs_f64()),
-        ],
+        ]
+        .into_iter()
+        .chain(solver.timings())
+        .collect(),
+        solver: kind.name(),
+        solver_stats: solver.stats(),
+        responses_start: responses_start.map(|x| x.into_iter().map(|v| v * scaling.su).collect()),
+        responses: ev.x.iter().map(|v| v * scaling.su).collect(),
     })
 }
 
@@ -813,18 +962,219 @@ mod tests {
         }
     }
 
+    /// Data of a random system of order m on s lines with p load cases, the targets
+    /// 10 % off (so that the residual is not zero), and random scalar and matrix
+    /// weights: (ω, u, f, scalar weights, matrix weights).
+    #[allow(clippy::type_complexity)]
+    fn noisy_data(
+        m: usize,
+        p: usize,
+        s: usize,
+        rng: &mut Lcg,
+    ) -> (Vec<f64>, Vec<c64>, Vec<c64>, Vec<f64>, Vec<f64>) {
+        let truth = system(m, rng);
+        let omega: Vec<f64> = (0..s).map(|i| 0.3 + 0.25 * i as f64).collect();
+        let (u0, f) = exact_data(&truth, &omega, p, rng);
+        let u: Vec<c64> = u0.iter().map(|z| z * (1.0 + 0.1 * rng.next())).collect();
+        let wscal: Vec<f64> = (0..s * p).map(|_| 0.5 + rng.next()).collect();
+        let wmat: Vec<f64> = (0..s * p * m * m).map(|_| rng.next()).collect();
+        (omega, u, f, wscal, wmat)
+    }
+
+    /// The Jacobian of the stacked residual [Re r; Im r] (column by column through
+    /// the tangent map: δx = −D⁻¹ δD x), and the residual: an independent reference.
+    pub(crate) fn explicit_jacobian(
+        pb: &Problem,
+        params: &Params,
+        l: &[Mat<f64>; 3],
+        ev: &Evaluation,
+    ) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+        let nb = n_per_block(m);
+        let n = params.len();
+        let rows = 2 * s * p * m;
+        let mut r0 = vec![0.0; rows];
+        let mut rr = vec![c64::new(0.0, 0.0); m];
+        for col in 0..s * p {
+            let (t, w) = pb.column_weight(col);
+            weighted_residual(
+                t,
+                w,
+                &ev.x[col * m..(col + 1) * m],
+                &pb.u[col * m..(col + 1) * m],
+                &mut rr,
+            );
+            for k in 0..m {
+                r0[col * 2 * m + k] = rr[k].re;
+                r0[col * 2 * m + m + k] = rr[k].im;
+            }
+        }
+        let jac = (0..n)
+            .map(|q| {
+                let (b, qb) = (q / nb, q % nb);
+                let mut e = vec![0.0; nb];
+                e[qb] = 1.0;
+                let dx = lines::tangent(params, &l[b], &e);
+                let mut out = vec![0.0; rows];
+                for i in 0..s {
+                    let w = pb.w[i];
+                    let phi = [c64::new(-w * w, 0.0), c64::new(0.0, w), c64::new(1.0, 0.0)][b];
+                    let lu =
+                        MatRef::from_column_major_slice(&ev.lu[i * m * m..(i + 1) * m * m], m, m);
+                    for j in 0..p {
+                        let col = i * p + j;
+                        let x = &ev.x[col * m..(col + 1) * m];
+                        let mut y: Vec<c64> = (0..m)
+                            .map(|r| -(0..m).map(|c| x[c] * dx[(r, c)]).sum::<c64>() * phi)
+                            .collect();
+                        solve_lines(lu, &ev.perm[i * m..(i + 1) * m], &mut y, m, 1);
+                        let (t, wt) = pb.column_weight(col);
+                        let zero = vec![c64::new(0.0, 0.0); m];
+                        weighted_residual(t, wt, &y, &zero, &mut rr);
+                        for k in 0..m {
+                            out[col * 2 * m + k] = rr[k].re;
+                            out[col * 2 * m + m + k] = rr[k].im;
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        (jac, r0)
+    }
+
+    #[test]
+    fn normal_matrix_matches_the_explicit_jacobian() {
+        let mut rng = Lcg(5);
+        for (m, p, log_diagonal, matrix) in [
+            (1, 1, true, false),
+            (2, 3, false, false),
+            (4, 2, true, false),
+            (5, 1, true, false),
+            (3, 2, true, true),
+        ] {
+            let (omega, u, f, wscal, wmat) = noisy_data(m, p, 7, &mut rng);
+            let weights = if matrix {
+                Weights::Matrix(&wmat)
+            } else {
+                Weights::Scalar(&wscal)
+            };
+            let data = OeData {
+                omega: &omega,
+                u: &u,
+                f: &f,
+                weights,
+                m,
+                p,
+            };
+            let pb = problem(data);
+            let params = Params { m, log_diagonal };
+            let start = system(m, &mut rng);
+            let lf = start.clone().map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
+            let mck = lf.clone().map(|x| gram_lower(&x));
+            let ev = pb.evaluate(&mck).unwrap();
+            let (nth, gth) =
+                dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
+            let (jac, r0) = explicit_jacobian(&pb, &params, &lf, &ev);
+            let n = params.len();
+            let scale = (0..n).map(|i| nth[i * n + i].abs()).fold(0.0, f64::max);
+            for a in 0..n {
+                let g: f64 = jac[a].iter().zip(&r0).map(|(x, y)| x * y).sum();
+                assert!(
+                    (g - gth[a]).abs()
+                        <= 1e-12 * scale.sqrt() * r0.iter().map(|v| v * v).sum::<f64>().sqrt(),
+                    "m {m} g[{a}]: {g} vs {}",
+                    gth[a]
+                );
+                for b in 0..n {
+                    let v: f64 = jac[a].iter().zip(&jac[b]).map(|(x, y)| x * y).sum();
+                    assert!(
+                        (v - nth[b * n + a]).abs() <= 1e-12 * scale,
+                        "m {m} N[{a},{b}]: {v} vs {}",
+                        nth[b * n + a]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn matrix_free_products_and_diagonal_match_the_dense_matrix() {
+        let mut rng = Lcg(9);
+        for (m, p, log_diagonal, matrix) in [
+            (1, 2, true, false),
+            (3, 1, false, false),
+            (4, 2, true, false),
+            (3, 2, true, true),
+        ] {
+            let (omega, u, f, wscal, wmat) = noisy_data(m, p, 8, &mut rng);
+            let weights = if matrix {
+                Weights::Matrix(&wmat)
+            } else {
+                Weights::Scalar(&wscal)
+            };
+            let data = OeData {
+                omega: &omega,
+                u: &u,
+                f: &f,
+                weights,
+                m,
+                p,
+            };
+            let pb = problem(data);
+            let params = Params { m, log_diagonal };
+            let lf = system(m, &mut rng).map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
+            let mck = lf.clone().map(|x| gram_lower(&x));
+            let ev = pb.evaluate(&mck).unwrap();
+            let (nth, gth) =
+                dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
+            let mut mf = matfree::MatrixFree::new(MAX_CG_ITER);
+            let g2 = mf.prepare(&pb, &params, &lf, &ev, Par::Seq);
+            let n = params.len();
+            let scale = (0..n).map(|i| nth[i * n + i].abs()).fold(0.0, f64::max);
+            for q in 0..n {
+                assert!((g2[q] - gth[q]).abs() <= 1e-13 * scale.sqrt() * (1.0 + gth[q].abs()));
+                // the damping diagonal leaves out the floor's O(ε) terms
+                assert!(
+                    (mf.diagonal()[q] - nth[q * n + q]).abs() <= 1e-9 * scale,
+                    "m {m} diag[{q}]: {} vs {}",
+                    mf.diagonal()[q],
+                    nth[q * n + q]
+                );
+            }
+            // the 3×3 blocks of the preconditioner
+            let nb = n / 3;
+            for t in 0..nb {
+                for (b, bp) in [(0, 1), (0, 2), (1, 2)] {
+                    let want = nth[(b * nb + t) * n + bp * nb + t];
+                    assert!(
+                        (mf.block(b, bp, t) - want).abs() <= 1e-9 * scale,
+                        "m {m} block ({b}, {bp}) at {t}: {} vs {want}",
+                        mf.block(b, bp, t)
+                    );
+                }
+            }
+            for _ in 0..3 {
+                let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+                let nv = mf.apply(&v, Par::Seq);
+                for a in 0..n {
+                    let want: f64 = (0..n).map(|b| nth[b * n + a] * v[b]).sum();
+                    assert!(
+                        (nv[a] - want).abs() <= 1e-12 * scale * n as f64,
+                        "m {m} (Nv)[{a}]: {} vs {want}",
+                        nv[a]
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn gauss_newton_matrix_and_gradient_match_finite_differences() {
         let mut rng = Lcg(7);
         let m = 3;
         let p = 2;
-        let truth = system(m, &mut rng);
-        let omega: Vec<f64> = (0..9).map(|i| 0.3 + 0.25 * i as f64).collect();
-        let (u0, f) = exact_data(&truth, &omega, p, &mut rng);
-        // noisy targets so that the residual is not zero
-        let u: Vec<c64> = u0.iter().map(|z| z * (1.0 + 0.1 * rng.next())).collect();
-        let wscal: Vec<f64> = (0..omega.len() * p).map(|_| 0.5 + rng.next()).collect();
-        let wmat: Vec<f64> = (0..omega.len() * p * m * m).map(|_| rng.next()).collect();
+        let (omega, u, f, wscal, wmat) = noisy_data(m, p, 9, &mut rng);
         for (weights, log_diagonal) in [
             (Weights::Scalar(&wscal), false),
             (Weights::Scalar(&wscal), true),
@@ -846,7 +1196,8 @@ mod tests {
             let lf = params.unpack(&theta);
             let mck = lf.clone().map(|x| gram_lower(&x));
             let ev = pb.evaluate(&mck).unwrap();
-            let (nth, gth) = dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq);
+            let (nth, gth) =
+                dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
             let n = theta.len();
             let r0 = residual_vector(&pb, &mck);
             let h = 1e-6;
@@ -912,28 +1263,32 @@ mod tests {
                 let d = Mat::from_fn(m, m, |_, _| 0.05 * rng.next());
                 Mat::from_fn(m, m, |i, j| x[(i, j)] * (1.0 + d[(i, j)] + d[(j, i)]))
             });
-            let opts = OeOptions {
-                log_diagonal,
-                ..Default::default()
-            };
-            let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
-            assert!(rep.stop.converged(), "{:?}", rep.stop);
-            for b in 0..3 {
-                let num: f64 = (0..m)
-                    .flat_map(|i| (0..m).map(move |j| (i, j)))
-                    .map(|(i, j)| (rep.mck[b][(i, j)] - truth[b][(i, j)]).powi(2))
-                    .sum();
-                let den: f64 = (0..m)
-                    .flat_map(|i| (0..m).map(move |j| (i, j)))
-                    .map(|(i, j)| truth[b][(i, j)].powi(2))
-                    .sum();
-                assert!(
-                    (num / den).sqrt() < 1e-8,
-                    "m {m} block {b}: {}",
-                    (num / den).sqrt()
-                );
+            for solver in [StepKind::Dense, StepKind::MatrixFree] {
+                let opts = OeOptions {
+                    log_diagonal,
+                    solver,
+                    ..Default::default()
+                };
+                let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
+                assert!(rep.stop.converged(), "{:?}", rep.stop);
+                assert_eq!(rep.solver, solver.name());
+                for b in 0..3 {
+                    let num: f64 = (0..m)
+                        .flat_map(|i| (0..m).map(move |j| (i, j)))
+                        .map(|(i, j)| (rep.mck[b][(i, j)] - truth[b][(i, j)]).powi(2))
+                        .sum();
+                    let den: f64 = (0..m)
+                        .flat_map(|i| (0..m).map(move |j| (i, j)))
+                        .map(|(i, j)| truth[b][(i, j)].powi(2))
+                        .sum();
+                    assert!(
+                        (num / den).sqrt() < 1e-8,
+                        "m {m} block {b}: {}",
+                        (num / den).sqrt()
+                    );
+                }
+                assert!(rep.cost < 1e-20 * rep.cost_start.max(1e-300) || rep.cost < 1e-24);
             }
-            assert!(rep.cost < 1e-20 * rep.cost_start.max(1e-300) || rep.cost < 1e-24);
         }
     }
 }

@@ -1,0 +1,618 @@
+//! The matrix-free Gauss–Newton step for large m: (N + μ·diag N) δ = −g by
+//! preconditioned conjugate gradients, N v = Jᵀ(J v) applied line by line.
+//!
+//! Nothing of size m⁴ and no per-line Gram matrix is formed: the step keeps the LU
+//! factors of every line from the evaluation (s·m² complex numbers) and applies
+//! G = Aᴴ A (A = T D⁻¹) by two triangular-pair solves. One product N v costs
+//! ≈ 64 m² flops per column (plus 2 m² per matrix weight):
+//!
+//! ```text
+//!     δX_b = P_b v_b,   y = δD x = (−ω² δM + iω δC + δK) x,   z = D⁻ᴴ TᵀT D⁻¹ y,
+//!     (N v)_b = P_bᵀ Re Σ z (φ_b x)ᴴ,       φ = (−ω², iω, 1),
+//! ```
+//!
+//! the first and last by GEMMs over all columns, the middle one per line. The
+//! exact diagonal of N (the LM damping, and the Jacobi preconditioner) needs G and
+//! G L per line, O(s·m³) flops but O(m²) memory per thread: it is computed at
+//! every accepted point ([`DIAG_REFRESH`]). From X = L Lᵀ, θ = (j, k) moves
+//! δX = e_j ℓ_kᵀ + ℓ_k e_jᵀ, so
+//!
+//! ```text
+//!     N_(jk),(jk) = Σ |φ_b|² [G_jj |a_k|² + (LᵀGL)_kk X̄_jj + 2 Re((GL)_jk conj(a_k) x_j)] · s_jk²
+//! ```
+//!
+//! with a = Lᵀx and X̄_jj = |x_j|² summed over the term's columns (the floor's
+//! O(ε) terms are left out of the damping), s_jk = L_jj on a logged diagonal.
+
+use super::lines::{self, line_pieces, response_weight, terms_per_line};
+use super::{
+    n_per_block, solve_lines, solve_lines_adjoint, tri, Evaluation, Params, Problem, StepSolver,
+    Weights,
+};
+use faer::linalg::matmul::matmul;
+use faer::{c64, Accum, Mat, MatRef, Par};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Stopping rule of the inner CG: relative residual below
+/// min(CG_ETA_MAX, sqrt(‖g‖/‖g₀‖)) (a forcing term that tightens as the gradient
+/// falls, so that the outer iteration keeps its fast final convergence: with a fixed
+/// 0.1, noise-free data stalled at 7e-3 from the exact model), never below
+/// CG_ETA_MIN.
+const CG_ETA_MAX: f64 = 0.1;
+const CG_ETA_MIN: f64 = 1e-10;
+
+/// The diagonal of N_θ (damping and preconditioner) is recomputed at every this
+/// many accepted steps: it costs O(s·m³), the rest of a step O(s·m²) per product.
+/// Measured: refreshed every 5 steps, LM stalled on noise-free data (7e-3 from the
+/// exact model at m = 5); at every step it converges.
+pub const DIAG_REFRESH: usize = 1;
+
+/// The matrix-free step solver.
+pub(crate) struct MatrixFree {
+    m: usize,
+    p: usize,
+    log_diagonal: bool,
+    /// LU factors and row permutations of every line (from the evaluation)
+    lu: Vec<c64>,
+    perm: Vec<usize>,
+    /// T of every column, row-major m×m (matrix weights only)
+    tw: Option<Vec<f64>>,
+    /// points prepared so far
+    prepares: usize,
+    /// model responses x of every column, and w² (1 with matrix weights)
+    x: Vec<c64>,
+    xw: Vec<f64>,
+    /// scaled ω of every line
+    w: Vec<f64>,
+    tpl: usize,
+    l: [Mat<f64>; 3],
+    /// diag(N_θ), and the 3×3 blocks coupling M, C, K at each (j, k)
+    diag: Vec<f64>,
+    blocks: Vec<f64>,
+    /// ‖g‖ at the first point, for the forcing term
+    g0: f64,
+    /// δᵀNδ of the last step
+    last: Option<(Vec<f64>, f64)>,
+    /// how many CG iterations, and N products
+    pub cg_iterations: usize,
+    pub products: usize,
+    pub cg_cap_hits: usize,
+    t_prepare: f64,
+    t_diagonal: f64,
+    t_products: f64,
+    /// the CG iteration cap (after which the current iterate is the step)
+    max_cg: usize,
+}
+
+impl MatrixFree {
+    pub(crate) fn new(max_cg: usize) -> Self {
+        MatrixFree {
+            m: 0,
+            p: 0,
+            log_diagonal: true,
+            lu: Vec::new(),
+            perm: Vec::new(),
+            tw: None,
+            prepares: 0,
+            x: Vec::new(),
+            xw: Vec::new(),
+            w: Vec::new(),
+            tpl: 1,
+            l: [Mat::zeros(0, 0), Mat::zeros(0, 0), Mat::zeros(0, 0)],
+            diag: Vec::new(),
+            blocks: Vec::new(),
+            last: None,
+            g0: 0.0,
+            cg_iterations: 0,
+            products: 0,
+            cg_cap_hits: 0,
+            t_prepare: 0.0,
+            t_diagonal: 0.0,
+            t_products: 0.0,
+            max_cg,
+        }
+    }
+
+    /// diag(N_θ) at the prepared point.
+    #[cfg(test)]
+    pub(crate) fn diagonal(&self) -> &[f64] {
+        &self.diag
+    }
+
+    /// N_θ[(b, t), (b', t)] at the prepared point, t = tri(j, k).
+    #[cfg(test)]
+    pub(crate) fn block(&self, b: usize, bp: usize, t: usize) -> f64 {
+        let nb = self.diag.len() / 3;
+        let q = PAIRS
+            .iter()
+            .position(|&pr| pr == (b.min(bp), b.max(bp)))
+            .unwrap();
+        self.blocks[q * nb + t]
+    }
+
+    fn params(&self) -> Params {
+        Params {
+            m: self.m,
+            log_diagonal: self.log_diagonal,
+        }
+    }
+
+    /// N_θ v.
+    pub(crate) fn apply(&mut self, v: &[f64], par: Par) -> Vec<f64> {
+        let t0 = Instant::now();
+        let (m, p) = (self.m, self.p);
+        let n = self.x.len() / m; // columns
+        let nb = n_per_block(m);
+        let params = self.params();
+        let dx: Vec<Mat<f64>> = (0..3)
+            .map(|b| lines::tangent(&params, &self.l[b], &v[b * nb..(b + 1) * nb]))
+            .collect();
+        // [δM δC δK] X over all columns, X as [Re X | Im X] (m × 2n)
+        let xr = MatRef::from_column_major_slice(&self.x, m, n);
+        let xri = Mat::<f64>::from_fn(m, 2 * n, |r, c| {
+            if c < n {
+                xr[(r, c)].re
+            } else {
+                xr[(r, c - n)].im
+            }
+        });
+        let mut stacked = Mat::<f64>::zeros(3 * m, m);
+        for (b, d) in dx.iter().enumerate() {
+            stacked
+                .as_mut()
+                .submatrix_mut(b * m, 0, m, m)
+                .copy_from(d.as_ref());
+        }
+        let mut prod = Mat::<f64>::zeros(3 * m, 2 * n);
+        matmul(
+            prod.as_mut(),
+            Accum::Replace,
+            stacked.as_ref(),
+            xri.as_ref(),
+            1.0,
+            par,
+        );
+        // per column: y = −ω² δM x + iω δC x + δK x, z = D⁻ᴴ TᵀT D⁻¹ y; z'_b = conj(φ_b) z
+        let mut zs = Mat::<f64>::zeros(3 * m, 2 * n); // [Re z'_b | Im z'_b] stacked by block
+        {
+            let mm = m * m;
+            let (w, xw) = (&self.w, &self.xw);
+            let (lu, perm, tw) = (&self.lu, &self.perm, &self.tw);
+            let prod = &prod;
+            let lines: Vec<Vec<c64>> = (0..w.len())
+                .into_par_iter()
+                .map(|i| {
+                    let om = w[i];
+                    let mut y: Vec<c64> = (0..p * m)
+                        .map(|q| {
+                            let (col, r) = (i * p + q / m, q % m);
+                            let pm = c64::new(prod[(r, col)], prod[(r, n + col)]);
+                            let pc = c64::new(prod[(m + r, col)], prod[(m + r, n + col)]);
+                            let pk = c64::new(prod[(2 * m + r, col)], prod[(2 * m + r, n + col)]);
+                            pm * (-om * om) + pc * c64::new(0.0, om) + pk
+                        })
+                        .collect();
+                    let lui = MatRef::from_column_major_slice(&lu[i * mm..(i + 1) * mm], m, m);
+                    let pi = &perm[i * m..(i + 1) * m];
+                    solve_lines(lui, pi, &mut y, m, p);
+                    if let Some(t) = tw {
+                        for j in 0..p {
+                            let tc = &t[(i * p + j) * mm..(i * p + j + 1) * mm];
+                            let yj = &mut y[j * m..(j + 1) * m];
+                            let ty: Vec<c64> = (0..m)
+                                .map(|r| (0..m).map(|q| yj[q] * tc[r * m + q]).sum())
+                                .collect();
+                            for (q, v) in yj.iter_mut().enumerate() {
+                                *v = (0..m).map(|r| ty[r] * tc[r * m + q]).sum();
+                            }
+                        }
+                    }
+                    solve_lines_adjoint(lui, pi, &mut y, m, p);
+                    for j in 0..p {
+                        let sc = xw[i * p + j];
+                        for v in &mut y[j * m..(j + 1) * m] {
+                            *v *= sc;
+                        }
+                    }
+                    y
+                })
+                .collect();
+            for (i, z) in lines.iter().enumerate() {
+                let om = w[i];
+                for j in 0..p {
+                    let col = i * p + j;
+                    for r in 0..m {
+                        let zr = z[j * m + r];
+                        // conj(φ): −ω², −iω, 1
+                        let z0 = zr * (-om * om);
+                        let z1 = zr * c64::new(0.0, -om);
+                        for (b, zb) in [z0, z1, zr].into_iter().enumerate() {
+                            zs[(b * m + r, col)] = zb.re;
+                            zs[(b * m + r, n + col)] = zb.im;
+                        }
+                    }
+                }
+            }
+        }
+        // R_b = Re Σ z'_b xᴴ = [Re z'_b | Im z'_b] [Re x | Im x]ᵀ
+        let mut rz = Mat::<f64>::zeros(3 * m, m);
+        matmul(
+            rz.as_mut(),
+            Accum::Replace,
+            zs.as_ref(),
+            xri.transpose(),
+            1.0,
+            par,
+        );
+        let mut out = vec![0.0; 3 * nb];
+        for b in 0..3 {
+            lines::tangent_adjoint(
+                &params,
+                &self.l[b],
+                |r, c| rz[(b * m + r, c)],
+                &mut out[b * nb..(b + 1) * nb],
+            );
+        }
+        self.products += 1;
+        self.t_products += t0.elapsed().as_secs_f64();
+        out
+    }
+}
+
+/// The 3×3 blocks of N_θ coupling M, C, K at each (j, k) (see the module note;
+/// layout: pair q of [`PAIRS`] at q·nb + tri(j, k), the diagonal first): G of each line formed,
+/// used and dropped, O(s·m³) flops, O(m²) memory per thread.
+fn diagonal(solver: &MatrixFree, pb: &Problem, ev: &Evaluation) -> Vec<f64> {
+    let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
+    let mm = m * m;
+    let nb = n_per_block(m);
+    let s = solver.w.len();
+    // [L_M L_C L_K] (m × 3m)
+    let l3 = Mat::<f64>::from_fn(m, 3 * m, |r, c| solver.l[c / m][(r, c % m)]);
+    let parts: Vec<Vec<f64>> = (0..s)
+        .into_par_iter()
+        .map(|i| {
+            let mut g = vec![c64::new(0.0, 0.0); tpl * mm];
+            let mut a = vec![c64::new(0.0, 0.0); p * m];
+            line_pieces(pb, ev, i, &mut g, &mut a);
+            let mut out = vec![0.0; 6 * nb];
+            for tl in 0..tpl {
+                line_diagonal(solver, i, tl, &g[tl * mm..(tl + 1) * mm], &l3, &mut out);
+            }
+            out
+        })
+        .collect();
+    let mut d = vec![0.0; 6 * nb];
+    for part in &parts {
+        for (a, b) in d.iter_mut().zip(part) {
+            *a += b;
+        }
+    }
+    // the log scales s_b,jk s_b',jk
+    let sc =
+        |b: usize, j: usize, k: usize| lines::theta_scale(&solver.params(), &solver.l[b], j, k);
+    for (q, &(b, bp)) in PAIRS.iter().enumerate() {
+        for j in 0..m {
+            for k in 0..=j {
+                d[q * nb + tri(j, k)] *= sc(b, j, k) * sc(bp, j, k);
+            }
+        }
+    }
+    d
+}
+
+/// The part of diag(N_θ) of line `i`, term `tl` (of Gram matrix `g`, row-major).
+fn line_diagonal(
+    solver: &MatrixFree,
+    i: usize,
+    tl: usize,
+    g: &[c64],
+    l3: &Mat<f64>,
+    out: &mut [f64],
+) {
+    let (m, p, tpl) = (solver.m, solver.p, solver.tpl);
+    let nb = n_per_block(m);
+    let om = solver.w[i];
+    let gt = MatRef::from_row_major_slice(g, m, m);
+    // G L3 as [Re G; Im G] L3
+    let gri = Mat::<f64>::from_fn(2 * m, m, |r, c| {
+        if r < m {
+            gt[(r, c)].re
+        } else {
+            gt[(r - m, c)].im
+        }
+    });
+    let mut gl = Mat::<f64>::zeros(2 * m, 3 * m);
+    matmul(
+        gl.as_mut(),
+        Accum::Replace,
+        gri.as_ref(),
+        l3.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    let cols: Vec<usize> = if tpl == 1 {
+        (0..p).map(|j| i * p + j).collect()
+    } else {
+        vec![i * p + tl]
+    };
+    let phi = [
+        c64::new(-om * om, 0.0),
+        c64::new(0.0, om),
+        c64::new(1.0, 0.0),
+    ];
+    let glc = |j: usize, b: usize, k: usize| c64::new(gl[(j, b * m + k)], gl[(m + j, b * m + k)]);
+    // (L_bᵀ G L_b')_kk = Σ_j L_b,jk (G L_b')_jk for the six pairs
+    let lgl: Vec<Vec<c64>> = PAIRS
+        .iter()
+        .map(|&(b, bp)| {
+            let l = &solver.l[b];
+            (0..m)
+                .map(|k| (k..m).map(|j| glc(j, bp, k) * l[(j, k)]).sum())
+                .collect()
+        })
+        .collect();
+    for &col in &cols {
+        let x = &solver.x[col * m..(col + 1) * m];
+        let a: Vec<Vec<c64>> = (0..3)
+            .map(|b| {
+                let l = &solver.l[b];
+                (0..m)
+                    .map(|k| (k..m).map(|c| x[c] * l[(c, k)]).sum())
+                    .collect()
+            })
+            .collect();
+        for (q, &(b, bp)) in PAIRS.iter().enumerate() {
+            let sc = phi[b].conj() * phi[bp] * solver.xw[col];
+            for j in 0..m {
+                let gjj = gt[(j, j)].re;
+                let xj = x[j];
+                let xj2 = xj.norm_sqr();
+                for k in 0..=j {
+                    let (ab, abp) = (a[b][k], a[bp][k]);
+                    let v = ab.conj() * abp * gjj
+                        + ab.conj() * xj * glc(j, bp, k)
+                        + xj.conj() * abp * glc(j, b, k).conj()
+                        + lgl[q][k] * xj2;
+                    out[q * nb + tri(j, k)] += (sc * v).re;
+                }
+            }
+        }
+    }
+}
+
+/// Block pairs (b, b') of the 3×3 blocks of N_θ kept per unknown (j, k): the
+/// diagonal first, then M–C, M–K, C–K.
+const PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+/// Inverse of a symmetric positive definite 3×3 matrix (upper triangle of `a`) as
+/// [00, 11, 22, 01, 02, 12], by Cholesky; None when it is not numerically positive.
+fn inverse3(a: [[f64; 3]; 3]) -> Option<[f64; 6]> {
+    let l00 = a[0][0].sqrt();
+    let l10 = a[0][1] / l00;
+    let l20 = a[0][2] / l00;
+    let d1 = a[1][1] - l10 * l10;
+    if l00.is_nan() || l00 <= 0.0 || d1.is_nan() || d1 <= 1e-12 * a[1][1] {
+        return None;
+    }
+    let l11 = d1.sqrt();
+    let l21 = (a[1][2] - l20 * l10) / l11;
+    let d2 = a[2][2] - l20 * l20 - l21 * l21;
+    if d2.is_nan() || d2 <= 1e-12 * a[2][2] {
+        return None;
+    }
+    let l22 = d2.sqrt();
+    // L⁻¹ (lower), then A⁻¹ = L⁻ᵀ L⁻¹
+    let i00 = 1.0 / l00;
+    let i11 = 1.0 / l11;
+    let i22 = 1.0 / l22;
+    let i10 = -l10 * i00 / l11;
+    let i21 = -l21 * i11 / l22;
+    let i20 = -(l20 * i00 + l21 * i10) / l22;
+    Some([
+        i00 * i00 + i10 * i10 + i20 * i20,
+        i11 * i11 + i21 * i21,
+        i22 * i22,
+        i10 * i11 + i20 * i21,
+        i20 * i22,
+        i21 * i22,
+    ])
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+impl StepSolver for MatrixFree {
+    fn prepare(
+        &mut self,
+        pb: &Problem,
+        params: &Params,
+        l: &[Mat<f64>; 3],
+        ev: &Evaluation,
+        par: Par,
+    ) -> Vec<f64> {
+        let t0 = Instant::now();
+        let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+        let mm = m * m;
+        let tpl = terms_per_line(pb);
+        self.m = m;
+        self.p = p;
+        self.log_diagonal = params.log_diagonal;
+        self.tpl = tpl;
+        self.l = l.clone();
+        self.w = pb.w.clone();
+        self.x = ev.x.clone();
+        self.xw = (0..s * p).map(|col| response_weight(pb, col)).collect();
+        self.lu.clone_from(&ev.lu);
+        self.perm.clone_from(&ev.perm);
+        self.tw = match pb.data.weights {
+            Weights::Matrix(t) => Some(t.to_vec()),
+            Weights::Scalar(_) => None,
+        };
+        // a = Aᴴ r per column = D⁻ᴴ TᵀT (x − u) (w² with scalar weights)
+        let mut a = vec![c64::new(0.0, 0.0); s * p * m];
+        {
+            let (lu, perm, tw, xw) = (&self.lu, &self.perm, &self.tw, &self.xw);
+            a.par_chunks_mut(p * m).enumerate().for_each(|(i, ai)| {
+                let off = i * p * m;
+                for (q, v) in ai.iter_mut().enumerate() {
+                    *v = ev.x[off + q] - pb.u[off + q];
+                }
+                if let Some(t) = tw {
+                    for j in 0..p {
+                        let tc = &t[(i * p + j) * mm..(i * p + j + 1) * mm];
+                        let rj = &mut ai[j * m..(j + 1) * m];
+                        let tr: Vec<c64> = (0..m)
+                            .map(|r| (0..m).map(|q| rj[q] * tc[r * m + q]).sum())
+                            .collect();
+                        for (q, v) in rj.iter_mut().enumerate() {
+                            *v = (0..m).map(|r| tr[r] * tc[r * m + q]).sum();
+                        }
+                    }
+                }
+                let lui = MatRef::from_column_major_slice(&lu[i * mm..(i + 1) * mm], m, m);
+                solve_lines_adjoint(lui, &perm[i * m..(i + 1) * m], ai, m, p);
+                for j in 0..p {
+                    let sc = xw[i * p + j];
+                    for v in &mut ai[j * m..(j + 1) * m] {
+                        *v *= sc;
+                    }
+                }
+            });
+        }
+        let gz = lines::gradient_z(pb, ev, &a, par);
+        let grad = lines::theta_gradient(params, l, &gz);
+        if self.prepares.is_multiple_of(DIAG_REFRESH) {
+            let t1 = Instant::now();
+            let blocks = diagonal(self, pb, ev);
+            self.diag = blocks[..3 * n_per_block(m)].to_vec();
+            self.blocks = blocks;
+            self.t_diagonal += t1.elapsed().as_secs_f64();
+        }
+        self.prepares += 1;
+        self.last = None;
+        self.t_prepare += t0.elapsed().as_secs_f64();
+        grad
+    }
+
+    fn step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        cancelled: &mut dyn FnMut() -> bool,
+    ) -> Option<Vec<f64>> {
+        let n = g.len();
+        let dmax = self.diag.iter().fold(0.0f64, |a, v| a.max(*v));
+        let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
+        let damp: Vec<f64> = self.diag.iter().map(|d| mu * d.max(floor)).collect();
+        // preconditioner: N + μD restricted to the 3×3 blocks (M, C, K at one (j, k)),
+        // inverted per block (Jacobi where a block is not numerically positive)
+        let nb = n / 3;
+        let pre: Vec<[f64; 6]> = (0..nb)
+            .map(|t| {
+                let e = |b: usize| self.diag[b * nb + t].max(floor) + damp[b * nb + t];
+                let a = [
+                    [e(0), self.blocks[3 * nb + t], self.blocks[4 * nb + t]],
+                    [0.0, e(1), self.blocks[5 * nb + t]],
+                    [0.0, 0.0, e(2)],
+                ];
+                inverse3(a).unwrap_or([1.0 / e(0), 1.0 / e(1), 1.0 / e(2), 0.0, 0.0, 0.0])
+            })
+            .collect();
+        let precondition = |r: &[f64]| -> Vec<f64> {
+            let mut z = vec![0.0; n];
+            for (t, q) in pre.iter().enumerate() {
+                let (r0, r1, r2) = (r[t], r[nb + t], r[2 * nb + t]);
+                z[t] = q[0] * r0 + q[3] * r1 + q[4] * r2;
+                z[nb + t] = q[3] * r0 + q[1] * r1 + q[5] * r2;
+                z[2 * nb + t] = q[4] * r0 + q[5] * r1 + q[2] * r2;
+            }
+            z
+        };
+        let gn = dot(g, g).sqrt();
+        if self.g0 == 0.0 {
+            self.g0 = gn;
+        }
+        let eta = (gn / self.g0).sqrt().clamp(CG_ETA_MIN, CG_ETA_MAX);
+        // CG on A δ = b, A = N + μD, b = −g, from δ = 0
+        let mut x = vec![0.0; n];
+        let mut r: Vec<f64> = g.iter().map(|v| -v).collect();
+        let mut z = precondition(&r);
+        let mut d = z.clone();
+        let mut rz = dot(&r, &z);
+        let bn = gn;
+        let mut it = 0;
+        loop {
+            if cancelled() {
+                return None;
+            }
+            let mut ad = self.apply(&d, par);
+            for (q, v) in ad.iter_mut().enumerate() {
+                *v += damp[q] * d[q];
+            }
+            let dad = dot(&d, &ad);
+            if dad.is_nan() || dad <= 0.0 {
+                // not positive definite along d: stop with what we have
+                break;
+            }
+            let alpha = rz / dad;
+            for q in 0..n {
+                x[q] += alpha * d[q];
+                r[q] -= alpha * ad[q];
+            }
+            it += 1;
+            let rn = dot(&r, &r).sqrt();
+            if rn <= eta * bn || it >= self.max_cg {
+                if it >= self.max_cg && rn > eta * bn {
+                    self.cg_cap_hits += 1;
+                }
+                break;
+            }
+            z = precondition(&r);
+            let rz2 = dot(&r, &z);
+            let beta = rz2 / rz;
+            rz = rz2;
+            for q in 0..n {
+                d[q] = z[q] + beta * d[q];
+            }
+        }
+        self.cg_iterations += it;
+        if it == 0 || !x.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        // δᵀNδ = δᵀAδ − μ δᵀDδ, δᵀAδ = δᵀ(b − r) = −gᵀδ − rᵀδ
+        let xax = -dot(g, &x) - dot(&r, &x);
+        let xdx: f64 = x.iter().zip(&damp).map(|(a, e)| a * a * e).sum();
+        self.last = Some((x.clone(), xax - xdx));
+        Some(x)
+    }
+
+    fn quad(&mut self, step: &[f64], par: Par) -> f64 {
+        if let Some((x, q)) = &self.last {
+            if x.as_slice() == step {
+                return *q;
+            }
+        }
+        let nv = self.apply(step, par);
+        dot(step, &nv)
+    }
+
+    fn timings(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("matfree_prepare", self.t_prepare),
+            ("matfree_diagonal", self.t_diagonal),
+            ("matfree_products", self.t_products),
+        ]
+    }
+
+    fn stats(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("cg_iterations", self.cg_iterations as f64),
+            ("products", self.products as f64),
+            ("cg_cap_hits", self.cg_cap_hits as f64),
+        ]
+    }
+}

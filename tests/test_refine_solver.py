@@ -1,0 +1,94 @@
+"""The step solvers of the output-error refinement: dense and matrix-free agree."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from podid_rs import SecondOrderSystem, identify, mass_spring_chain
+from podid_rs.refinement import db_errors, physical_start, refine
+
+
+def chain_data(m: int, s: int, p: int, noise: float, seed: int = 0):
+    """Full-order chain, p random load cases over 5–200 Hz, complex noise on U."""
+    sys_ = mass_spring_chain(m)
+    omega = 2 * np.pi * np.linspace(5.0, 200.0, s)
+    rng = np.random.default_rng(seed)
+    F = rng.standard_normal((s, m, p)) + 1j * rng.standard_normal((s, m, p))
+    U = sys_.response(omega, F)
+    U = U + noise * np.sqrt(np.mean(np.abs(U) ** 2) / 2) * (
+        rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape)
+    )
+    return sys_, U, F, omega
+
+
+def rel(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def test_noise_free_data_give_the_exact_model_back_with_the_matrix_free_step():
+    sys_, U, F, omega = chain_data(5, 60, 2, 0.0)
+    rng = np.random.default_rng(3)
+
+    def perturbed(X):
+        d = 0.02 * rng.standard_normal(X.shape)
+        return X * (1 + d + d.T)
+
+    start = (perturbed(sys_.M), perturbed(sys_.C), perturbed(sys_.K))
+    res = refine(start, U, F, omega, solver="matrix-free", ftol=1e-12)
+    rep = res.info["refinement"]
+    assert rep["solver"] == "matrix-free"
+    assert rep["converged"], rep["stop"]
+    assert rep["solver_stats"]["products"] > 0
+    for X, T in ((res.M, sys_.M), (res.C, sys_.C), (res.K, sys_.K)):
+        assert rel(X, T) < 1e-8
+
+
+@pytest.mark.parametrize("weights", ["relative", "uniform"])
+def test_dense_and_matrix_free_steps_reach_the_same_model(weights):
+    sys_, U, F, omega = chain_data(4, 80, 2, 1e-3, seed=1)
+    start = identify(U, F, omega, symmetric=True)
+    out = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the start may be made physical
+        for solver in ("dense", "matrix-free"):
+            res = refine(start, U, F, omega, weights=weights, solver=solver, ftol=1e-10,
+                         max_iter=400)  # fmt: skip
+            assert res.info["refinement"]["solver"] == solver
+            assert res.info["refinement"]["converged"], res.info["refinement"]["stop"]
+            out[solver] = res
+    d, f = out["dense"], out["matrix-free"]
+    cd, cf = d.info["refinement"]["cost"], f.info["refinement"]["cost"]
+    # the same least-squares minimum: costs to 1e-9, models to the data's resolution
+    assert abs(cd - cf) <= 1e-9 * cd
+    assert cd < d.info["refinement"]["cost_start"]
+    for a, b in ((d.M, f.M), (d.C, f.C), (d.K, f.K)):
+        assert rel(b, a) < 1e-5
+    # stable by construction whatever the step
+    for X in (f.M, f.K):
+        assert np.linalg.eigvalsh(X).min() > 0
+    assert np.linalg.eigvalsh(f.C).min() >= -1e-12 * np.abs(f.C).max()
+
+
+def test_auto_solves_small_orders_densely_and_bad_names_are_refused():
+    sys_, U, F, omega = chain_data(3, 40, 1, 1e-3)
+    start = (sys_.M, sys_.C, sys_.K)
+    res = refine(start, U, F, omega)
+    assert res.info["refinement"]["solver"] == "dense"
+    with pytest.raises(ValueError, match="solver"):
+        refine(start, U, F, omega, solver="lsqr")
+
+
+def test_reported_db_errors_are_those_of_the_start_and_the_answer():
+    sys_, U, F, omega = chain_data(4, 50, 2, 5e-2, seed=2)
+    start = identify(U, F, omega, symmetric=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = refine(start, U, F, omega, solver="matrix-free")
+        (M1, C1, K1), _ = physical_start(start.M, start.C, start.K)
+    rep = res.info["refinement"]
+    for (Mx, Cx, Kx), key in (((M1, C1, K1), "db_before"), ((res.M, res.C, res.K), "db_after")):
+        e = db_errors(SecondOrderSystem(Mx, Cx, Kx).response(omega, F), U)
+        assert rep[key] == pytest.approx((np.median(e), np.percentile(e, 95)), rel=1e-8)
