@@ -36,7 +36,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -384,17 +384,41 @@ def final_fit(
     threads: int | None = None,
     progress: bool | Callable[[int, float], object] = False,
 ) -> tuple[IdentificationResult, np.ndarray]:
-    """The chosen order refitted on every line from its held-out fit: (model, basis R)."""
+    """The chosen order refitted on every line from its held-out fit: (model, basis R).
+
+    The refit is kept only if it lowers the median |dB| error over every line: the
+    relative weighted cost can fall by fixing a few lines that are far off (an
+    anti-resonance or a narrow peak the order cannot hold) at the expense of the rest
+    (measured on the beam at 50–300 Hz, m = 24: cost 230 → 12.5 while the median went
+    0.74 → 0.94 dB). Then the held-out fit is returned, and its
+    ``info["refinement"]["final_refit"]`` says why.
+    """
     m = sweep.chosen
     R = pod_result.basis(m)
+    start = sweep.fit(m).model
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StartWarning)
         warnings.simplefilter("ignore", ConvergenceWarning)  # the summary states the stop
         model = refine(
-            sweep.fit(m).model, U_n, F_n, omega, basis=R, weights="relative",
+            start, U_n, F_n, omega, basis=R, weights="relative",
             max_iter=max_iter, threads=threads, progress=progress,
         )
-    return model, R
+    ref = model.info["refinement"]
+    if ref["db_after"][0] <= ref["db_before"][0]:
+        return model, R
+    kept = {
+        "kept": "held-out fit",
+        "reason": (
+            f"the refit on every line lowered the weighted cost ({ref['cost_start']:.4g} → "
+            f"{ref['cost']:.4g}) but raised the median error over every line "
+            f"({ref['db_before'][0]:.2f} → {ref['db_after'][0]:.2f} dB)"
+        ),
+        "db_all_lines": ref["db_before"],
+        "refit_db_all_lines": ref["db_after"],
+        "refit_iterations": model.iterations,
+    }
+    info = {**start.info, "refinement": {**start.info["refinement"], "final_refit": kept}}
+    return replace(start, info=info), R
 
 
 def plot_order_sweep(sweep: OrderSweep, path: str | Path, *, title: str | None = None) -> Path:

@@ -99,6 +99,9 @@ class IdentifyRun:
                 f"{r.iterations} Levenberg–Marquardt steps ({ref['stop']}); M, C, K symmetric, "
                 f"positive definite: {'yes' if is_physical(r) else 'no'}"
             )
+            if "final_refit" in ref:
+                why = ref["final_refit"]["reason"]
+                lines.append(f"- kept the fit on the training lines: {why}")
         else:
             lines.append(
                 f"- model: the paper's estimator (eq. 49), {lam}; solver {r.method}, rank "
