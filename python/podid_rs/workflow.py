@@ -179,16 +179,15 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
         for label, r, style in models:
             values = _model_frf(r, run.basis, d.omega, rows, col)
             curves.append(Curve(label, values, kind="identified", style=style))
-        node = tuple(int(v) for v in d.dofs[col])
+        driven = _dof_name(d.dofs[col])
         what = "measured and identified" if d.is_frf else "identified (the data are not FRFs)"
         paths.append(
             plot_frf_comparison(
                 d.freq_hz,
                 curves,
                 out / f"frf_input{k + 1}.png",
-                title=f"FRFs for the force at DOF {node}: {what}, m = {run.result.m}",
-                entries=[(_dof_name(d.dofs[col]), _dof_name(d.dofs[col])),
-                         (_dof_name(d.dofs[far]), _dof_name(d.dofs[col]))],
+                title=f"FRFs for the force at DOF {driven}: {what}, m = {run.result.m}",
+                entries=[(driven, driven), (_dof_name(d.dofs[far]), driven)],
             )
         )
     return paths
