@@ -21,6 +21,7 @@ use crate::identify::{check_lam, scaled_gram, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
 use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
+use crate::residual::residual_norm;
 use crate::sgs::{Ends, Sgs, SgsWork};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef, Par};
@@ -398,6 +399,9 @@ pub fn identify_cg(
             }
         }
     }
+    let t = Instant::now();
+    let residual_norm = residual_norm(cols, &scaling, z.as_ref());
+    let residual_seconds = t.elapsed().as_secs_f64();
     let nu = n_unknowns(m, symmetric);
     Ok(Identified {
         mck: unscale(z.as_ref(), &scaling),
@@ -413,9 +417,11 @@ pub fn identify_cg(
             ("iterate", iterate_seconds),
             ("gemm", op.gemm_seconds),
             ("solves", op.solve_seconds),
+            ("residual", residual_seconds),
             ("total", start.elapsed().as_secs_f64()),
         ],
         cg: Some(report),
+        residual_norm,
     })
 }
 
