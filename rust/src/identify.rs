@@ -22,10 +22,10 @@ pub struct Identified {
     pub n_unknowns: usize,
     pub min_pivot_ratio: f64,
     pub scaling: Scaling,
-    /// wall time per phase, seconds (direct: gram, form, factor, total;
+    /// wall time per phase, seconds (direct: gram, form, factor, residual, total;
     /// CG: gram, setup (basis: its share choosing Q), iterate, and within
     /// iterate gemm (the double-precision operator of the residual checks) and
-    /// solves (the preconditioner's triangular solves), total)
+    /// solves (the preconditioner's triangular solves), residual, total)
     pub timings: Vec<(&'static str, f64)>,
     /// iterations and final residual of the matrix-free solver (None for direct)
     pub cg: Option<CgReport>,
