@@ -260,3 +260,31 @@ def test_memory_guard_refuses_impossible_size(monkeypatch):
     identify(U, F, omega, 0.0)
     # solver="auto" does not try the dense matrix where it would not fit
     assert identify(U, F, omega, 1.0).method == "cg"
+
+
+@pytest.mark.parametrize("solver", ["direct", "cg"])
+@pytest.mark.parametrize("p", [1, 3])
+def test_residual_norm_from_the_core_is_the_misfit_of_the_answer(solver, p):
+    # the core computes ‖Ax − y‖ from its per-line products; NumPy's row form of the
+    # same misfit must agree to rounding (noisy data: the misfit is far from 0)
+    from podid_rs._validation import check_frequency_data
+    from podid_rs.identification import residual_norm
+
+    _, U, F, omega = chain_data(6, s=30, p=p, noise=0.02)
+    res = identify(U, F, omega, 1.0, solver=solver)
+    want = residual_norm(res.M, res.C, res.K, check_frequency_data(U, F, omega))
+    assert want > 1e-3 * np.linalg.norm(F)
+    assert abs(res.residual_norm - want) <= 1e-10 * want
+
+
+def test_validated_data_are_read_only_views_and_the_input_stays_writeable():
+    from podid_rs._validation import check_frequency_data
+
+    _, U, F, omega = chain_data(4, s=12)
+    data = check_frequency_data(U, F, omega)
+    assert np.shares_memory(data.U, U) and not data.U.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        data.F[0, 0, 0] = 1.0
+    before = U.copy()
+    identify(U, F, omega, 1.0, solver="cg")
+    assert U.flags.writeable and F.flags.writeable and np.array_equal(U, before)

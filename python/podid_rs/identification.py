@@ -531,7 +531,9 @@ def identify(
         K=K,
         lam=lam_t,
         symmetric=symmetric,
-        residual_norm=residual_norm(M, C, K, data),
+        residual_norm=(
+            float(out["residual_norm"]) if "residual_norm" in out else residual_norm(M, C, K, data)
+        ),
         penalty_norms=(pen[0], pen[1], pen[2]),
         method=str(out["method"]),
         rank=int(out["rank"]),

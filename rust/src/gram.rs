@@ -14,6 +14,7 @@
 
 use crate::data::Stacked;
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, MatRef, Par};
 
 /// H (3m×3m, symmetric positive semidefinite) and B (m×3m).
@@ -26,6 +27,30 @@ pub struct Gram {
 fn atb(a: MatRef<f64>, b: MatRef<f64>, par: Par) -> Mat<f64> {
     let mut out = Mat::zeros(a.ncols(), b.ncols());
     matmul(out.as_mut(), Accum::Replace, a.transpose(), b, 1.0, par);
+    out
+}
+
+/// aᵀ·a, parallel: the lower triangle by one triangular product (half the
+/// flops of [`atb`]), mirrored, so the result is exactly symmetric.
+fn ata(a: MatRef<f64>, par: Par) -> Mat<f64> {
+    let n = a.ncols();
+    let mut out = Mat::zeros(n, n);
+    triangular::matmul(
+        out.as_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        a.transpose(),
+        BlockStructure::Rectangular,
+        a,
+        BlockStructure::Rectangular,
+        1.0,
+        par,
+    );
+    for j in 0..n {
+        for i in 0..j {
+            out[(i, j)] = out[(j, i)];
+        }
+    }
     out
 }
 
@@ -46,9 +71,9 @@ pub fn gram(data: &Stacked, par: Par) -> Gram {
     let (re1, im1) = (y1.as_ref().subrows(0, n), y1.as_ref().subrows(n, n));
     let im2 = y2.as_ref().subrows(n, n);
 
-    let s0 = atb(y0, y0, par);
-    let s2 = atb(y1.as_ref(), y1.as_ref(), par);
-    let s4 = atb(y2.as_ref(), y2.as_ref(), par);
+    let s0 = ata(y0, par);
+    let s2 = ata(y1.as_ref(), par);
+    let s4 = ata(y2.as_ref(), par);
     // T_k = P_k − P_kᵀ with P_k = Σ ω^k Im(u) Re(u)ᵀ
     let p1 = atb(im0, re1, par);
     let p3 = atb(im2, re1, par);

@@ -8,6 +8,7 @@ use crate::direct::{cholesky_solve, eigen_min_norm_solve, Method, Solution};
 use crate::error::PodidError;
 use crate::gram::{gram, Gram};
 use crate::normal::{n_unknowns, Basis};
+use crate::residual::residual_norm;
 use faer::{Mat, MatRef, Par};
 use std::time::Instant;
 
@@ -21,13 +22,15 @@ pub struct Identified {
     pub n_unknowns: usize,
     pub min_pivot_ratio: f64,
     pub scaling: Scaling,
-    /// wall time per phase, seconds (direct: gram, form, factor, total;
+    /// wall time per phase, seconds (direct: gram, form, factor, residual, total;
     /// CG: gram, setup (basis: its share choosing Q), iterate, and within
     /// iterate gemm (the double-precision operator of the residual checks) and
-    /// solves (the preconditioner's triangular solves), total)
+    /// solves (the preconditioner's triangular solves), residual, total)
     pub timings: Vec<(&'static str, f64)>,
     /// iterations and final residual of the matrix-free solver (None for direct)
     pub cg: Option<CgReport>,
+    /// the data misfit ‖Ax − y‖ of the answer (eq. 28, [`crate::residual`])
+    pub residual_norm: f64,
 }
 
 /// λ must be finite and non-negative.
@@ -153,6 +156,10 @@ pub fn identify(
     } else {
         solve_coords(&gm, m, scaling.scaled_lam(lam), symmetric, par)?
     };
+    drop(gm);
+    let t = Instant::now();
+    let residual_norm = residual_norm(cols, &scaling, z.as_ref());
+    let residual_seconds = t.elapsed().as_secs_f64();
     Ok(Identified {
         mck: unscale(z.as_ref(), &scaling),
         method: sol.method,
@@ -164,9 +171,11 @@ pub fn identify(
             ("gram", gram_seconds),
             ("form", form_seconds),
             ("factor", sol.factor_seconds),
+            ("residual", residual_seconds),
             ("total", start.elapsed().as_secs_f64()),
         ],
         cg: None,
+        residual_norm,
     })
 }
 

@@ -27,6 +27,7 @@ pub mod normal;
 pub mod pairs;
 pub mod precond;
 pub mod refine;
+pub mod residual;
 pub mod sgs;
 pub mod sweep;
 pub mod tridiag;

@@ -223,6 +223,7 @@ fn result_dict<'py>(py: Python<'py>, id: &Identified) -> PyResult<Bound<'py, PyD
     d.set_item("min_pivot_ratio", id.min_pivot_ratio)?;
     let s = id.scaling;
     d.set_item("scaling", (s.omega0, s.su, s.sf))?;
+    d.set_item("residual_norm", id.residual_norm)?;
     let t = PyDict::new(py);
     for (name, secs) in &id.timings {
         t.set_item(*name, *secs)?;
