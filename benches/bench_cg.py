@@ -41,6 +41,7 @@ from _common import (  # noqa: E402
     timed,
     val,
     worker_main,
+    write_report,
 )
 
 BANDS = {"narrow": (102.8, 122.8), "wide": (50.0, 150.0)}
@@ -314,11 +315,7 @@ def main() -> None:
     args.numpy_gemm = gemm_gflops()
     print(f"NumPy GEMM rate (n = 4000): {args.numpy_gemm:.1f} GFLOP/s", flush=True)
     text = main_auto(args, me) if args.auto else main_cg(args, me)
-    out = args.out or Path("bench-results") / ("cg_auto.md" if args.auto else "cg.md")
-    print("\n" + text)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text + "\n")
-    print(f"\nwritten to {out}")
+    write_report(text, args.out or Path("bench-results") / ("cg_auto.md" if args.auto else "cg.md"))
 
 
 if __name__ == "__main__":

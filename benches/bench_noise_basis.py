@@ -28,7 +28,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
-from _common import load_average, markdown_table  # noqa: E402
+from _common import load_average, markdown_table, write_report  # noqa: E402
 from podid_rs import paper  # noqa: E402
 from podid_rs.pod import pod_from_spectra  # noqa: E402
 
@@ -84,10 +84,7 @@ def main() -> int:
             f"original chain. {time.perf_counter() - t0:.0f} s, load average "
             f"{load if load is None else f'{load:.1f}'}; command "
             f"`python3 benches/bench_noise_basis.py --band {b} --seed {seed}`.\n")
-    print(text)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
+    write_report(text, args.out)
     return 0
 
 

@@ -43,6 +43,7 @@ from _common import (  # noqa: E402
     timed,
     val,
     worker_main,
+    write_report,
 )
 
 BAND_HZ = (5.0, 200.0)
@@ -281,11 +282,7 @@ def main() -> None:
             texts.append(main_large(args, me))
         text = "\n\n".join(texts)
         name = "refine.md"
-    out = args.out or Path("bench-results") / name
-    print("\n" + text)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text + "\n")
-    print(f"\nwritten to {out}")
+    write_report(text, args.out or Path("bench-results") / name)
 
 
 if __name__ == "__main__":

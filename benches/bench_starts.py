@@ -30,7 +30,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
-from _common import load_average, markdown_table  # noqa: E402
+from _common import load_average, markdown_table, write_report  # noqa: E402
 from podid_rs.model_order import sweep_orders  # noqa: E402
 from podid_rs.refinement import db_errors, refine  # noqa: E402
 
@@ -104,10 +104,7 @@ def main(argv=None) -> int:
     text = (f"# Starts for the output-error refinement: beam, {args.band[0]:g}–"
             f"{args.band[1]:g} Hz, m = {args.m}\n\n{table}\n\nLoad average {load:.1f}; "
             f"{STEPS} refinement steps at most; command `python3 benches/bench_starts.py`.\n")
-    print(text)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
+    write_report(text, args.out)
     return 0
 
 
