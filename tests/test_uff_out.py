@@ -17,6 +17,7 @@ from podid_rs.physical import modal_table
 from podid_rs.uff import read_uff_geometry, read_uff_modes, uff_quantity, write_uff
 
 pyuff = pytest.importorskip("pyuff")
+from conftest import BEAM_UFF  # noqa: E402
 from test_measurements import write_uff as write_input_uff  # noqa: E402
 
 GEOMETRY = np.array([[k, 0.1 * k, 0.0, -0.02 * k] for k in range(1, 8)])  # node 7 unmeasured
@@ -160,3 +161,16 @@ def test_mac_figure_against_the_written_file(written, tmp_path):
     assert np.all(np.abs(np.diag(values) - 1) < 1e-8)
     png = pr.plot_mac(modes, path, tmp_path / "mac.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_frfs_read_by_reciprocity_say_so(written, tmp_path):
+    # the fixture's data are a shaker layout: its 58 sets carry no remark
+    sets = written[-1]
+    assert all(d["id3"].strip() == "NONE" for d in sets if d["type"] == 58)
+    # the real roving-hammer beam is read by reciprocity: its model's FRFs say so
+    data = pr.read_uff(BEAM_UFF, band_hz=(50.0, 120.0))
+    assert any("reciprocity" in note for note in data.notes)
+    result, R = data.identify(m=3, symmetric=True)
+    path = write_uff(tmp_path / "roving.uff", result, R, data)
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    assert len(s58) == data.n and all("reciprocity" in d["id3"] for d in s58)

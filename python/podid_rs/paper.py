@@ -616,8 +616,9 @@ def _write_markdown(rows: Sequence[StudyRow], cfg: StudySettings, elapsed: float
         "for the paper's estimator (eq. 49), for it refined to the least output error "
         "(M, C, K positive definite; relative, then uniform weights, the maximum-likelihood "
         "fit for white noise on the responses; † marks a refined model that is not "
-        "stable) and for the "
-        "POD-projected model (RᵀMR, RᵀCR, RᵀKR) on the same basis.",
+        "stable; on noisy rows identified and refined on the noise-corrected POD basis — "
+        "the correlation less the noise variance the SNR implies) and for the "
+        "POD-projected model (RᵀMR, RᵀCR, RᵀKR) on the paper's basis.",
         "- **λ**: the common λ used, and the rule that chose it (eq. 40, §4.2).",
         "- **time**: seconds for simulate (shared by a band's rows) / POD / identify / "
         "refine / FRFs.",

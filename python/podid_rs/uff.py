@@ -179,9 +179,17 @@ def _set_55(j: int, modes: ModeShapes, nodes: list[int], name: str) -> dict:
     )
 
 
+def _reciprocity_remark(data: MeasuredData | None) -> str:
+    """The 58 sets' third ID line when the data were read by reciprocity (a roving-hammer
+    file: its references became the responses, ``read_uff``'s note), else ``"NONE"``."""
+    if data is not None and any("reciprocity" in note for note in data.notes):
+        return "roving-hammer test read by reciprocity: H(j, k) = H(k, j)"
+    return "NONE"
+
+
 def _sets_58(
     model: IdentificationResult, R: np.ndarray, dofs: np.ndarray, inputs: np.ndarray,
-    omega: np.ndarray, quantity: str, binary: bool, name: str,
+    omega: np.ndarray, quantity: str, binary: bool, name: str, remark: str = "NONE",
 ) -> list[dict]:
     pyuff = _pyuff()
     H_m = model.system().frf(omega)
@@ -199,7 +207,7 @@ def _sets_58(
                 binary=int(binary),
                 id1="FRF",
                 id2=f"H({node}:{direction}, {ref[0]}:{ref[1]}) {name}, identified"[:80],
-                id3="NONE",
+                id3=remark[:80],
                 id4="NONE",
                 id5="NONE",
                 func_type=UFF_FRF,
@@ -242,7 +250,8 @@ def write_uff(
     58 ordinate (the test's: ``"acceleration"`` for accelerance); ``geometry``
     ``(k, 4)`` [node, x, y, z] gives dataset 15. ``binary`` writes 58 ordinates as
     exact doubles. Dataset 55 holds translations (directions 1–3) only: a
-    rotational DOF raises ``ValueError``. The file is replaced if it exists.
+    rotational DOF raises ``ValueError``. FRFs from data read by reciprocity (a
+    roving-hammer file) say so in their third ID line. The file is replaced if it exists.
     """
     if not isinstance(model, IdentificationResult):
         raise ValueError(f"model must be an IdentificationResult, got {type(model).__name__}")
@@ -291,7 +300,8 @@ def write_uff(
         ))
     sets += [_set_55(j, modes, nodes, name) for j in range(modes.n_modes)]
     if omega is not None:
-        sets += _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name)
+        sets += _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name,
+                         _reciprocity_remark(data))
     path = Path(path)
     path.unlink(missing_ok=True)
     try:
