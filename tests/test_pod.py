@@ -265,12 +265,23 @@ def test_noise_corrected_pod_from_spectra_equals_that_of_the_history():
         (-1.0, "non-negative"),
         (np.ones(5), r"shape \(6,\)"),
         (np.nan, "noise_variance"),
-        (1e9, "not below the measured mean square"),
+        (1e9, "more than twice the measured mean square"),
     ],
 )
 def test_bad_noise_variance_is_refused(noise_variance, message):
     with pytest.raises(ValueError, match=message):
         pod(snapshots(), noise_variance=noise_variance)
+
+
+def test_noise_variance_just_above_a_channels_mean_square_is_clipped_with_a_warning():
+    X = snapshots()
+    measured = np.mean(X**2, axis=0)
+    var = 0.1 * measured
+    var[2] = 1.2 * measured[2]  # a channel with little signal: sampling error
+    with pytest.warns(UserWarning, match="1 DOF"):
+        P = pod(X, noise_variance=var)
+    np.testing.assert_allclose(P.noise_variance[2], measured[2], rtol=1e-12)
+    assert np.all(P.eigenvalues >= 0)
 
 
 def test_noise_correction_leaves_its_input_alone_and_is_not_applied_twice():

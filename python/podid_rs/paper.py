@@ -152,7 +152,7 @@ class StudyRow:
     noise on the responses; M, C, K positive definite, ``refined_stable`` whether
     every mode has Re λ < 0, ``refined_iterations`` its Levenberg–Marquardt steps;
     on noisy rows it is identified and refined on the noise-corrected POD basis,
-    :func:`_refine_noisy_row`).
+    :func:`_refine_noisy_row`, when the POD is from the correlation matrix).
     Times are seconds; ``t_simulate_s`` (forward simulation of the band and the
     original model's FRFs) is shared
     by a band's three rows and is given on its noise-free row only (NaN on the
@@ -391,7 +391,10 @@ def _refine_noisy_row(sim: Simulation, P_noisy: PODResult, U_n: np.ndarray, snr_
     refinement therefore starts from the paper's estimator (the same λ) on the basis
     of the correlation less the noise's (:func:`pod_from_spectra` with
     ``noise_variance``, the variance the SNR implies: :meth:`PODResult.without_noise`
-    of the paper's POD ``P_noisy``). Returns (basis, refined).
+    of the paper's POD ``P_noisy``). Returns (basis, refined). Used when the POD came
+    from the correlation matrix (more snapshot rows than DOFs): with fewer, the
+    correction costs another product of the snapshots' size and changes little
+    (:meth:`PODResult.without_noise`), so a large chain refines on the paper's basis.
     """
     P = P_noisy.without_noise(_noise_variance(U_n, sim.n_samples, snr_db))
     R = P.basis(m)
@@ -519,7 +522,7 @@ def run_paper_study(
             t_id = time.perf_counter() - t0
 
             t0 = time.perf_counter()
-            if snr is None:
+            if snr is None or P.method == "snapshots":
                 R_ref, refined = R, _refine_row(result, U, F, sim.omega)
             else:
                 R_ref, refined = _refine_noisy_row(sim, P, U_n, snr, m, lam_used)
