@@ -246,6 +246,7 @@ def test_zero_noise_variance_changes_nothing(method):
                                atol=1e-12 * plain.eigenvalues[0])
     np.testing.assert_allclose(zero.basis(3), plain.basis(3), atol=1e-10)
     assert "noise-corrected" in repr(zero)
+    assert zero.method == plain.method == method
 
 
 def test_noise_corrected_pod_from_spectra_equals_that_of_the_history():
