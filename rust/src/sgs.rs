@@ -35,7 +35,7 @@
 //! dot products of the leaves read contiguous memory.
 
 use crate::pairs::Layout;
-use crate::precond::PairPrecond;
+use crate::precond::{backward, forward, small_mul, PairPrecond};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
@@ -575,6 +575,14 @@ impl Solve<'_> {
                 }
             }
         };
+        // the right-hand side and t (Ends::FactorOut) at coordinate `at`
+        let rhs = |at: usize| [self.r[at], self.r[at + 1], self.r[at + 2]];
+        let t3 = |at: usize| match self.ends {
+            Ends::FactorOut(Some(t)) => Some([t[at], t[at + 1], t[at + 2]]),
+            _ => None,
+        };
+        let cat = |a: [f64; 3], b: [f64; 3]| [a[0], a[1], a[2], b[0], b[1], b[2]];
+        let ends = self.ends;
         // the entries in solve order: (a, k), or in a diagonal leaf with a = k the
         // diagonal entry (c, c)
         let mut order = [(0u8, 0u8); LEAF * LEAF + LEAF];
@@ -605,20 +613,10 @@ impl Solve<'_> {
                 let mut ad = wx[k][k];
                 couple(&mut ad, tile_c, &at_c, k, &|l| z[k][l]);
                 let wd = ad.map(|v| v as f64);
-                let mut rhs = [0, 1, 2].map(|b| self.r[3 * c + b]);
-                if let Ends::FactorIn = self.ends {
-                    self.pre.factor_diag(c, &mut rhs, false);
-                }
-                let mut v = [0, 1, 2].map(|b| rhs[b] - wd[b]);
-                self.pre.solve_diag(c, &mut v);
-                if let Ends::FactorOut(t) = self.ends {
-                    let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[3 * c + b]));
-                    self.pre.factor_diag(c, &mut o, true);
-                    out(3 * c, &o);
-                } else {
-                    out(3 * c, &v);
-                }
-                lower(3 * c, &wd);
+                let at = 3 * c;
+                let (v, o) = block_solve(ends, self.pre.diag_factor(c), rhs(at), wd, t3(at));
+                out(at, &o);
+                lower(at, &wd);
                 x[k][k] = v.map(|s| s as f32);
                 continue;
             }
@@ -650,52 +648,18 @@ impl Solve<'_> {
             let s0 = 3 * m + 3 * p;
             let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
             let ls = [0, 1, 2].map(|b| (wu[b] as f64 + wl[b] as f64) * RSQRT2);
+            let factor = self.pre.pair_factor(p);
             let (upper, low) = if symmetric {
-                let mut rhs = [0, 1, 2].map(|b| self.r[s0 + b]);
-                if let Ends::FactorIn = self.ends {
-                    self.pre.factor_sym(p, &mut rhs, false);
-                }
-                let mut v = [0, 1, 2].map(|b| rhs[b] - ls[b]);
-                self.pre.solve_sym(p, &mut v);
-                if let Ends::FactorOut(t) = self.ends {
-                    let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[s0 + b]));
-                    self.pre.factor_sym(p, &mut o, true);
-                    out(s0, &o);
-                } else {
-                    out(s0, &v);
-                }
+                let (v, o) = block_solve(ends, factor, rhs(s0), ls, t3(s0));
+                out(s0, &o);
                 let y = v.map(|s| (s * RSQRT2) as f32);
                 (y, y)
             } else {
                 let lt = [0, 1, 2].map(|b| (wu[b] as f64 - wl[b] as f64) * RSQRT2);
-                let mut rhs = [0, 1, 2, 3, 4, 5].map(|q| {
-                    if q < 3 {
-                        self.r[s0 + q]
-                    } else {
-                        self.r[t0 + q - 3]
-                    }
-                });
-                if let Ends::FactorIn = self.ends {
-                    self.pre.factor_pen(p, &mut rhs, false);
-                }
-                let mut v = [0, 1, 2, 3, 4, 5].map(|q| {
-                    if q < 3 {
-                        rhs[q] - ls[q]
-                    } else {
-                        rhs[q] - lt[q - 3]
-                    }
-                });
-                self.pre.solve_pen(p, &mut v);
-                if let Ends::FactorOut(t) = self.ends {
-                    let at = |q: usize| if q < 3 { s0 + q } else { t0 + q - 3 };
-                    let mut o = [0, 1, 2, 3, 4, 5].map(|q| v[q] + t.map_or(0.0, |t| t[at(q)]));
-                    self.pre.factor_pen(p, &mut o, true);
-                    out(s0, &o[..3]);
-                    out(t0, &o[3..]);
-                } else {
-                    out(s0, &v[..3]);
-                    out(t0, &v[3..]);
-                }
+                let t6 = t3(s0).zip(t3(t0)).map(|(a, b)| cat(a, b));
+                let (v, o) = block_solve(ends, factor, cat(rhs(s0), rhs(t0)), cat(ls, lt), t6);
+                out(s0, &o[..3]);
+                out(t0, &o[3..]);
                 lower(t0, &lt);
                 (
                     [0, 1, 2].map(|b| ((v[b] + v[b + 3]) * RSQRT2) as f32),
@@ -722,6 +686,40 @@ impl Solve<'_> {
                 }
             }
         }
+    }
+}
+
+/// One block of D in a leaf, with R its packed factor (D = R Rᵀ), right-hand
+/// side r and lower terms w: y = D⁻¹(r − w), or D⁻¹(R r − w) for
+/// [`Ends::FactorIn`], and what is written out, y or for [`Ends::FactorOut`]
+/// Rᵀ(y + t). Only the last needs a product with R itself:
+/// D⁻¹(R r − w) = R⁻ᵀ(r − R⁻¹w) and Rᵀ(D⁻¹(r − w) + t) = R⁻¹(r − w) + Rᵀt.
+#[inline(always)]
+fn block_solve<const N: usize>(
+    ends: Ends,
+    l: &[f64],
+    r: [f64; N],
+    w: [f64; N],
+    t: Option<[f64; N]>,
+) -> ([f64; N], [f64; N]) {
+    if let Ends::FactorIn = ends {
+        let mut u = w;
+        forward::<N>(l, &mut u);
+        let mut y: [f64; N] = std::array::from_fn(|q| r[q] - u[q]);
+        backward::<N>(l, &mut y);
+        return (y, y);
+    }
+    let mut u: [f64; N] = std::array::from_fn(|q| r[q] - w[q]);
+    forward::<N>(l, &mut u);
+    let mut y = u;
+    backward::<N>(l, &mut y);
+    match (ends, t) {
+        (Ends::FactorOut(_), Some(t)) => {
+            let rt = small_mul::<N>(l, &t, true);
+            (y, std::array::from_fn(|q| u[q] + rt[q]))
+        }
+        (Ends::FactorOut(_), None) => (y, u),
+        _ => (y, y),
     }
 }
 
