@@ -52,6 +52,10 @@ pub const LEAF: usize = crate::pairs::TILE;
 /// tasks took 25–40 % less CPU time for the same work (2 threads, loaded host).
 const SPLIT_FLOPS: f64 = 8e6;
 
+/// At most 2^SPLIT_DEPTH pieces per product: enough to balance two threads,
+/// while smaller pieces would run faer's narrower kernels.
+const SPLIT_DEPTH: u32 = 3;
+
 /// H̃ in mode-major order, single precision, for the triangular solves.
 pub struct Sgs {
     layout: Layout,
@@ -325,12 +329,18 @@ impl Solve<'_> {
     /// W[dst, rows] += H̃[dst, src] · Y[src, rows]: the lower terms that the
     /// entries in rows `rows`, columns `dst` receive from columns `src`.
     fn update(&self, dst: Modes, src: Modes, rows: Modes) {
+        self.update_pieces(dst, src, rows, 0);
+    }
+
+    /// [`Solve::update`], cut in halves (as rayon tasks) `depth` times so far.
+    fn update_pieces(&self, dst: Modes, src: Modes, rows: Modes, depth: u32) {
         let (d, s, n) = (3 * dst.len(), 3 * src.len(), rows.len());
         if d == 0 || s == 0 || n == 0 || !self.ptr.order.is_null() {
             return;
         }
         let flops = 2.0 * d as f64 * s as f64 * n as f64;
-        if flops >= self.sgs.split_flops && !matches!(self.sgs.par, Par::Seq) {
+        let split = flops >= self.sgs.split_flops && depth < SPLIT_DEPTH;
+        if split && !matches!(self.sgs.par, Par::Seq) {
             // halve the longer side: the halves share (read twice) the operand
             // of the other, H̃[dst, src] (3|dst|·3|src|) or Y[src, rows] (3|src|·n)
             let halves = |r: Modes| {
@@ -339,12 +349,18 @@ impl Solve<'_> {
             };
             if dst.len() >= 2 && (d >= n || n < 2) {
                 let (d1, d2) = halves(dst);
-                rayon::join(|| self.update(d1, src, rows), || self.update(d2, src, rows));
+                rayon::join(
+                    || self.update_pieces(d1, src, rows, depth + 1),
+                    || self.update_pieces(d2, src, rows, depth + 1),
+                );
                 return;
             }
             if n >= 2 {
                 let (r1, r2) = halves(rows);
-                rayon::join(|| self.update(dst, src, r1), || self.update(dst, src, r2));
+                rayon::join(
+                    || self.update_pieces(dst, src, r1, depth + 1),
+                    || self.update_pieces(dst, src, r2, depth + 1),
+                );
                 return;
             }
         }
