@@ -24,6 +24,7 @@ The ratios issue 13 asks for, each against a reference measured in the same run:
 from __future__ import annotations
 
 import argparse
+import resource
 import sys
 import time
 from pathlib import Path
@@ -64,8 +65,12 @@ def solve_case(case: dict) -> dict:
     lam, sym = MODES[case["mode"]]
     sys_, U, F, omega = chain_problem(m, BANDS[case["band"]], 2 * m)
     load = load_average()
+    cpu = resource.getrusage(resource.RUSAGE_SELF)
     res, secs = timed(lambda: identify(U, F, omega, lam, sym, solver=case["solver"]))
+    after = resource.getrusage(resource.RUSAGE_SELF)
     out = {"seconds": secs, "errs": rel_errors(res, sys_), "n": res.n_unknowns}
+    # CPU time of all threads: less sensitive than wall time to other jobs
+    out["cpu_s"] = after.ru_utime - cpu.ru_utime + after.ru_stime - cpu.ru_stime
     out.update({f"t_{k}": v for k, v in res.info.get("timings", {}).items()})
     if case["solver"] == "cg":
         out["iterations"] = res.iterations
@@ -218,7 +223,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                 loads += [x for x in r["load"] + (ref["load"] if ref else []) if x is not None]
                 speedup = ref["seconds"] / r["seconds"] if ref else None
                 rows.append([
-                    band, mode, m, r["n"], r["seconds"], it, max(r["errs"]), r["peak_gb"],
+                    band, mode, m, r["n"], r["seconds"], r["cpu_s"], it, max(r["errs"]),
+                    r["peak_gb"],
                     r["gemm_s"], x_gemm, t_it / it if it else None, r["t_gram"], r["t_setup"],
                     r.get("t_solves"), r.get("t_residual"),
                     val(ref, "seconds"), val(ref, "iterations"),
@@ -226,7 +232,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                     "–".join(f"{x:.1f}" for x in r["load"] if x is not None),
                 ])  # fmt: skip
                 print(
-                    f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s  {it:4d} it  "
+                    f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s (CPU {r['cpu_s']:.1f}s)  "
+                    f"{it:4d} it  "
                     f"err {max(r['errs']):.1e}  {r['peak_gb']:.2f} GB  {x_gemm:.1f}× GEMM"
                     + (f"  ref {ref['seconds']:.2f}s ({speedup:.1f}×)" if ref else "")
                     + f"  load {r['load']}",
@@ -246,7 +253,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                 if band == "wide" and 400 <= m <= 1000:
                     checks.append(f"50–150 Hz, {mode}, m = {m}: {it} iterations (target ≤ 150)")
     header = [
-        "band", "mode", "m", "unknowns", "time s", "iterations", "max rel. error", "peak GB",
+        "band", "mode", "m", "unknowns", "time s", "CPU s", "iterations", "max rel. error",
+        "peak GB",
         "NumPy GEMM s", "× GEMM", "s/iteration", "gram s", "setup s", "solves s", "residual s",
         "NumPy PCG s",
         "NumPy PCG it", "NumPy PCG error", "ref / CG", "load",
@@ -262,8 +270,9 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         "every DOF; bands narrow = 102.8–122.8 Hz, wide = 50–150 Hz; modes sym = "
         f"exact-symmetric, pen = penalty λ = 100; tol {TOL:g}. "
         f"NumPy GEMM (n = 4000) {args.numpy_gemm:.1f} GFLOP/s.\n"
-        "time = the whole identify() call; × GEMM = time over one NumPy float64 GEMM of the "
-        "operator's shape (m×3m by 3m×3m) timed in the same process; solves = the "
+        "time = the whole identify() call (CPU s: its CPU time, all threads); × GEMM = "
+        "time over one NumPy float64 GEMM of the operator's shape (m×3m by 3m×3m) timed "
+        "in the same process; solves = the "
         "preconditioner's triangular solves (most of the iterations), residual = ‖Ax − y‖ "
         "after the solve; NumPy PCG = the plain "
         "NumPy reference (diagonal pair preconditioner, same tol) in its own process; "

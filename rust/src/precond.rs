@@ -245,10 +245,11 @@ fn small_cholesky(a: &mut [f64], n: usize) -> bool {
     floored
 }
 
-/// Solve L Lᵀ x = r in place with a packed N×N factor from [`small_cholesky`]
-/// (N is a constant, so the loops unroll: this runs once per pair per iteration).
-#[inline]
-fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
+/// x ← L⁻¹ x with a packed N×N factor from [`small_cholesky`] (N is a
+/// constant, so the loops unroll: this runs once per pair per solve).
+#[inline(always)]
+pub fn forward<const N: usize>(l: &[f64], x: &mut [f64; N]) {
+    let l = &l[..N * (N + 1) / 2];
     for i in 0..N {
         let mut s = x[i];
         for k in 0..i {
@@ -256,6 +257,12 @@ fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
         }
         x[i] = s * l[tri(i, i)];
     }
+}
+
+/// x ← L⁻ᵀ x, as [`forward`].
+#[inline(always)]
+pub fn backward<const N: usize>(l: &[f64], x: &mut [f64; N]) {
+    let l = &l[..N * (N + 1) / 2];
     for i in (0..N).rev() {
         let mut s = x[i];
         for k in i + 1..N {
@@ -263,6 +270,13 @@ fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
         }
         x[i] = s * l[tri(i, i)];
     }
+}
+
+/// Solve L Lᵀ x = r in place with a packed N×N factor from [`small_cholesky`].
+#[inline]
+fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
+    forward::<N>(l, x);
+    backward::<N>(l, x);
 }
 
 /// [`small_solve`] of a 3-vector stored in a slice.
@@ -297,8 +311,8 @@ fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
 }
 
 /// x ↦ L x (or Lᵀ x) with a packed factor from [`small_cholesky`].
-#[inline]
-fn small_mul<const N: usize>(l: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+#[inline(always)]
+pub fn small_mul<const N: usize>(l: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
     let mut out = [0.0; N];
     for i in 0..N {
         for k in 0..=i {
@@ -434,40 +448,18 @@ impl PairPrecond {
         &self.diag[6 * j_lo..6 * j_hi]
     }
 
-    /// Solve D(j) x = r in place (the block of diagonal entry j).
+    /// The packed factor of D(j), the block of diagonal entry j (3×3).
     #[inline]
-    pub fn solve_diag(&self, j: usize, x: &mut [f64; 3]) {
-        small_solve::<3>(&self.diag[6 * j..6 * j + 6], x);
+    pub fn diag_factor(&self, j: usize) -> &[f64] {
+        &self.diag[6 * j..6 * j + 6]
     }
 
-    /// Solve the 3×3 pair block A of pair p in place (exact-symmetric mode).
+    /// The packed factor of the block of pair p: 3×3 (exact-symmetric mode)
+    /// or 6×6 on (σ, τ) (penalty mode).
     #[inline]
-    pub fn solve_sym(&self, p: usize, x: &mut [f64; 3]) {
-        small_solve::<3>(&self.pairs[6 * p..6 * p + 6], x);
-    }
-
-    /// Solve the 6×6 pair block of pair p in place, x = (σ, τ) (penalty mode).
-    #[inline]
-    pub fn solve_pen(&self, p: usize, x: &mut [f64; 6]) {
-        small_solve::<6>(&self.pairs[21 * p..21 * p + 21], x);
-    }
-
-    /// x ← R x (or Rᵀ x) on the block of diagonal entry j.
-    #[inline]
-    pub fn factor_diag(&self, j: usize, x: &mut [f64; 3], transpose: bool) {
-        *x = small_mul::<3>(&self.diag[6 * j..6 * j + 6], x, transpose);
-    }
-
-    /// x ← R x (or Rᵀ x) on the 3×3 block of pair p (exact-symmetric mode).
-    #[inline]
-    pub fn factor_sym(&self, p: usize, x: &mut [f64; 3], transpose: bool) {
-        *x = small_mul::<3>(&self.pairs[6 * p..6 * p + 6], x, transpose);
-    }
-
-    /// x ← R x (or Rᵀ x) on the 6×6 block of pair p, x = (σ, τ) (penalty mode).
-    #[inline]
-    pub fn factor_pen(&self, p: usize, x: &mut [f64; 6], transpose: bool) {
-        *x = small_mul::<6>(&self.pairs[21 * p..21 * p + 21], x, transpose);
+    pub fn pair_factor(&self, p: usize) -> &[f64] {
+        let width = if self.layout.symmetric { 6 } else { 21 };
+        &self.pairs[width * p..width * p + width]
     }
 
     /// out = R v (or Rᵀ v) for the block-diagonal Cholesky factor R of D = R Rᵀ.

@@ -25,14 +25,17 @@
 //! split the same way), update, solve b×b. All couplings across halves are
 //! GEMMs in single precision (H̃ in f32, ≈ 9m³ flops per solve: half an operator
 //! GEMM); only those within leaves of [`LEAF`] modes are done entry by entry.
-//! The solve (D + Lᵀ) is the same recursion in reverse mode order.
+//! The solve (D + Lᵀ) is the same recursion in reverse mode order. The two
+//! threads share the work as rayon tasks only: independent Sylvester quarters,
+//! and large GEMMs cut in halves (each piece on one thread). Each leaf asks for
+//! the data of the next one in the sequential order before it computes.
 //!
 //! The entries are kept in a 3m×m matrix, column i holding row i of Y in
 //! mode-major order (Y_il[b] at row 3l + b), so that both the GEMMs and the
 //! dot products of the leaves read contiguous memory.
 
 use crate::pairs::Layout;
-use crate::precond::PairPrecond;
+use crate::precond::{backward, forward, small_mul, PairPrecond};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
@@ -42,8 +45,16 @@ use std::f64::consts::FRAC_1_SQRT_2 as RSQRT2;
 /// the tiles of the pair numbering, so that a leaf's pair data are contiguous.
 pub const LEAF: usize = crate::pairs::TILE;
 
-/// GEMMs below this many flops run on one thread.
-const PAR_FLOPS: f64 = 4e6;
+/// Products of at least this many flops are cut in halves run as rayon tasks,
+/// the pieces on one thread each (default of [`Sgs::split_flops`]). faer's own
+/// parallel product synchronises its threads at every block: at m = 1000 its
+/// threads spent a third of the CPU time of the solves waiting at barriers, and
+/// tasks took 25–40 % less CPU time for the same work (2 threads, loaded host).
+const SPLIT_FLOPS: f64 = 8e6;
+
+/// At most 2^SPLIT_DEPTH pieces per product: enough to balance two threads,
+/// while smaller pieces would run faer's narrower kernels.
+const SPLIT_DEPTH: u32 = 3;
 
 /// H̃ in mode-major order, single precision, for the triangular solves.
 pub struct Sgs {
@@ -56,7 +67,15 @@ pub struct Sgs {
     /// l = t·LEAF + u, c = t·LEAF + v (the leaves read these, not `hm`)
     tiles: Vec<TileBlocks>,
     par: Par,
+    /// products of at least this many flops are cut in halves run as rayon tasks
+    pub split_flops: f64,
+    /// for each leaf (tile row, tile column) of the forward [0] and backward [1]
+    /// solves, the leaf that follows it in the sequential solve order, packed as
+    /// (row << 16) | column ([`NO_LEAF`] for the last); filled on first use
+    next: [std::sync::OnceLock<Vec<u32>>; 2],
 }
+
+const NO_LEAF: u32 = u32::MAX;
 
 /// The LEAF×LEAF blocks H̃(l, c) (3×3, [b'][b]) of one tile.
 type TileBlocks = [[[[f32; 3]; 3]; LEAF]; LEAF];
@@ -144,12 +163,16 @@ impl Sgs {
             hm,
             tiles,
             par,
+            split_flops: SPLIT_FLOPS,
+            next: Default::default(),
         }
     }
 
-    /// Bytes held (for the memory estimate): H̃ in f32 and one [`SgsWork`].
+    /// Bytes held (for the memory estimate): H̃ in f32, one [`SgsWork`] and
+    /// the two tables of the leaf order.
     pub fn bytes(m: usize) -> usize {
-        4 * (9 * m * m + 6 * m * m)
+        let tiles = m.div_ceil(LEAF);
+        4 * (9 * m * m + 6 * m * m + 2 * tiles * tiles)
     }
 
     /// Solve (D + L) y = r (`backward`: (D + Lᵀ) y = r) in packed coordinates;
@@ -190,6 +213,7 @@ impl Sgs {
             assert!(t.len() == n);
         }
         work.w.par_iter_mut().for_each(|v| *v = 0.0);
+        let next = self.next[backward as usize].get_or_init(|| self.leaf_order(pre, backward));
         let s = Solve {
             sgs: self,
             pre,
@@ -199,13 +223,46 @@ impl Sgs {
                 w: work.w.as_mut_ptr(),
                 out: y.as_mut_ptr(),
                 lower: lower.map_or(std::ptr::null_mut(), |l| l.as_mut_ptr()),
+                order: std::ptr::null_mut(),
             },
+            next,
             backward,
             ends,
-            nested: false,
             n_pairs: lay.n_pairs(),
         };
         s.lyap(Modes { lo: 0, hi: lay.m });
+    }
+
+    /// The table `next` of one direction: the recursion run without arithmetic,
+    /// recording its leaves.
+    fn leaf_order(&self, pre: &PairPrecond, backward: bool) -> Vec<u32> {
+        let tiles = self.layout.m.div_ceil(LEAF);
+        let mut order: Vec<(u32, u32)> = Vec::new();
+        let s = Solve {
+            sgs: self,
+            pre,
+            r: &[],
+            ptr: Ptrs {
+                ye: std::ptr::null_mut(),
+                w: std::ptr::null_mut(),
+                out: std::ptr::null_mut(),
+                lower: std::ptr::null_mut(),
+                order: &mut order,
+            },
+            next: &[],
+            backward,
+            ends: Ends::Plain,
+            n_pairs: 0,
+        };
+        s.lyap(Modes {
+            lo: 0,
+            hi: self.layout.m,
+        });
+        let mut next = vec![NO_LEAF; tiles * tiles];
+        for w in order.windows(2) {
+            next[w[0].0 as usize * tiles + w[0].1 as usize] = (w[1].0 << 16) | w[1].1;
+        }
+        next
     }
 }
 
@@ -223,6 +280,8 @@ struct Ptrs {
     w: *mut f32,
     out: *mut f64,
     lower: *mut f64,
+    /// not null: only record the leaves (tile row, tile column) in solve order
+    order: *mut Vec<(u32, u32)>,
 }
 
 unsafe impl Send for Ptrs {}
@@ -243,10 +302,10 @@ struct Solve<'a> {
     pre: &'a PairPrecond,
     r: &'a [f64],
     ptr: Ptrs,
+    /// [`Sgs::next`] of this direction
+    next: &'a [u32],
     backward: bool,
     ends: Ends<'a>,
-    /// inside a parallel branch: GEMMs on one thread
-    nested: bool,
     n_pairs: usize,
 }
 
@@ -270,16 +329,41 @@ impl Solve<'_> {
     /// W[dst, rows] += H̃[dst, src] · Y[src, rows]: the lower terms that the
     /// entries in rows `rows`, columns `dst` receive from columns `src`.
     fn update(&self, dst: Modes, src: Modes, rows: Modes) {
+        self.update_pieces(dst, src, rows, 0);
+    }
+
+    /// [`Solve::update`], cut in halves (as rayon tasks) `depth` times so far.
+    fn update_pieces(&self, dst: Modes, src: Modes, rows: Modes, depth: u32) {
         let (d, s, n) = (3 * dst.len(), 3 * src.len(), rows.len());
-        if d == 0 || s == 0 || n == 0 {
+        if d == 0 || s == 0 || n == 0 || !self.ptr.order.is_null() {
             return;
         }
         let flops = 2.0 * d as f64 * s as f64 * n as f64;
-        let par = if self.nested || flops < PAR_FLOPS {
-            Par::Seq
-        } else {
-            self.sgs.par
-        };
+        let split = flops >= self.sgs.split_flops && depth < SPLIT_DEPTH;
+        if split && !matches!(self.sgs.par, Par::Seq) {
+            // halve the longer side: the halves share (read twice) the operand
+            // of the other, H̃[dst, src] (3|dst|·3|src|) or Y[src, rows] (3|src|·n)
+            let halves = |r: Modes| {
+                let mid = r.lo + r.len() / 2;
+                (Modes { lo: r.lo, hi: mid }, Modes { lo: mid, hi: r.hi })
+            };
+            if dst.len() >= 2 && (d >= n || n < 2) {
+                let (d1, d2) = halves(dst);
+                rayon::join(
+                    || self.update_pieces(d1, src, rows, depth + 1),
+                    || self.update_pieces(d2, src, rows, depth + 1),
+                );
+                return;
+            }
+            if n >= 2 {
+                let (r1, r2) = halves(rows);
+                rayon::join(
+                    || self.update_pieces(dst, src, r1, depth + 1),
+                    || self.update_pieces(dst, src, r2, depth + 1),
+                );
+                return;
+            }
+        }
         let ld = 3 * self.sgs.layout.m;
         // SAFETY: W[dst, rows] belongs to this branch and Y[src, rows] is final
         // (see `Ptrs`); both views lie inside the 3m×m buffers.
@@ -308,7 +392,7 @@ impl Solve<'_> {
             h.submatrix(3 * dst.lo, 3 * src.lo, d, s),
             y,
             1.0f32,
-            par,
+            Par::Seq,
         );
     }
 
@@ -339,12 +423,8 @@ impl Solve<'_> {
             self.sylv(i1, c1);
             self.update(c2, c1, i1);
             self.update(i2, i1, c1);
-            if li.min(lc) >= self.sgs.fork {
-                let inner = Solve {
-                    nested: true,
-                    ..*self
-                };
-                rayon::join(|| inner.sylv(i1, c2), || inner.sylv(i2, c1));
+            if li.min(lc) >= self.sgs.fork && self.ptr.order.is_null() {
+                rayon::join(|| self.sylv(i1, c2), || self.sylv(i2, c1));
             } else {
                 self.sylv(i1, c2);
                 self.sylv(i2, c1);
@@ -435,6 +515,24 @@ impl Solve<'_> {
     /// the diagonal entries. Both ranges are tiles. Local indices count in solve
     /// order; what the leaf touches of Y and W is copied into small arrays.
     fn leaf(&self, ri: Modes, rc: Modes) {
+        if !self.ptr.order.is_null() {
+            // SAFETY: only [`Sgs::leaf_order`] sets it, sequentially, to its own vector
+            unsafe { (*self.ptr.order).push(((ri.lo / LEAF) as u32, (rc.lo / LEAF) as u32)) };
+            return;
+        }
+        // the next leaf's data arrive while this one computes (measured at
+        // m = 1000: the leaves took 12 % less time; its own data are asked for
+        // again, for the first leaf of a parallel branch)
+        let tiles = self.sgs.layout.m.div_ceil(LEAF);
+        let nx = self.next[(ri.lo / LEAF) * tiles + rc.lo / LEAF];
+        if nx != NO_LEAF {
+            let m = self.sgs.layout.m;
+            let tile = |t: u32| Modes {
+                lo: t as usize * LEAF,
+                hi: (t as usize * LEAF + LEAF).min(m),
+            };
+            self.prefetch_leaf(tile(nx >> 16), tile(nx & 0xffff));
+        }
         self.prefetch_leaf(ri, rc);
         let diagonal = ri.lo == rc.lo;
         let (ni, nc) = (ri.len(), rc.len());
@@ -493,117 +591,102 @@ impl Solve<'_> {
                 }
             }
         };
-        for k in 0..nc {
-            let c = mode(rc, k);
-            let rows = if diagonal { k } else { ni };
-            for a in 0..rows {
-                let i = mode(ri, a);
-                // entry (i, c) sees the columns of rc before c; its mirror (c, i)
-                // the columns of ri before i
-                let mut ax = wx[a][k];
-                let mut az = wz[k][a];
-                if diagonal {
-                    // one range: (i, l) for l before c is x[a][l] (l > a), the
-                    // diagonal (a = l) or the mirror z[a][l] (l < a)
-                    couple(&mut ax, tile_c, &at_c, k, &|l| {
-                        if l > a {
-                            x[a][l]
-                        } else if l == a {
-                            x[a][a]
-                        } else {
-                            z[a][l]
-                        }
-                    });
-                    couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
-                } else {
-                    couple(&mut ax, tile_c, &at_c, k, &|l| x[a][l]);
-                    couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+        // the right-hand side and t (Ends::FactorOut) at coordinate `at`
+        let rhs = |at: usize| [self.r[at], self.r[at + 1], self.r[at + 2]];
+        let t3 = |at: usize| match self.ends {
+            Ends::FactorOut(Some(t)) => Some([t[at], t[at + 1], t[at + 2]]),
+            _ => None,
+        };
+        let cat = |a: [f64; 3], b: [f64; 3]| [a[0], a[1], a[2], b[0], b[1], b[2]];
+        let ends = self.ends;
+        // the entries in solve order: (a, k), or in a diagonal leaf with a = k the
+        // diagonal entry (c, c)
+        let mut order = [(0u8, 0u8); LEAF * LEAF + LEAF];
+        let mut len = 0;
+        if diagonal {
+            for k in 0..nc {
+                for a in 0..if diagonal { k + 1 } else { ni } {
+                    order[len] = (a as u8, k as u8);
+                    len += 1;
                 }
-                let (j, kk) = (i.min(c), i.max(c));
-                let (wu, wl) = if i < c { (ax, az) } else { (az, ax) };
-                let p = self.sgs.layout.pair(j, kk);
-                let s0 = 3 * m + 3 * p;
-                let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
-                let ls = [0, 1, 2].map(|b| (wu[b] as f64 + wl[b] as f64) * RSQRT2);
-                let (upper, low) = if symmetric {
-                    let mut rhs = [0, 1, 2].map(|b| self.r[s0 + b]);
-                    if let Ends::FactorIn = self.ends {
-                        self.pre.factor_sym(p, &mut rhs, false);
-                    }
-                    let mut v = [0, 1, 2].map(|b| rhs[b] - ls[b]);
-                    self.pre.solve_sym(p, &mut v);
-                    if let Ends::FactorOut(t) = self.ends {
-                        let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[s0 + b]));
-                        self.pre.factor_sym(p, &mut o, true);
-                        out(s0, &o);
-                    } else {
-                        out(s0, &v);
-                    }
-                    let y = v.map(|s| (s * RSQRT2) as f32);
-                    (y, y)
-                } else {
-                    let lt = [0, 1, 2].map(|b| (wu[b] as f64 - wl[b] as f64) * RSQRT2);
-                    let mut rhs = [0, 1, 2, 3, 4, 5].map(|q| {
-                        if q < 3 {
-                            self.r[s0 + q]
-                        } else {
-                            self.r[t0 + q - 3]
-                        }
-                    });
-                    if let Ends::FactorIn = self.ends {
-                        self.pre.factor_pen(p, &mut rhs, false);
-                    }
-                    let mut v = [0, 1, 2, 3, 4, 5].map(|q| {
-                        if q < 3 {
-                            rhs[q] - ls[q]
-                        } else {
-                            rhs[q] - lt[q - 3]
-                        }
-                    });
-                    self.pre.solve_pen(p, &mut v);
-                    if let Ends::FactorOut(t) = self.ends {
-                        let at = |q: usize| if q < 3 { s0 + q } else { t0 + q - 3 };
-                        let mut o = [0, 1, 2, 3, 4, 5].map(|q| v[q] + t.map_or(0.0, |t| t[at(q)]));
-                        self.pre.factor_pen(p, &mut o, true);
-                        out(s0, &o[..3]);
-                        out(t0, &o[3..]);
-                    } else {
-                        out(s0, &v[..3]);
-                        out(t0, &v[3..]);
-                    }
-                    lower(t0, &lt);
-                    (
-                        [0, 1, 2].map(|b| ((v[b] + v[b + 3]) * RSQRT2) as f32),
-                        [0, 1, 2].map(|b| ((v[b] - v[b + 3]) * RSQRT2) as f32),
-                    )
-                };
-                lower(s0, &ls);
-                // Y[j, kk] is the upper entry, Y[kk, j] the lower one
-                let (ex, ez) = if i < c { (upper, low) } else { (low, upper) };
-                x[a][k] = ex;
-                z[k][a] = ez;
             }
-            if diagonal {
+        } else {
+            // by antidiagonals: (a, k) depends on (a, l < k) and (l < a, k) only, so
+            // the entries of one antidiagonal are independent and their dependency
+            // chains (couplings, small solves, conversions) overlap in the core
+            for d in 0..ni + nc - 1 {
+                for a in d.saturating_sub(nc - 1)..ni.min(d + 1) {
+                    order[len] = (a as u8, (d - a) as u8);
+                    len += 1;
+                }
+            }
+        }
+        for &(a, k) in &order[..len] {
+            let (a, k) = (a as usize, k as usize);
+            let c = mode(rc, k);
+            if diagonal && a == k {
                 // (c, c): the columns before c in row c, i.e. z[k][l] for l < k
                 let mut ad = wx[k][k];
                 couple(&mut ad, tile_c, &at_c, k, &|l| z[k][l]);
                 let wd = ad.map(|v| v as f64);
-                let mut rhs = [0, 1, 2].map(|b| self.r[3 * c + b]);
-                if let Ends::FactorIn = self.ends {
-                    self.pre.factor_diag(c, &mut rhs, false);
-                }
-                let mut v = [0, 1, 2].map(|b| rhs[b] - wd[b]);
-                self.pre.solve_diag(c, &mut v);
-                if let Ends::FactorOut(t) = self.ends {
-                    let mut o = [0, 1, 2].map(|b| v[b] + t.map_or(0.0, |t| t[3 * c + b]));
-                    self.pre.factor_diag(c, &mut o, true);
-                    out(3 * c, &o);
-                } else {
-                    out(3 * c, &v);
-                }
-                lower(3 * c, &wd);
+                let at = 3 * c;
+                let (v, o) = block_solve(ends, self.pre.diag_factor(c), rhs(at), wd, t3(at));
+                out(at, &o);
+                lower(at, &wd);
                 x[k][k] = v.map(|s| s as f32);
+                continue;
             }
+            let i = mode(ri, a);
+            // entry (i, c) sees the columns of rc before c; its mirror (c, i)
+            // the columns of ri before i
+            let mut ax = wx[a][k];
+            let mut az = wz[k][a];
+            if diagonal {
+                // one range: (i, l) for l before c is x[a][l] (l > a), the
+                // diagonal (a = l) or the mirror z[a][l] (l < a)
+                couple(&mut ax, tile_c, &at_c, k, &|l| {
+                    if l > a {
+                        x[a][l]
+                    } else if l == a {
+                        x[a][a]
+                    } else {
+                        z[a][l]
+                    }
+                });
+                couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+            } else {
+                couple(&mut ax, tile_c, &at_c, k, &|l| x[a][l]);
+                couple(&mut az, tile_i, &at_i, a, &|l| z[k][l]);
+            }
+            let (j, kk) = (i.min(c), i.max(c));
+            let (wu, wl) = if i < c { (ax, az) } else { (az, ax) };
+            let p = self.sgs.layout.pair(j, kk);
+            let s0 = 3 * m + 3 * p;
+            let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
+            let ls = [0, 1, 2].map(|b| (wu[b] as f64 + wl[b] as f64) * RSQRT2);
+            let factor = self.pre.pair_factor(p);
+            let (upper, low) = if symmetric {
+                let (v, o) = block_solve(ends, factor, rhs(s0), ls, t3(s0));
+                out(s0, &o);
+                let y = v.map(|s| (s * RSQRT2) as f32);
+                (y, y)
+            } else {
+                let lt = [0, 1, 2].map(|b| (wu[b] as f64 - wl[b] as f64) * RSQRT2);
+                let t6 = t3(s0).zip(t3(t0)).map(|(a, b)| cat(a, b));
+                let (v, o) = block_solve(ends, factor, cat(rhs(s0), rhs(t0)), cat(ls, lt), t6);
+                out(s0, &o[..3]);
+                out(t0, &o[3..]);
+                lower(t0, &lt);
+                (
+                    [0, 1, 2].map(|b| ((v[b] + v[b + 3]) * RSQRT2) as f32),
+                    [0, 1, 2].map(|b| ((v[b] - v[b + 3]) * RSQRT2) as f32),
+                )
+            };
+            lower(s0, &ls);
+            // Y[j, kk] is the upper entry, Y[kk, j] the lower one
+            let (ex, ez) = if i < c { (upper, low) } else { (low, upper) };
+            x[a][k] = ex;
+            z[k][a] = ez;
         }
         let store = |row: usize, col: usize, v: [f32; 3]| {
             // SAFETY: as `load`
@@ -619,6 +702,37 @@ impl Solve<'_> {
                 }
             }
         }
+    }
+}
+
+/// One block of D in a leaf, with R its packed factor (D = R Rᵀ), right-hand
+/// side r and lower terms w: y = D⁻¹(r − w), or D⁻¹(R r − w) for
+/// [`Ends::FactorIn`], and what is written out, y or for [`Ends::FactorOut`]
+/// Rᵀ(y + t). (Written as R⁻ᵀ(r − R⁻¹w) and R⁻¹(r − w) + Rᵀt, which saves
+/// products with R, the iteration of a near-singular test problem no longer
+/// noticed that it had reached the attainable accuracy: the products are kept.)
+#[inline(always)]
+fn block_solve<const N: usize>(
+    ends: Ends,
+    l: &[f64],
+    r: [f64; N],
+    w: [f64; N],
+    t: Option<[f64; N]>,
+) -> ([f64; N], [f64; N]) {
+    let r = match ends {
+        Ends::FactorIn => small_mul::<N>(l, &r, false),
+        _ => r,
+    };
+    let mut y: [f64; N] = std::array::from_fn(|q| r[q] - w[q]);
+    forward::<N>(l, &mut y);
+    backward::<N>(l, &mut y);
+    match ends {
+        Ends::FactorOut(_) => {
+            let t = t.unwrap_or([0.0; N]);
+            let o: [f64; N] = std::array::from_fn(|q| y[q] + t[q]);
+            (y, small_mul::<N>(l, &o, true))
+        }
+        _ => (y, y),
     }
 }
 
@@ -717,6 +831,7 @@ mod tests {
             let pre = PairPrecond::new(h.as_ref(), lay, pen);
             let mut sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
             sgs.fork = 2 * LEAF;
+            sgs.split_flops = 1e3; // exercise the products cut into tasks
             let r = vector(lay.len(), 3);
             let run = |threads: usize| {
                 crate::with_threads(threads, || {
