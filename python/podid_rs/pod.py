@@ -237,14 +237,13 @@ class PODResult:
         """
         if self.noise_variance is not None:
             raise ValueError("this POD is already noise-corrected")
+        d = _check_noise_variance(noise_variance, self._measured_mean_squares())
         if self._snapshots is None:
             Q, lam = self._modes, self._eigenvalues
-            d = _check_noise_variance(noise_variance, self._measured_mean_squares())
             QtDQ = Q.T @ (Q * d[:, None])
         else:
             A, V, sigma = self._snapshots
             lam = self._eigenvalues[: sigma.size]
-            d = _check_noise_variance(noise_variance, self._measured_mean_squares())
             Q = V / sigma  # the modes are Aᵀ Q
             ADA = np.zeros((A.shape[0], A.shape[0]))
             for j in range(0, self.n, _COLUMN_BLOCK):  # by column blocks: no copy of A
