@@ -18,7 +18,7 @@ import numpy as np
 
 #: X = L Lᵀ + CONDITION_FLOOR·tr(L Lᵀ)·I (refine/mod.rs)
 CONDITION_FLOOR = 1e-10
-#: floor of the scaled start's C eigenvalues, relative to max(|M̃|, |K̃|)
+#: least damping ratio of the start's C (refine/mod.rs ``damping_floor``)
 C_START_FLOOR = 1e-4
 
 
@@ -31,6 +31,25 @@ def _psd_factor(x: np.ndarray, floor: float) -> np.ndarray:
     d, q = np.linalg.eigh(0.5 * (x + x.T))
     y = (q * np.maximum(d, floor)) @ q.T
     return np.linalg.cholesky(0.5 * (y + y.T))
+
+
+def damping_floor(M: np.ndarray, C: np.ndarray, K: np.ndarray, zeta0: float) -> np.ndarray:
+    """C raised so that Z = (2Ω)^-½ Φᵀ C Φ (2Ω)^-½ (Φ the mass-normalised undamped
+    modes) has eigenvalues ≥ ζ₀; C itself when it has (as the Rust core does)."""
+    dm, qm = np.linalg.eigh(0.5 * (M + M.T))
+    m_half, m_inv_half = (qm * np.sqrt(dm)) @ qm.T, (qm / np.sqrt(dm)) @ qm.T
+    w2, V = np.linalg.eigh(0.5 * (m_inv_half @ K @ m_inv_half + (m_inv_half @ K @ m_inv_half).T))
+    w = np.sqrt(np.maximum(w2, 0.0))
+    d = np.sqrt(2 * np.maximum(w, 1e-6 * max(w.max(), np.finfo(float).tiny)))
+    phi = m_inv_half @ V
+    Z = (phi.T @ C @ phi) / np.outer(d, d)
+    dz, qz = np.linalg.eigh(0.5 * (Z + Z.T))
+    if np.all(dz >= zeta0):
+        return C
+    Zr = (qz * np.maximum(dz, zeta0)) @ qz.T
+    left = m_half @ V
+    Cr = left @ (np.outer(d, d) * Zr) @ left.T
+    return 0.5 * (Cr + Cr.T)
 
 
 class OutputError:
@@ -64,10 +83,11 @@ class OutputError:
         """θ of a physical start (caller's units), as the Rust core builds it."""
         sc = [X / f for X, f in zip((M, C, K), self.fac, strict=True)]
         ref = max(np.abs(sc[0]).max(), np.abs(sc[2]).max())
-        floors = [1e-12 * ref, C_START_FLOOR * ref, 1e-12 * ref]
+        Lm, Lk = _psd_factor(sc[0], 1e-12 * ref), _psd_factor(sc[2], 1e-12 * ref)
+        sc[1] = damping_floor(Lm @ Lm.T, sc[1], Lk @ Lk.T, C_START_FLOOR)
         th = []
-        for X, fl in zip(sc, floors, strict=True):
-            L = _psd_factor(X, fl)
+        for X in sc:
+            L = _psd_factor(X, 1e-12 * ref)
             t = L[self.rows, self.cols].copy()
             if self.log_diagonal:
                 t[self.diag] = np.log(np.maximum(np.abs(t[self.diag]), np.finfo(float).tiny))

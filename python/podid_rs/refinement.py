@@ -170,6 +170,53 @@ def _column_weights(
     return w, "user"
 
 
+def _log_magnitude_targets(
+    weights: object, data: FrequencyData, R: np.ndarray | None, U_n: np.ndarray | None
+) -> tuple[dict[str, object], str]:
+    """The core's ``log_magnitude`` argument: (R (n, m), targets (s·p, n), entry
+    weights (s·p, n)), line-major, and a label. Entries with u = 0 get weight 0."""
+    s, m, p = data.s, data.m, data.p
+    if R is None:
+        R, U_n = np.eye(m), data.U
+    assert U_n is not None
+    n = R.shape[0]
+    if isinstance(weights, str):
+        if weights not in ("relative", "uniform"):
+            raise ValueError(
+                f"weights must be 'relative', 'uniform' or an array, got {weights!r}"
+            )
+        W = np.ones((s, n, p))
+        label = "log-magnitude, uniform per entry"
+    else:
+        W = as_array(weights, "weights", real=True)
+        if W.shape == (s,):
+            W = np.broadcast_to(W[:, None, None], (s, n, p))
+        elif W.shape == (s, p) and W.shape != (s, n):
+            W = np.broadcast_to(W[:, None, :], (s, n, p))
+        elif W.shape == (s, n):
+            W = np.broadcast_to(W[:, :, None], (s, n, p))
+        elif W.shape != (s, n, p):
+            raise ValueError(
+                f"weights for the log-magnitude objective must be (s,), (s, p) or per entry "
+                f"(s, n) / (s, n, p) with n = {n} entries, got {W.shape}"
+            )
+        if np.any(W < 0):
+            raise ValueError(f"weights must be non-negative (found {W.min():.3g})")
+        label = "log-magnitude, user per entry"
+    W = np.where(np.abs(U_n) > 0, W, 0.0)
+    if not np.any(W > 0):
+        raise ValueError("no weighted entry with a non-zero response: there is nothing to fit")
+    line_major = lambda X: np.ascontiguousarray(X.transpose(0, 2, 1).reshape(s * p, n))  # noqa: E731
+    kw = {
+        "log_magnitude": (
+            np.ascontiguousarray(R, dtype=np.float64),
+            line_major(U_n.astype(np.complex128)),
+            line_major(W.astype(np.float64)),
+        )
+    }
+    return kw, label
+
+
 def _entry_metric(
     W: np.ndarray, R: np.ndarray, U_n: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -212,6 +259,7 @@ def refine(
     progress: bool | Callable[[int, float], object] = False,
     threads: int | None = None,
     solver: Literal["auto", "dense", "matrix-free"] = "auto",
+    objective: Literal["complex", "log-magnitude"] = "complex",
 ) -> IdentificationResult:
     """Refine ``model`` to the least output error on the data (DESIGN §6).
 
@@ -241,10 +289,19 @@ def refine(
         runs preconditioned CG on products line by line (memory O(s·m²)), ``"auto"``
         (default) dense up to m = 40, matrix-free beyond (measured:
         ``benches/bench_refine.py --crossover``). Both reach the same model.
+    objective : ``"complex"`` (default) minimises Σ‖W(x − u)‖², the complex output
+        error; ``"log-magnitude"`` minimises Σ w² (ln|y| − ln|u|)² over the measured
+        entries y = R x (the reduced coordinates without ``basis``) — the dB error a
+        person reads off an FRF plot, every entry alike whatever its level, phase
+        ignored. There ``"relative"`` and ``"uniform"`` both mean w = 1 per entry, an
+        array gives w per entry ``(s, n[, p])`` (or per line/column), and entries with
+        u = 0 are left out. Its Gauss–Newton step uses the Hermitian half of the
+        normal matrix (the fast paths; the exact gradient), so it takes more steps.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
-    ``cost`` (the weighted output error Σ‖W(x − u)‖² before and after), ``stop``,
+    ``cost`` (the weighted output error Σ‖W(x − u)‖², or the log-magnitude cost, before
+    and after), ``objective``, ``stop``,
     ``converged``, ``accepted`` steps, ``history`` [(iteration, cost)], the median
     and 95th-percentile |dB| error of the model's responses against ``U`` before and
     after (``db_before``, ``db_after``: (median, p95)), the weights used, how the
@@ -295,12 +352,16 @@ def refine(
     threads = _check_threads(threads)
     if solver not in ("auto", "dense", "matrix-free"):
         raise ValueError(f"solver must be 'auto', 'dense' or 'matrix-free', got {solver!r}")
+    if objective not in ("complex", "log-magnitude"):
+        raise ValueError(f"objective must be 'complex' or 'log-magnitude', got {objective!r}")
 
     # weights: a scalar per column, or per-entry weights reduced to a metric per column
     const = 0.0
     targets = data
-    weight_kw: dict[str, np.ndarray]
-    if R is not None and not isinstance(weights, str):
+    weight_kw: dict[str, object]
+    if objective == "log-magnitude":
+        weight_kw, label = _log_magnitude_targets(weights, data, R, U3)
+    elif R is not None and not isinstance(weights, str):
         Wa = as_array(weights, "weights", real=True)
         if Wa.ndim == 2 and Wa.shape == U3.shape[:2]:
             Wa = np.repeat(Wa[:, :, None], p, axis=2)
@@ -373,6 +434,7 @@ def refine(
         "db_before": summary(before),
         "db_after": summary(after),
         "weights": label,
+        "objective": objective,
         "start": start_report,
         "timings": dict(out["timings"]),
         "scaling": tuple(out["scaling"]),

@@ -441,7 +441,7 @@ fn sweep_memory_bytes(m: usize) -> u128 {
 /// exception in it stops the iteration and propagates.
 #[pyfunction]
 #[pyo3(signature = (u, f, omega, p, start, weights = None, weight_matrices = None,
-    max_iter = 200, ftol = 1e-7, xtol = 1e-12, log_diagonal = true, progress = None,
+    log_magnitude = None, max_iter = 200, ftol = 1e-7, xtol = 1e-12, log_diagonal = true, progress = None,
     threads = 0, solver = "auto"))]
 #[allow(clippy::too_many_arguments)]
 fn refine_output_error<'py>(
@@ -457,6 +457,11 @@ fn refine_output_error<'py>(
     ),
     weights: Option<PyReadonlyArray1<'py, f64>>,
     weight_matrices: Option<PyReadonlyArray2<'py, f64>>,
+    log_magnitude: Option<(
+        PyReadonlyArray2<'py, f64>,
+        PyReadonlyArray2<'py, Complex64>,
+        PyReadonlyArray2<'py, f64>,
+    )>,
     max_iter: usize,
     ftol: f64,
     xtol: f64,
@@ -465,7 +470,7 @@ fn refine_output_error<'py>(
     threads: usize,
     solver: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use crate::refine::{OeData, OeOptions, StepKind, Weights};
+    use crate::refine::{LogTarget, OeData, OeOptions, StepKind, Weights};
     let solver = StepKind::from_name(solver).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let err = |_| PyValueError::new_err("arrays must be C-contiguous");
     let (us, fs, ws) = (
@@ -474,12 +479,19 @@ fn refine_output_error<'py>(
         omega.as_slice().map_err(err)?,
     );
     let m = u.shape()[1];
-    let weights = match (&weights, &weight_matrices) {
-        (Some(w), None) => Weights::Scalar(w.as_slice().map_err(err)?),
-        (None, Some(t)) => Weights::Matrix(t.as_slice().map_err(err)?),
+    let weights = match (&weights, &weight_matrices, &log_magnitude) {
+        (Some(w), None, None) => Weights::Scalar(w.as_slice().map_err(err)?),
+        (None, Some(t), None) => Weights::Matrix(t.as_slice().map_err(err)?),
+        // (R (n, m), targets (s·p, n), entry weights (s·p, n))
+        (None, None, Some((r, ul, wl))) => Weights::LogMagnitude(LogTarget {
+            basis: r.as_slice().map_err(err)?,
+            n: r.shape()[0],
+            u: ul.as_slice().map_err(err)?,
+            w: wl.as_slice().map_err(err)?,
+        }),
         _ => {
             return Err(PyValueError::new_err(
-                "give exactly one of weights and weight_matrices",
+                "give exactly one of weights, weight_matrices and log_magnitude",
             ))
         }
     };

@@ -4,6 +4,7 @@
 
 use super::{inverse_of, n_per_block, tri, Evaluation, Params, Problem, Weights, CONDITION_FLOOR};
 use faer::linalg::matmul::matmul;
+use faer::traits::Conjugate;
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
 
 /// Terms of the Gauss–Newton matrix per line: 1 with scalar weights (one G per
@@ -11,7 +12,7 @@ use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
 pub(crate) fn terms_per_line(pb: &Problem) -> usize {
     match pb.data.weights {
         Weights::Scalar(_) => 1,
-        Weights::Matrix(_) => pb.data.p,
+        Weights::Matrix(_) | Weights::LogMagnitude(_) => pb.data.p,
     }
 }
 
@@ -20,13 +21,14 @@ pub(crate) fn terms_per_line(pb: &Problem) -> usize {
 pub(crate) fn response_weight(pb: &Problem, col: usize) -> f64 {
     match pb.data.weights {
         Weights::Scalar(w) => w[col] * w[col],
-        Weights::Matrix(_) => 1.0,
+        Weights::Matrix(_) | Weights::LogMagnitude(_) => 1.0,
     }
 }
 
 /// Line `i` at the current point: G of each term, row-major m×m Hermitian, into `g`
 /// (terms·m² values: D⁻ᴴD⁻¹ with scalar weights, (T D⁻¹)ᴴ(T D⁻¹) with matrix
-/// weights), and a_j = A_jᴴ r_j of each load case into `a` (p·m values), so that
+/// weights, D⁻ᴴ W D⁻¹ with the log-magnitude metric W), and a_j = A_jᴴ r_j of each
+/// load case into `a` (p·m values; D⁻ᴴ ρ_j for the log-magnitude objective), so that
 /// the gradient in Z is −Re Σ a v̂ᴴ.
 pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64], a: &mut [c64]) {
     let (p, m) = (pb.data.p, pb.data.m);
@@ -38,14 +40,7 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
     match pb.data.weights {
         Weights::Scalar(w) => {
             let gm = MatMut::from_row_major_slice_mut(&mut g[..mm], m, m);
-            matmul(
-                gm,
-                Accum::Replace,
-                dm.adjoint(),
-                dm,
-                c64::new(1.0, 0.0),
-                Par::Seq,
-            );
+            mul_into(gm, dm.adjoint(), dm);
             for j in 0..p {
                 let col = i * p + j;
                 let w2 = w[col] * w[col];
@@ -67,23 +62,9 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
                 let tc = &t[col * mm..(col + 1) * mm];
                 let tm = Mat::<c64>::from_fn(m, m, |r, c| c64::new(tc[r * m + c], 0.0));
                 // A = T D⁻¹, G = Aᴴ A
-                matmul(
-                    am.as_mut(),
-                    Accum::Replace,
-                    tm.as_ref(),
-                    dm,
-                    c64::new(1.0, 0.0),
-                    Par::Seq,
-                );
+                mul_into(am.as_mut(), tm.as_ref(), dm);
                 let gm = MatMut::from_row_major_slice_mut(&mut g[j * mm..(j + 1) * mm], m, m);
-                matmul(
-                    gm,
-                    Accum::Replace,
-                    am.adjoint(),
-                    am.as_ref(),
-                    c64::new(1.0, 0.0),
-                    Par::Seq,
-                );
+                mul_into(gm, am.adjoint(), am.as_ref());
                 let (x, u) = (&ev.x[col * m..(col + 1) * m], &pb.u[col * m..(col + 1) * m]);
                 // r = T (x − u), a = Aᴴ r
                 let r: Vec<c64> = (0..m)
@@ -94,7 +75,36 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
                 }
             }
         }
+        Weights::LogMagnitude(_) => {
+            let terms = ev
+                .log
+                .as_ref()
+                .expect("a log-magnitude evaluation carries its metric");
+            let mut wd = Mat::<c64>::zeros(m, m);
+            for j in 0..p {
+                let col = i * p + j;
+                let wc = &terms.metric[col * mm..(col + 1) * mm];
+                let wm = Mat::<c64>::from_fn(m, m, |r, c| c64::new(wc[r * m + c], 0.0));
+                // G = D⁻ᴴ (W D⁻¹)
+                mul_into(wd.as_mut(), wm.as_ref(), dm);
+                let gm = MatMut::from_row_major_slice_mut(&mut g[j * mm..(j + 1) * mm], m, m);
+                mul_into(gm, dm.adjoint(), wd.as_ref());
+                let rho = &terms.rho[col * m..(col + 1) * m];
+                for k in 0..m {
+                    a[j * m + k] = (0..m).map(|row| dinv[k * m + row].conj() * rho[row]).sum();
+                }
+            }
+        }
     }
+}
+
+/// out = a b (one thread: the callers run per line in parallel).
+fn mul_into<A, B>(out: MatMut<c64>, a: MatRef<A>, b: MatRef<B>)
+where
+    A: Conjugate<Canonical = c64>,
+    B: Conjugate<Canonical = c64>,
+{
+    matmul(out, Accum::Replace, a, b, c64::new(1.0, 0.0), Par::Seq);
 }
 
 /// v̂ = [−ω² x; iω x; x] of one column.

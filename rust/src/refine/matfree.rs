@@ -64,6 +64,8 @@ pub(crate) struct MatrixFree {
     gram: Vec<c64>,
     /// T of every column, row-major m×m (matrix weights only)
     tw: Option<Vec<f64>>,
+    /// the metric W of every column at this point, row-major m×m (log-magnitude only)
+    metric: Option<Vec<f64>>,
     /// points prepared so far
     prepares: usize,
     /// model responses x of every column, and w² (1 with matrix weights)
@@ -102,6 +104,7 @@ impl MatrixFree {
             use_gram: false,
             gram: Vec::new(),
             tw: None,
+            metric: None,
             prepares: 0,
             x: Vec::new(),
             xw: Vec::new(),
@@ -186,7 +189,7 @@ impl MatrixFree {
         {
             let mm = m * m;
             let (w, xw) = (&self.w, &self.xw);
-            let (lu, perm, tw) = (&self.lu, &self.perm, &self.tw);
+            let (lu, perm, tw, metric) = (&self.lu, &self.perm, &self.tw, &self.metric);
             let (use_gram, gram) = (self.use_gram, &self.gram);
             let prod = &prod;
             let lines: Vec<Vec<c64>> = (0..w.len())
@@ -220,6 +223,9 @@ impl MatrixFree {
                         solve_lines(lui, pi, &mut y, m, p);
                         if let Some(t) = tw {
                             weight_twice(&t[i * p * mm..(i + 1) * p * mm], &mut y, m);
+                        }
+                        if let Some(wm) = metric {
+                            weigh(&wm[i * p * mm..(i + 1) * p * mm], &mut y, m);
                         }
                         solve_lines_adjoint(lui, pi, &mut y, m, p);
                     }
@@ -415,6 +421,17 @@ fn line_diagonal(
     }
 }
 
+/// v_j ← W_j v_j for the p columns of one line (W_j symmetric row-major m×m, one
+/// after another in `w`; v column after column).
+fn weigh(w: &[f64], v: &mut [c64], m: usize) {
+    for (wc, vj) in w.chunks(m * m).zip(v.chunks_mut(m)) {
+        let wv: Vec<c64> = (0..m)
+            .map(|r| (0..m).map(|q| vj[q] * wc[r * m + q]).sum())
+            .collect();
+        vj.copy_from_slice(&wv);
+    }
+}
+
 /// v_j ← T_jᵀ T_j v_j for the p columns of one line (T_j row-major m×m, one after
 /// another in `t`; v column after column).
 fn weight_twice(t: &[f64], v: &mut [c64], m: usize) {
@@ -505,16 +522,22 @@ impl StepSolver for MatrixFree {
         }
         self.tw = match pb.data.weights {
             Weights::Matrix(t) => Some(t.to_vec()),
-            Weights::Scalar(_) => None,
+            _ => None,
         };
-        // a = Aᴴ r per column = D⁻ᴴ TᵀT (x − u) (w² with scalar weights)
+        let log = ev.log.as_ref();
+        self.metric = log.map(|terms| terms.metric.clone());
+        // a = Aᴴ r per column = D⁻ᴴ TᵀT (x − u) (w² with scalar weights; D⁻ᴴ ρ for
+        // the log-magnitude objective)
         let mut a = vec![c64::new(0.0, 0.0); s * p * m];
         {
             let (lu, perm, tw, xw) = (&ev.lu, &ev.perm, &self.tw, &self.xw);
             a.par_chunks_mut(p * m).enumerate().for_each(|(i, ai)| {
                 let off = i * p * m;
                 for (q, v) in ai.iter_mut().enumerate() {
-                    *v = ev.x[off + q] - pb.u[off + q];
+                    *v = match log {
+                        Some(terms) => terms.rho[off + q],
+                        None => ev.x[off + q] - pb.u[off + q],
+                    };
                 }
                 if let Some(t) = tw {
                     weight_twice(&t[i * p * mm..(i + 1) * p * mm], ai, m);
