@@ -77,11 +77,18 @@ def run_refined(data) -> dict:
     P = data.pod()
     F_n = data.forces_on_dofs()
     sweep = sweep_orders(data.U, F_n, data.omega, P)
+    t_sweep = time.perf_counter() - t0
     model, R = final_fit(sweep, data.U, F_n, data.omega, P)
     med, p95 = errors(model_response(model, R, data), data.U)
+    fr = model.info["refinement"]["final_refit"]
+    passes = "; ".join(
+        f"{p['pass']} {p['db_before'][0]:.2f} → {p['db_after'][0]:.2f} dB ({p['iterations']} steps)"
+        for p in fr["passes"]
+    )
     return dict(method="podid_rs refined (default)", m=sweep.chosen, median=med, p95=p95,
                 stable=pr.modal_parameters(model).stable, seconds=time.perf_counter() - t0,
-                note=sweep.reason)
+                note=f"{sweep.reason}; sweep {t_sweep:.0f} s; final fit on every line: "
+                f"{passes}; kept the {fr['kept']}")
 
 
 def run_sdypy(data, band: tuple[float, float]) -> dict:

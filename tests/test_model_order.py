@@ -116,5 +116,10 @@ def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):
     final, R_final = final_fit(sweep, data.U, F_n, data.omega, P, max_iter=60)
     assert np.array_equal(R_final, R) and is_physical(final)
     assert all_lines_db(final) <= all_lines_db(chosen.model) + 1e-9
-    if "final_refit" in final.info["refinement"]:
+    fr = final.info["refinement"]["final_refit"]
+    assert fr["db_all_lines"][0] == pytest.approx(all_lines_db(final), rel=1e-9)
+    if fr["kept"] == "held-out fit":
         assert final.M is chosen.model.M
+    # each pass is kept only if it lowers the median over every line
+    for p in fr["passes"]:
+        assert (fr["kept"] == p["pass"]) <= (p["db_after"][0] <= p["db_before"][0])

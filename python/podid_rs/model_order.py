@@ -383,42 +383,76 @@ def final_fit(
     max_iter: int = FINAL_MAX_ITER,
     threads: int | None = None,
     progress: bool | Callable[[int, float], object] = False,
+    log_magnitude: bool = True,
 ) -> tuple[IdentificationResult, np.ndarray]:
     """The chosen order refitted on every line from its held-out fit: (model, basis R).
 
-    The refit is kept only if it lowers the median |dB| error over every line: the
-    relative weighted cost can fall by fixing a few lines that are far off (an
-    anti-resonance or a narrow peak the order cannot hold) at the expense of the rest
-    (measured on the beam at 50–300 Hz, m = 24: cost 230 → 12.5 while the median went
-    0.74 → 0.94 dB). Then the held-out fit is returned, and its
-    ``info["refinement"]["final_refit"]`` says why.
+    Two passes, each kept only if it lowers the median |dB| error over every line:
+
+    1. the complex output error with relative weights — the relative weighted cost can
+       fall by fixing a few lines that are far off (an anti-resonance or a narrow peak
+       the order cannot hold) at the expense of the rest (measured on the beam at
+       50–300 Hz, m = 24: cost 230 → 12.5 while the median went 0.74 → 0.94 dB);
+    2. with ``log_magnitude``, the log-magnitude output error (``refine(...,
+       objective="log-magnitude")``) from the better of the two: the dB error itself,
+       every entry alike (the beam at 20–800 Hz: median 1.48 → 1.33 dB, 95th percentile
+       8.7 → 6.2 dB).
+
+    ``info["refinement"]["final_refit"]`` says what was kept and why.
     """
     m = sweep.chosen
     R = pod_result.basis(m)
     start = sweep.fit(m).model
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", StartWarning)
-        warnings.simplefilter("ignore", ConvergenceWarning)  # the summary states the stop
-        model = refine(
-            start, U_n, F_n, omega, basis=R, weights="relative",
-            max_iter=max_iter, threads=threads, progress=progress,
-        )
+
+    def refit(model: IdentificationResult, objective: str) -> IdentificationResult:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", StartWarning)
+            warnings.simplefilter("ignore", ConvergenceWarning)  # the summary states the stop
+            return refine(
+                model, U_n, F_n, omega, basis=R, weights="relative", objective=objective,
+                max_iter=max_iter, threads=threads, progress=progress,
+            )  # fmt: skip
+
+    model = refit(start, "complex")
     ref = model.info["refinement"]
+    steps = [("complex refit", ref["db_before"], ref["db_after"], model.iterations)]
     if ref["db_after"][0] <= ref["db_before"][0]:
-        return model, R
+        best, best_db, why = model, ref["db_after"], "the complex refit lowered the median"
+    else:
+        best, best_db = start, ref["db_before"]
+        why = (
+            f"the complex refit on every line lowered the weighted cost "
+            f"({ref['cost_start']:.4g} → {ref['cost']:.4g}) but raised the median error over "
+            f"every line ({ref['db_before'][0]:.2f} → {ref['db_after'][0]:.2f} dB)"
+        )
+    kept_name = "complex refit" if best is model else "held-out fit"
+    if log_magnitude:
+        logm = refit(best, "log-magnitude")
+        lref = logm.info["refinement"]
+        steps.append(("log-magnitude refit", lref["db_before"], lref["db_after"], logm.iterations))
+        if lref["db_after"][0] < best_db[0]:
+            why = (
+                f"the log-magnitude refit lowered the median error over every line "
+                f"({best_db[0]:.2f} → {lref['db_after'][0]:.2f} dB; 95th percentile "
+                f"{best_db[1]:.2f} → {lref['db_after'][1]:.2f}) from the {kept_name}"
+            )
+            best, best_db, kept_name = logm, lref["db_after"], "log-magnitude refit"
+        else:
+            why += (
+                f"; the log-magnitude refit did not lower it ({best_db[0]:.2f} → "
+                f"{lref['db_after'][0]:.2f} dB)"
+            )
     kept = {
-        "kept": "held-out fit",
-        "reason": (
-            f"the refit on every line lowered the weighted cost ({ref['cost_start']:.4g} → "
-            f"{ref['cost']:.4g}) but raised the median error over every line "
-            f"({ref['db_before'][0]:.2f} → {ref['db_after'][0]:.2f} dB)"
-        ),
-        "db_all_lines": ref["db_before"],
-        "refit_db_all_lines": ref["db_after"],
-        "refit_iterations": model.iterations,
+        "kept": kept_name,
+        "reason": why,
+        "db_all_lines": tuple(best_db),
+        "passes": [
+            {"pass": name, "db_before": tuple(b), "db_after": tuple(a), "iterations": it}
+            for name, b, a, it in steps
+        ],
     }
-    info = {**start.info, "refinement": {**start.info["refinement"], "final_refit": kept}}
-    return replace(start, info=info), R
+    info = {**best.info, "refinement": {**best.info["refinement"], "final_refit": kept}}
+    return replace(best, info=info), R
 
 
 def plot_order_sweep(sweep: OrderSweep, path: str | Path, *, title: str | None = None) -> Path:

@@ -100,8 +100,8 @@ class IdentifyRun:
                 f"positive definite: {'yes' if is_physical(r) else 'no'}"
             )
             if "final_refit" in ref:
-                why = ref["final_refit"]["reason"]
-                lines.append(f"- kept the fit on the training lines: {why}")
+                fr = ref["final_refit"]
+                lines.append(f"- final fit on every line: kept the {fr['kept']} — {fr['reason']}")
         else:
             lines.append(
                 f"- model: the paper's estimator (eq. 49), {lam}; solver {r.method}, rank "
