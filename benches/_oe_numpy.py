@@ -83,6 +83,12 @@ class OutputError:
         """θ of a physical start (caller's units), as the Rust core builds it."""
         sc = [X / f for X, f in zip((M, C, K), self.fac, strict=True)]
         ref = max(np.abs(sc[0]).max(), np.abs(sc[2]).max())
+        # take off the parametrisation's floor ε tr(L Lᵀ) I (tr X = (1 + mε) tr(L Lᵀ))
+        m = len(M)
+        sc = [
+            X - max(CONDITION_FLOOR * np.trace(X) / (1 + m * CONDITION_FLOOR), 0.0) * np.eye(m)
+            for X in sc
+        ]
         Lm, Lk = _psd_factor(sc[0], 1e-12 * ref), _psd_factor(sc[2], 1e-12 * ref)
         sc[1] = damping_floor(Lm @ Lm.T, sc[1], Lk @ Lk.T, C_START_FLOOR)
         th = []

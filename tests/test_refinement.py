@@ -224,6 +224,25 @@ def test_bad_log_magnitude_options_are_refused_by_name(kwargs, match):
                objective="log-magnitude", weights=np.zeros((150, 8)))  # fmt: skip
 
 
+def test_a_refined_model_given_back_as_a_start_is_the_same_model():
+    # its near-singular directions (eigenvalues at the core's floor ε tr X) are kept:
+    # the second refinement starts where the first ended, without a StartWarning
+    chain, U_n, F_n, w = _entry_data(noise=0.05)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    U, F = np.einsum("nm,snp->smp", R, U_n), np.einsum("nm,snp->smp", R, F_n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        first = refine(pr.identify(U, F, w, symmetric=True), U_n, F_n, w, basis=R, max_iter=50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        again = refine(first, U_n, F_n, w, basis=R, max_iter=1)
+    r1, r2 = first.info["refinement"], again.info["refinement"]
+    assert r2["cost_start"] == pytest.approx(r1["cost"], rel=1e-7)
+    assert r2["db_before"][0] == pytest.approx(r1["db_after"][0], rel=1e-7)
+
+
 def test_inputs_are_not_modified_and_progress_is_called():
     chain, U, F, w = chain_data(n=4, snr=30)
     start = (chain.M * 1.1, chain.C, chain.K * 0.9)

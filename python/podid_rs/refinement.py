@@ -105,10 +105,20 @@ def _start_matrices(model: object) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     )
 
 
+#: M or K whose eigenvalues are all at least this fraction of the largest are kept as
+#: they are by :func:`physical_start`: the Rust core's floor ε = 1e-10 (X = L Lᵀ +
+#: ε tr(L Lᵀ) I has every eigenvalue ≥ ε tr X ≥ ε ‖X‖₂), so a refined model given
+#: back as a start is the same model
+START_KEEP = 1e-10
+
+
 def physical_start(
     M: np.ndarray, C: np.ndarray, K: np.ndarray, rtol: float = 1e-8
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], dict]:
     """The nearest symmetric M, K ≻ 0 and C ⪰ 0 (Higham), and what it changed.
+
+    M or K with an eigenvalue below ``START_KEEP`` of its largest gets those below
+    ``rtol`` of it raised to it; one that has none (a refined model) is kept as it is.
 
     Raises ``ValueError`` naming the matrix when M or K has no positive part to keep
     (then no positive definite matrix is near it).
@@ -124,7 +134,10 @@ def physical_start(
                 f"{d.max():.3g}): it cannot be made positive definite; identify with "
                 "symmetric=True, or a lower order m"
             )
-        Y, k = _raise_eigenvalues(X, tol, name)
+        if name != "C" and d.min() >= START_KEEP * np.abs(d).max():
+            Y, k = 0.5 * (X + X.T), 0  # positive definite to the core's floor: kept
+        else:
+            Y, k = _raise_eigenvalues(X, tol, name)
         out.append(Y)
         raised.append(k)
         change.append(float(np.linalg.norm(Y - X) / max(np.linalg.norm(X), np.finfo(float).tiny)))

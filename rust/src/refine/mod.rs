@@ -907,15 +907,26 @@ pub fn refine(
     // M and K with a tiny eigenvalue floor; C raised to the least damping ratio
     // C_START_FLOOR, so that no direction starts undamped — its factor would have no
     // gradient to leave 0
+    // the parametrisation adds ε tr(L Lᵀ) I (`gram_lower`): take it off the start first,
+    // so that a refined model given back as a start is the same model (X = L Lᵀ + ε
+    // tr(L Lᵀ) I has tr X = (1 + mε) tr(L Lᵀ))
+    let inner: Vec<Mat<f64>> = scaled
+        .iter()
+        .map(|x| {
+            let tr: f64 = (0..m).map(|i| x[(i, i)]).sum();
+            let shift = (CONDITION_FLOOR * tr / (1.0 + m as f64 * CONDITION_FLOOR)).max(0.0);
+            Mat::from_fn(m, m, |i, j| x[(i, j)] - if i == j { shift } else { 0.0 })
+        })
+        .collect();
     let mut l = [0, 1, 2].map(|b| {
         if b == 1 {
             return Ok(Mat::zeros(0, 0)); // below, from the floored M and K
         }
-        psd_factor(scaled[b].as_ref(), 1e-12 * ref_scale)
+        psd_factor(inner[b].as_ref(), 1e-12 * ref_scale)
     });
     if let (Ok(lm), Ok(lk)) = (&l[0], &l[2]) {
         let (mf, kf) = (lm * lm.transpose(), lk * lk.transpose());
-        l[1] = damping_floor(mf.as_ref(), scaled[1].as_ref(), kf.as_ref(), C_START_FLOOR)
+        l[1] = damping_floor(mf.as_ref(), inner[1].as_ref(), kf.as_ref(), C_START_FLOOR)
             .and_then(|c| psd_factor(c.as_ref(), 1e-12 * ref_scale));
     }
     for (b, lb) in l.iter().enumerate() {
