@@ -326,9 +326,10 @@ def test_beam_band_refined_model_is_physical_and_beats_the_paper_estimator(beam)
     p=st.integers(1, 2),
     seed=st.integers(0, 2**32 - 1),
     weights=st.sampled_from(["relative", "uniform"]),
+    objective=st.sampled_from(["complex", "log-magnitude"]),
 )
 def test_any_start_on_any_data_gives_a_physical_stable_model_or_a_named_error(
-    m, lines, p, seed, weights
+    m, lines, p, seed, weights, objective
 ):
     """Random data (not from any model) and random starts (indefinite, non-symmetric):
     the answer is always symmetric positive definite and stable — or, when no physical
@@ -342,7 +343,7 @@ def test_any_start_on_any_data_gives_a_physical_stable_model_or_a_named_error(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model = refine(start, U, F, w, weights=weights, max_iter=30)
+            model = refine(start, U, F, w, weights=weights, max_iter=30, objective=objective)
     except ValueError as exc:
         assert "cannot be made positive definite" in str(exc) or "pole on a measured" in str(exc)
     else:
