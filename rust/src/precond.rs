@@ -310,22 +310,31 @@ fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
     (l, Some(delta))
 }
 
-/// x ↦ L x (or Lᵀ x) with a packed factor from [`small_cholesky`].
+/// x ↦ L x (or Lᵀ x) with a packed factor from [`small_cholesky`]. Each output
+/// is one running sum in a register (the loops unroll, the N divisions that
+/// recover L_ii are independent): the same sums in the same order as the
+/// scatter form it replaced, which kept its partial sums in memory and ran at
+/// the speed of store forwarding.
 #[inline(always)]
 pub fn small_mul<const N: usize>(l: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+    let l = &l[..N * (N + 1) / 2];
+    let d: [f64; N] = std::array::from_fn(|i| 1.0 / l[tri(i, i)]);
     let mut out = [0.0; N];
-    for i in 0..N {
-        for k in 0..=i {
-            let lik = if k == i {
-                1.0 / l[tri(i, i)]
-            } else {
-                l[tri(i, k)]
-            };
-            if transpose {
-                out[k] += lik * x[i];
-            } else {
-                out[i] += lik * x[k];
+    if transpose {
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for i in k..N {
+                s += if i == k { d[i] } else { l[tri(i, k)] } * x[i];
             }
+            *o = s;
+        }
+    } else {
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for k in 0..i + 1 {
+                s += if k == i { d[i] } else { l[tri(i, k)] } * x[k];
+            }
+            *o = s;
         }
     }
     out
