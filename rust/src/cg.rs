@@ -410,9 +410,9 @@ pub fn identify_cg(
     let gram_seconds = start.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let q = basis_of(gm.h.as_ref(), par).map_err(PodidError::Invalid)?;
+    let (q, diag) = basis_of(gm.h.as_ref(), par).map_err(PodidError::Invalid)?;
     let basis_seconds = t.elapsed().as_secs_f64();
-    let (ht, bt) = to_basis(gm.h.as_ref(), gm.b.as_ref(), q.as_ref(), par);
+    let (ht, bt) = to_basis(gm.h.as_ref(), gm.b.as_ref(), q.as_ref(), diag, par);
     drop(gm);
     let layout = Layout::new(m, symmetric);
     let pen = scaling.scaled_lam(lam).map(|l| 4.0 * l * l);

@@ -26,6 +26,7 @@ use crate::pairs::{Layout, TILE};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
 
@@ -82,56 +83,75 @@ fn off_fraction(a: MatRef<f64>) -> f64 {
     }
 }
 
+/// Qᵀ A Q for A (m×m) symmetric (`sign` = 1) or antisymmetric (−1): A Q by one
+/// GEMM, of Qᵀ(A Q) only the lower triangle (a triangular product, half a
+/// GEMM), mirrored with `sign`, so the result is exactly (anti)symmetric.
+fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
+    let m = q.nrows();
+    let mut aq = Mat::zeros(m, m);
+    matmul(aq.as_mut(), Accum::Replace, a, q, 1.0, par);
+    let mut out = Mat::zeros(m, m);
+    triangular::matmul(
+        out.as_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        q.transpose(),
+        BlockStructure::Rectangular,
+        aq.as_ref(),
+        BlockStructure::Rectangular,
+        1.0,
+        par,
+    );
+    for j in 0..m {
+        if sign < 0.0 {
+            out[(j, j)] = 0.0;
+        }
+        for i in 0..j {
+            out[(i, j)] = sign * out[(j, i)];
+        }
+    }
+    out
+}
+
 /// Q: eigenvectors of the sum of the three diagonal blocks of H (3m×3m), in
 /// ascending order; when one eigenbasis leaves too much off their diagonals
 /// ([`JOINT_MIN_OFF`], wide bands) refined by [`joint::refine`] to diagonalise
 /// the three blocks (each scaled to unit trace) together, and ordered by the
-/// frequency of each mode.
-pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<Mat<f64>, String> {
+/// frequency of each mode. Also returns the blocks Qᵀ H_bb Q it formed if Q was
+/// not refined afterwards: [`to_basis`] needs them too (they are 3 of its 5
+/// transforms, about 0.6 of an operator GEMM at m = 1000).
+#[allow(clippy::type_complexity)]
+pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]>), String> {
     let m = h.nrows() / 3;
     let block = |b: usize| h.submatrix(b * m, b * m, m, m);
     let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block(b)[(i, j)]).sum::<f64>());
     let mut q = eigenvectors(sum.as_ref(), par)?;
-    let mut mats: Vec<Mat<f64>> = (0..3)
-        .map(|b| {
+    let diag = [0, 1, 2].map(|b| congruence(block(b), q.as_ref(), 1.0, par));
+    if diag
+        .iter()
+        .all(|a| off_fraction(a.as_ref()) <= JOINT_MIN_OFF)
+    {
+        return Ok((q, Some(diag)));
+    }
+    let mut mats: Vec<Mat<f64>> = diag
+        .into_iter()
+        .enumerate()
+        .map(|(b, a)| {
             let trace: f64 = (0..m).map(|i| block(b)[(i, i)]).sum();
             let scale = if trace > 0.0 { 1.0 / trace } else { 1.0 };
-            let mut sq = Mat::zeros(m, m);
-            matmul(
-                sq.as_mut(),
-                Accum::Replace,
-                block(b),
-                q.as_ref(),
-                scale,
-                par,
-            );
-            let mut qsq = Mat::zeros(m, m);
-            matmul(
-                qsq.as_mut(),
-                Accum::Replace,
-                q.transpose(),
-                sq.as_ref(),
-                1.0,
-                par,
-            );
-            qsq
+            a * faer::Scale(scale)
         })
         .collect();
-    if mats
-        .iter()
-        .any(|a| off_fraction(a.as_ref()) > JOINT_MIN_OFF)
-    {
-        joint::refine(&mut mats, &mut q, JOINT_SWEEPS, par);
-        // order the modes by frequency, (Qᵀ H_KK Q)_kk / (Qᵀ H_CC Q)_kk ~ 1/ω_k²: the
-        // Gauss–Seidel sweeps of [`crate::sgs`] then meet the modes that couple
-        // most in turn (50–150 Hz: 11–14 % fewer iterations at m = 400–1000; on
-        // the 20 % band, where the modes share one frequency, 5 % more)
-        let key = |k: usize| mats[2][(k, k)] / mats[1][(k, k)];
-        let mut order: Vec<usize> = (0..m).collect();
-        order.sort_by(|&a, &b| key(a).total_cmp(&key(b)));
-        q = Mat::from_fn(m, m, |i, j| q[(i, order[j])]);
-    }
-    Ok(q)
+    joint::refine(&mut mats, &mut q, JOINT_SWEEPS, par);
+    // order the modes by frequency, (Qᵀ H_KK Q)_kk / (Qᵀ H_CC Q)_kk ~ 1/ω_k²: the
+    // Gauss–Seidel sweeps of [`crate::sgs`] then meet the modes that couple
+    // most in turn (50–150 Hz: 11–14 % fewer iterations at m = 400–1000; on
+    // the 20 % band, where the modes share one frequency, 5 % more)
+    let key = |k: usize| mats[2][(k, k)] / mats[1][(k, k)];
+    let mut order: Vec<usize> = (0..m).collect();
+    order.sort_by(|&a, &b| key(a).total_cmp(&key(b)));
+    q = Mat::from_fn(m, m, |i, j| q[(i, order[j])]);
+    Ok((q, None))
 }
 
 /// a ↦ a·(I₃⊗Q) for a with 3m columns (one GEMM per block column).
@@ -155,35 +175,27 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
 /// (H̃, B̃) = ((I⊗Q)ᵀ H (I⊗Q), Qᵀ B (I⊗Q)) for H of the structure of
 /// [`crate::gram`]: blocks S4, −T3, −S2 / T3, S2, −T1 / −S2, T1, S0 with S_k
 /// symmetric and T_k antisymmetric. Only the five distinct blocks are
-/// transformed (20m³ flops, not 36m³ for all nine), each made exactly
-/// (anti)symmetric, so H̃ is exactly symmetric.
-pub fn to_basis(h: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, par: Par) -> (Mat<f64>, Mat<f64>) {
+/// transformed (15m³ flops, not 36m³ for all nine), each exactly
+/// (anti)symmetric ([`congruence`]), so H̃ is exactly symmetric; `diag`, if
+/// given, are the three diagonal ones already formed by [`basis_of`] (then 6m³).
+pub fn to_basis(
+    h: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    diag: Option<[Mat<f64>; 3]>,
+    par: Par,
+) -> (Mat<f64>, Mat<f64>) {
     let m = q.nrows();
     let blk = |i: usize, j: usize| h.submatrix(i * m, j * m, m, m);
     debug_assert!((0..m).all(|i| (0..m).all(|j| {
         blk(0, 2)[(i, j)] == -blk(1, 1)[(i, j)] && blk(0, 1)[(i, j)] == -blk(1, 0)[(i, j)]
     })));
-    // Qᵀ A Q, (anti)symmetrised
-    let transform = |a: MatRef<f64>, sign: f64| {
-        let mut aq = Mat::zeros(m, m);
-        matmul(aq.as_mut(), Accum::Replace, a, q, 1.0, par);
-        let mut out = Mat::zeros(m, m);
-        matmul(
-            out.as_mut(),
-            Accum::Replace,
-            q.transpose(),
-            aq.as_ref(),
-            1.0,
-            par,
-        );
-        Mat::from_fn(m, m, |i, j| 0.5 * (out[(i, j)] + sign * out[(j, i)]))
-    };
-    let (s4, s2, s0) = (
-        transform(blk(0, 0), 1.0),
-        transform(blk(1, 1), 1.0),
-        transform(blk(2, 2), 1.0),
+    let [s4, s2, s0] =
+        diag.unwrap_or_else(|| [0, 1, 2].map(|b| congruence(blk(b, b), q, 1.0, par)));
+    let (t3, t1) = (
+        congruence(blk(1, 0), q, -1.0, par),
+        congruence(blk(2, 1), q, -1.0, par),
     );
-    let (t3, t1) = (transform(blk(1, 0), -1.0), transform(blk(2, 1), -1.0));
     let blocks: [[(&Mat<f64>, f64); 3]; 3] = [
         [(&s4, 1.0), (&t3, -1.0), (&s2, -1.0)],
         [(&t3, 1.0), (&s2, 1.0), (&t1, -1.0)],
