@@ -32,17 +32,19 @@ fn main() {
         let v: Vec<f64> = (0..n)
             .map(|i| ((i * 31 % 23) as f64 - 11.0) / 7.0)
             .collect();
-        let (mut q, mut t, mut w) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut q, mut t) = (vec![0.0; n], vec![0.0; n]);
+        let (mut w, mut rt) = (vec![0.0; n], vec![0.0; n]);
         let mut work = SgsWork::new(m);
         let best = podid_rs::with_threads(threads, || {
             let mut best = f64::INFINITY;
             for _ in 0..repeats {
                 let start = Instant::now();
                 let ends = Ends::FactorIn;
-                sgs.solve_with(&pre, &v, &mut t, Some(&mut w), false, ends, &mut work);
+                let (wo, rto) = (Some(&mut w[..]), Some(&mut rt[..]));
+                sgs.solve_with(&pre, &v, &mut t, wo, rto, false, ends, &mut work);
                 pre.correct(&t, &mut w);
-                let ends = Ends::FactorOut(Some(&t));
-                sgs.solve_with(&pre, &w, &mut q, None, true, ends, &mut work);
+                let ends = Ends::FactorOut(Some(&rt));
+                sgs.solve_with(&pre, &w, &mut q, None, None, true, ends, &mut work);
                 best = best.min(start.elapsed().as_secs_f64());
             }
             best

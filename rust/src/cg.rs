@@ -178,7 +178,9 @@ struct Split<'a> {
     work: SgsWork,
     /// wall time in the triangular solves so far
     solve_seconds: f64,
+    /// L t, and Rᵀ t (from the first solve, for the second)
     w: Vec<f64>,
+    rt: Vec<f64>,
 }
 
 impl<'a> Split<'a> {
@@ -190,6 +192,7 @@ impl<'a> Split<'a> {
             work: SgsWork::new(layout.m),
             solve_seconds: 0.0,
             w: vec![0.0; n],
+            rt: vec![0.0; n],
         }
     }
 
@@ -198,18 +201,11 @@ impl<'a> Split<'a> {
     fn apply(&mut self, v: &[f64], q: &mut [f64], t: &mut [f64]) {
         let start = Instant::now();
         let (pre, sgs) = (self.pre, self.sgs);
-        sgs.solve_with(
-            pre,
-            v,
-            t,
-            Some(&mut self.w),
-            false,
-            Ends::FactorIn,
-            &mut self.work,
-        );
+        let (w, rt) = (Some(&mut self.w[..]), Some(&mut self.rt[..]));
+        sgs.solve_with(pre, v, t, w, rt, false, Ends::FactorIn, &mut self.work);
         pre.correct(t, &mut self.w);
-        let ends = Ends::FactorOut(Some(t));
-        sgs.solve_with(pre, &self.w, q, None, true, ends, &mut self.work);
+        let ends = Ends::FactorOut(Some(&self.rt));
+        sgs.solve_with(pre, &self.w, q, None, None, true, ends, &mut self.work);
         self.solve_seconds += start.elapsed().as_secs_f64();
     }
 
@@ -218,7 +214,7 @@ impl<'a> Split<'a> {
         let start = Instant::now();
         let ends = Ends::FactorOut(None);
         self.sgs
-            .solve_with(self.pre, r, out, None, true, ends, &mut self.work);
+            .solve_with(self.pre, r, out, None, None, true, ends, &mut self.work);
         self.solve_seconds += start.elapsed().as_secs_f64();
     }
 }
@@ -376,11 +372,11 @@ pub fn pcg(
 
 /// Bytes of the solver's O(m²) working set, an upper bound: H with the two
 /// 3m×3m matrices of its change of basis (27m²; afterwards H̃ alone, 9m²),
-/// Z and Z·H̃ (6m²), eight CG vectors (one the best iterate), the pair factors and the single-precision
+/// Z and Z·H̃ (6m²), nine CG vectors (one the best iterate), the pair factors and the single-precision
 /// H̃ and scratch of the Gauss–Seidel solves.
 pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
     let lay = Layout::new(m, symmetric);
-    let doubles = 33 * m * m + 8 * lay.len() + PairPrecond::doubles(lay);
+    let doubles = 33 * m * m + 9 * lay.len() + PairPrecond::doubles(lay);
     doubles as u128 * 8 + Sgs::bytes(m) as u128
 }
 

@@ -257,38 +257,53 @@ fn small_cholesky(a: &mut [f64], n: usize) -> bool {
     floored
 }
 
-/// x ← L⁻¹ x with a packed N×N factor from [`small_cholesky`] (N is a
-/// constant, so the loops unroll: this runs once per pair per solve).
-#[inline(always)]
-pub fn forward<const N: usize>(l: &[f64], x: &mut [f64; N]) {
-    let l = &l[..N * (N + 1) / 2];
-    for i in 0..N {
-        let mut s = x[i];
-        for k in 0..i {
-            s -= l[tri(i, k)] * x[k];
+/// W = L⁻¹ in place, for a packed factor L from [`small_cholesky`] (whose
+/// diagonal already holds 1/L_ii = W_ii), column by column.
+fn invert(l: &mut [f64], n: usize) {
+    let mut w = vec![0.0; l.len()];
+    for j in 0..n {
+        w[tri(j, j)] = l[tri(j, j)];
+        for i in j + 1..n {
+            let s: f64 = (j..i).map(|k| l[tri(i, k)] * w[tri(k, j)]).sum();
+            w[tri(i, j)] = -s * l[tri(i, i)];
         }
-        x[i] = s * l[tri(i, i)];
     }
+    l.copy_from_slice(&w);
 }
 
-/// x ← L⁻ᵀ x, as [`forward`].
+/// x ↦ W x (or Wᵀ x) for a stored inverse factor W = L⁻¹ (packed lower
+/// triangle). Each output is an independent dot product: no chain of
+/// dependent steps as in a substitution with L, which made the penalty mode's
+/// 6×6 pair solves latency-bound (N is a constant, so the loops unroll: this
+/// runs about twice per pair per triangular solve).
 #[inline(always)]
-pub fn backward<const N: usize>(l: &[f64], x: &mut [f64; N]) {
-    let l = &l[..N * (N + 1) / 2];
-    for i in (0..N).rev() {
-        let mut s = x[i];
-        for k in i + 1..N {
-            s -= l[tri(k, i)] * x[k];
+pub fn inv_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+    let w = &w[..N * (N + 1) / 2];
+    let mut out = [0.0; N];
+    if transpose {
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for i in k..N {
+                s += w[tri(i, k)] * x[i];
+            }
+            *o = s;
         }
-        x[i] = s * l[tri(i, i)];
+    } else {
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for k in 0..i + 1 {
+                s += w[tri(i, k)] * x[k];
+            }
+            *o = s;
+        }
     }
+    out
 }
 
-/// Solve L Lᵀ x = r in place with a packed N×N factor from [`small_cholesky`].
+/// Solve L Lᵀ x = r: x = Wᵀ W r.
 #[inline]
-fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
-    forward::<N>(l, x);
-    backward::<N>(l, x);
+fn small_solve<const N: usize>(w: &[f64], x: &mut [f64; N]) {
+    *x = inv_mul::<N>(w, &inv_mul::<N>(w, x, false), true);
 }
 
 /// [`small_solve`] of a 3-vector stored in a slice.
@@ -299,57 +314,48 @@ fn solve3(l: &[f64], x: &mut [f64]) {
     x.copy_from_slice(&v);
 }
 
-/// Factor a small SPD block given as its packed lower triangle; if a pivot had
-/// to be floored, also return D − L Lᵀ (packed), the part the factor misses.
+/// Factor a small SPD block given as its packed lower triangle, stored as the
+/// inverse W = L⁻¹ of its Cholesky factor ([`inv_mul`]); if a pivot had to be
+/// floored, also return D − L Lᵀ (packed), the part the factor misses.
 fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
     let mut l = a.clone();
-    if !small_cholesky(&mut l, n) {
-        return (l, None);
-    }
-    let entry = |i: usize, k: usize| {
-        if k == i {
-            1.0 / l[tri(i, i)]
-        } else {
-            l[tri(i, k)]
+    let floored = small_cholesky(&mut l, n).then(|| {
+        let entry = |i: usize, k: usize| {
+            if k == i {
+                1.0 / l[tri(i, i)]
+            } else {
+                l[tri(i, k)]
+            }
+        };
+        let mut delta = a;
+        for i in 0..n {
+            for j in 0..=i {
+                delta[tri(i, j)] -= (0..=j).map(|k| entry(i, k) * entry(j, k)).sum::<f64>();
+            }
         }
-    };
-    let mut delta = a;
-    for i in 0..n {
-        for j in 0..=i {
-            delta[tri(i, j)] -= (0..=j).map(|k| entry(i, k) * entry(j, k)).sum::<f64>();
-        }
-    }
-    (l, Some(delta))
+        delta
+    });
+    invert(&mut l, n);
+    (l, floored)
 }
 
-/// x ↦ L x (or Lᵀ x) with a packed factor from [`small_cholesky`]. Each output
-/// is one running sum in a register (the loops unroll, the N divisions that
-/// recover L_ii are independent): the same sums in the same order as the
-/// scatter form it replaced, which kept its partial sums in memory and ran at
-/// the speed of store forwarding.
-#[inline(always)]
-pub fn small_mul<const N: usize>(l: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
-    let l = &l[..N * (N + 1) / 2];
-    let d: [f64; N] = std::array::from_fn(|i| 1.0 / l[tri(i, i)]);
-    let mut out = [0.0; N];
+/// x ↦ L x (or Lᵀ x) from the stored W = L⁻¹, by substitution (for
+/// [`PairPrecond::mul_factor`]; the solves never need it).
+#[inline]
+fn small_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+    let mut z = [0.0; N];
     if transpose {
-        for (k, o) in out.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for i in k..N {
-                s += if i == k { d[i] } else { l[tri(i, k)] } * x[i];
-            }
-            *o = s;
+        for i in (0..N).rev() {
+            let s: f64 = (i + 1..N).map(|k| w[tri(k, i)] * z[k]).sum();
+            z[i] = (x[i] - s) / w[tri(i, i)];
         }
     } else {
-        for (i, o) in out.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for k in 0..i + 1 {
-                s += if k == i { d[i] } else { l[tri(i, k)] } * x[k];
-            }
-            *o = s;
+        for i in 0..N {
+            let s: f64 = (0..i).map(|k| w[tri(i, k)] * z[k]).sum();
+            z[i] = (x[i] - s) / w[tri(i, i)];
         }
     }
-    out
+    z
 }
 
 /// A pair block whose factor was floored: its coordinates and D − L Lᵀ.
@@ -363,9 +369,9 @@ struct Correction {
 /// preconditioner of [`crate::sgs`] uses as its diagonal.
 pub struct PairPrecond {
     layout: Layout,
-    /// factor of D(j), 6 doubles per j
+    /// W = R⁻¹ for the Cholesky factor R of D(j), 6 doubles per j ([`factor`])
     diag: Vec<f64>,
-    /// factor of the pair block, 6 (symmetric: A) or 21 (6×6) doubles per pair
+    /// W = R⁻¹ of the pair block, 6 (symmetric: A) or 21 (6×6) doubles per pair
     pairs: Vec<f64>,
     /// blocks whose factor had to be floored (degenerate data; usually none)
     corrections: Vec<Correction>,
@@ -483,7 +489,8 @@ impl PairPrecond {
         &self.pairs[width * p..width * p + width]
     }
 
-    /// out = R v (or Rᵀ v) for the block-diagonal Cholesky factor R of D = R Rᵀ.
+    /// out = R v (or Rᵀ v) for the block-diagonal Cholesky factor R of D = R Rᵀ
+    /// (not used by the solves, which need only R⁻¹: a check for tests).
     pub fn mul_factor(&self, v: &[f64], out: &mut [f64], transpose: bool) {
         let lay = self.layout;
         let (vd, vs, vk) = lay.split(v);
