@@ -195,7 +195,7 @@ impl Sgs {
     /// the right-hand side is R r if `ends` is [`Ends::FactorIn`] (then `rty`,
     /// if given, receives Rᵀ y), and y is written as Rᵀ y + s for
     /// [`Ends::FactorOut`] (s = 0 if `None`). Only R⁻¹ is used: Rᵀ y of the
-    /// first solve is its intermediate R r − R⁻¹ w, so Rᵀ (y₂ + y₁) in a second
+    /// first solve is its intermediate r − R⁻¹ w, so Rᵀ (y₂ + y₁) in a second
     /// solve is `FactorOut` with s = Rᵀ y₁ from the first.
     #[allow(clippy::too_many_arguments)]
     pub fn solve_with(
@@ -603,6 +603,7 @@ impl Solve<'_> {
         };
         let rty = |at: usize, v: &[f64]| {
             if !self.ptr.rty.is_null() {
+                // SAFETY: as `lower`
                 unsafe { std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.rty.add(at), v.len()) }
             }
         };
