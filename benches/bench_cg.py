@@ -19,6 +19,7 @@ The ratios issue 13 asks for, each against a reference measured in the same run:
     python benches/bench_cg.py                      # m = 400, 1000 (≈ 10 min unloaded)
     python benches/bench_cg.py --sizes 100,200 --modes sym --ref-sizes 100
     python benches/bench_cg.py --auto               # direct vs CG, m = 10 … 60
+    python benches/bench_cg.py --stall              # tol 1e-300: where CG stops
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import argparse
 import resource
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -78,6 +80,30 @@ def solve_case(case: dict) -> dict:
         out["gemm_s"] = operator_gemm_seconds(m)
     out["load"] = [load, load_average()]
     return out
+
+
+def stall_case(case: dict) -> dict:
+    """CG asked for an unattainable tol (1e-300): where it stops, and the default-tol solve."""
+    from podid_rs import identify
+
+    m = case["m"]
+    lam, sym = MODES[case["mode"]]
+    _, U, F, omega = chain_problem(m, BANDS[case["band"]], 2 * m)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res, secs = timed(
+            lambda: identify(
+                U, F, omega, lam, sym, solver="cg", tol=1e-300, max_iter=case["max_iter"]
+            )
+        )
+    conv = identify(U, F, omega, lam, sym, solver="cg")
+    return {
+        "seconds": secs,
+        "iterations": res.iterations,
+        "residual": res.relative_residual,
+        "conv_iterations": conv.iterations,
+        "conv_residual": conv.relative_residual,
+    }
 
 
 # ---------------------------------------------------------------------------
@@ -310,6 +336,30 @@ def main_auto(args: argparse.Namespace, me: str) -> str:
     )
 
 
+def main_stall(args: argparse.Namespace, me: str) -> str:
+    rows = []
+    for band in args.bands.split(","):
+        for mode in args.modes.split(","):
+            for m in [int(x) for x in args.stall_sizes.split(",")]:
+                case = {"kind": "stall", "m": m, "band": band, "mode": mode}
+                r = run_worker(me, {**case, "max_iter": args.stall_max_iter})
+                rows.append([
+                    band, mode, m, val(r, "iterations"), val(r, "residual"), val(r, "seconds"),
+                    val(r, "conv_iterations"), val(r, "conv_residual"),
+                ])  # fmt: skip
+                print(f"{band:6s} {mode} m={m:3d}: {r}", flush=True)
+    header = [
+        "band", "mode", "m", "iterations (tol 1e-300)", "true residual", "time s",
+        "iterations (default tol)", "residual (default tol)",
+    ]  # fmt: skip
+    return (
+        "CG at an unattainable tol (1e-300, max_iter "
+        f"{args.stall_max_iter}): the iteration should stop by itself near the attainable "
+        f"accuracy (≈ 1e-14), not at max_iter; load average {load_average()}.\n\n"
+        + markdown_table(header, rows)
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="400,1000")
@@ -318,17 +368,25 @@ def main() -> None:
     ap.add_argument("--ref-sizes", default="400", help="sizes that also run the NumPy PCG")
     ap.add_argument("--auto", action="store_true", help="time direct against CG instead")
     ap.add_argument("--auto-sizes", default="10,15,20,25,30,40,50,60")
+    ap.add_argument("--stall", action="store_true", help="tol 1e-300: where CG stops")
+    ap.add_argument("--stall-sizes", default="20,30,60")
+    ap.add_argument("--stall-max-iter", type=int, default=20_000)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
     me = str(Path(__file__).resolve())
     args.numpy_gemm = gemm_gflops()
     print(f"NumPy GEMM rate (n = 4000): {args.numpy_gemm:.1f} GFLOP/s", flush=True)
-    text = main_auto(args, me) if args.auto else main_cg(args, me)
-    write_report(text, args.out or Path("bench-results") / ("cg_auto.md" if args.auto else "cg.md"))
+    if args.stall:
+        text, name = main_stall(args, me), "cg_stall.md"
+    elif args.auto:
+        text, name = main_auto(args, me), "cg_auto.md"
+    else:
+        text, name = main_cg(args, me), "cg.md"
+    write_report(text, args.out or Path("bench-results") / name)
 
 
 if __name__ == "__main__":
     if len(sys.argv) > 2 and sys.argv[1] == "--worker":
-        worker_main({"solve": solve_case, "reference": reference_case})
+        worker_main({"solve": solve_case, "reference": reference_case, "stall": stall_case})
     else:
         main()

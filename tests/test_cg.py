@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import io
 import sys
-import time
 import warnings
 
 import numpy as np
@@ -179,12 +178,16 @@ def test_exception_in_progress_callback_propagates():
         identify(U, F, omega, symmetric=True, solver="cg", progress=callback)
 
 
-def test_unattainable_tol_stops_at_the_attainable_accuracy():
+@pytest.mark.parametrize("m, band", [(20, "wide"), (30, "wide"), (30, "narrow")])
+@pytest.mark.parametrize("symmetric, lam", [(True, 0.0), (False, 100.0)])
+def test_unattainable_tol_stops_at_the_attainable_accuracy(m, band, symmetric, lam):
     # the true residual stops following the recursive one near 1e-14: CG notices
-    # and stops there instead of running to max_iter
-    _, U, F, omega = chain(30, "wide")
-    start = time.perf_counter()
+    # and stops there, with its best iterate, instead of running to max_iter
+    # (measured: 207-529 iterations, residual 8e-15-3e-14; a stall rule that relied
+    # on the recursive residual ran all 20 000 and some diverged to 1e-4)
+    _, U, F, omega = chain(m, band)
     with pytest.warns(ConvergenceWarning, match="above tol"):
-        res = identify(U, F, omega, symmetric=True, solver="cg", tol=1e-300, max_iter=10**9)
-    assert time.perf_counter() - start < 30
-    assert res.iterations < 5000 and res.relative_residual < 1e-11
+        res = identify(U, F, omega, lam, symmetric, solver="cg", tol=1e-300, max_iter=20_000)
+    assert res.iterations < 2000 and res.relative_residual < 1e-12
+    converged = identify(U, F, omega, lam, symmetric, solver="cg")
+    assert res.relative_residual <= converged.relative_residual

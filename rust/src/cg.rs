@@ -178,7 +178,9 @@ struct Split<'a> {
     work: SgsWork,
     /// wall time in the triangular solves so far
     solve_seconds: f64,
+    /// L t, and Rᵀ t (from the first solve, for the second)
     w: Vec<f64>,
+    rt: Vec<f64>,
 }
 
 impl<'a> Split<'a> {
@@ -190,6 +192,7 @@ impl<'a> Split<'a> {
             work: SgsWork::new(layout.m),
             solve_seconds: 0.0,
             w: vec![0.0; n],
+            rt: vec![0.0; n],
         }
     }
 
@@ -198,18 +201,11 @@ impl<'a> Split<'a> {
     fn apply(&mut self, v: &[f64], q: &mut [f64], t: &mut [f64]) {
         let start = Instant::now();
         let (pre, sgs) = (self.pre, self.sgs);
-        sgs.solve_with(
-            pre,
-            v,
-            t,
-            Some(&mut self.w),
-            false,
-            Ends::FactorIn,
-            &mut self.work,
-        );
+        let (w, rt) = (Some(&mut self.w[..]), Some(&mut self.rt[..]));
+        sgs.solve_with(pre, v, t, w, rt, false, Ends::FactorIn, &mut self.work);
         pre.correct(t, &mut self.w);
-        let ends = Ends::FactorOut(Some(t));
-        sgs.solve_with(pre, &self.w, q, None, true, ends, &mut self.work);
+        let ends = Ends::FactorOut(Some(&self.rt));
+        sgs.solve_with(pre, &self.w, q, None, None, true, ends, &mut self.work);
         self.solve_seconds += start.elapsed().as_secs_f64();
     }
 
@@ -218,7 +214,7 @@ impl<'a> Split<'a> {
         let start = Instant::now();
         let ends = Ends::FactorOut(None);
         self.sgs
-            .solve_with(self.pre, r, out, None, true, ends, &mut self.work);
+            .solve_with(self.pre, r, out, None, None, true, ends, &mut self.work);
         self.solve_seconds += start.elapsed().as_secs_f64();
     }
 }
@@ -232,15 +228,25 @@ impl<'a> Split<'a> {
 /// the double-precision operator GEMMs of 1e-2 for the same iterations.
 const RELIABLE: f64 = 1e-3;
 
-/// Near the attainable accuracy the recursive residual may take very long to
-/// fall by [`RELIABLE`]: the true residual is also computed once it has fallen by
-/// this factor and the interval has lasted twice as many iterations as the
-/// previous one (so that the stall test below still runs).
-const RELIABLE_SLOW: f64 = 1e-2;
-
 /// The iteration has stalled when the recursive residual has predicted this
 /// reduction since the true residual last halved.
 const STALLED: f64 = 8.0;
+
+/// The true residual is also computed when it has not been for twice the
+/// longest run of iterations the true residual ever needed to halve (at least
+/// [`MIN_SPAN`]), whatever the recursive residual says: near the attainable
+/// accuracy the recursive residual of the single-precision split need not fall
+/// at all, and a rule that waited for it ran to max_iter at tol 1e-300 in 7 of
+/// the 12 cases of `benches/bench_cg.py --stall` (once diverging to 6e-3).
+const CHECK_SPAN: usize = 2;
+
+/// The iteration has also stalled when the true residual has not halved for
+/// this many times the longest run it ever needed to halve (at least
+/// [`MIN_SPAN`] times that many): it no longer follows the iteration.
+const STALL_SPAN: usize = 6;
+
+/// Shortest run of iterations the two spans above are counted in.
+const MIN_SPAN: usize = 10;
 
 /// CG preconditioned by symmetric Gauss–Seidel, from x = 0, judged on the true
 /// residual ‖b − G x‖/‖b‖ of the double-precision operator `op`.
@@ -248,14 +254,17 @@ const STALLED: f64 = 8.0;
 /// The iteration itself runs in the split form of [`Split`], whose couplings are
 /// single-precision GEMMs; its recursive residual is that of Ĝ. The true
 /// residual (one double-precision operator GEMM) replaces it each time the
-/// recursive one has fallen by [`RELIABLE`] and when its estimate (the recursive
-/// residual times ‖r‖/‖r̂‖ at the last replacement) reaches `tol`: converged if
-/// the true one is there too, else the iteration goes on from it. The answer is
-/// accumulated in double precision, so single precision costs iterations only
-/// if the couplings were too inaccurate, never accuracy. If the true residual
-/// has not halved while the recursive one predicted a reduction by [`STALLED`],
-/// it has reached the attainable accuracy of the problem in floating point and
-/// the iteration stops there, not converged.
+/// recursive one has fallen by [`RELIABLE`], when its estimate (the recursive
+/// residual times ‖r‖/‖r̂‖ at the last replacement) reaches `tol`, and when it
+/// has not been computed for a while ([`CHECK_SPAN`]): converged if the true
+/// one is at tol, else the iteration goes on from it. The answer is accumulated
+/// in double precision, so single precision costs iterations only if the
+/// couplings were too inaccurate, never accuracy. The iteration has reached the
+/// attainable accuracy of the problem in floating point, and stops there not
+/// converged, when the true residual has not halved while the recursive one
+/// predicted a reduction by [`STALLED`], or for [`STALL_SPAN`] times as long as
+/// it ever needed to halve; it then returns the iterate of the smallest true
+/// residual seen.
 pub fn pcg(
     op: &mut Operator,
     pre: &PairPrecond,
@@ -285,13 +294,15 @@ pub fn pcg(
     // ‖b − G x‖ ≈ scale·‖r̂‖
     let mut scale = bnorm / rr.sqrt();
     let mut at_update = rr.sqrt();
-    // the true residual at the last check that halved it, and the reduction the
-    // recursive residual has predicted since
-    let mut anchor = f64::INFINITY;
+    // the true residual at the last check that halved it, the iterations then,
+    // the longest run between two such checks, and the reduction the recursive
+    // residual has predicted since
+    let (mut anchor, mut anchor_at, mut longest) = (f64::INFINITY, 0, MIN_SPAN);
     let mut predicted = 1.0;
     let mut iterations = 0;
-    // iterations at the last reliable update, and the length of the interval before it
-    let (mut last_update, mut interval) = (0, usize::MAX / 2);
+    let mut last_update = 0;
+    // the smallest true residual seen and its iterate
+    let mut best: Option<(f64, Vec<f64>)> = None;
     let mut true_res = None;
     let mut residual = b.to_vec();
     while iterations < opts.max_iter {
@@ -310,17 +321,26 @@ pub fn pcg(
             }
         }
         let fallen = rr_new.sqrt() / at_update;
-        let slow = fallen <= RELIABLE_SLOW && iterations - last_update >= 2 * interval;
-        if estimate <= opts.tol || fallen <= RELIABLE || slow {
-            interval = iterations - last_update;
+        let overdue = iterations - last_update >= CHECK_SPAN * longest;
+        if estimate <= opts.tol || fallen <= RELIABLE || overdue {
             last_update = iterations;
             let res = true_residual(op, &x, b, bnorm, &mut residual);
             predicted *= at_update / rr_new.sqrt();
             if res <= 0.5 * anchor {
-                anchor = res;
+                longest = longest.max(iterations - anchor_at);
+                (anchor, anchor_at) = (res, iterations);
                 predicted = 1.0;
             }
-            if res <= opts.tol || predicted >= STALLED {
+            match best.as_mut() {
+                Some((least, bx)) if res < *least => {
+                    *least = res;
+                    bx.copy_from_slice(&x);
+                }
+                None => best = Some((res, x.clone())),
+                _ => {}
+            }
+            let stalled = predicted >= STALLED || iterations - anchor_at >= STALL_SPAN * longest;
+            if res <= opts.tol || stalled {
                 true_res = Some(res);
                 break;
             }
@@ -332,10 +352,15 @@ pub fn pcg(
         xpby(&r, rr_new / rr, &mut p);
         rr = rr_new;
     }
-    let relative_residual = match true_res {
+    let mut relative_residual = match true_res {
         Some(t) => t,
         None => true_residual(op, &x, b, bnorm, &mut residual),
     };
+    if let Some((least, bx)) = best {
+        if least < relative_residual {
+            (relative_residual, x) = (least, bx);
+        }
+    }
     let report = CgReport {
         iterations,
         relative_residual,
@@ -347,17 +372,35 @@ pub fn pcg(
 
 /// Bytes of the solver's O(m²) working set, an upper bound: H with the two
 /// 3m×3m matrices of its change of basis (27m²; afterwards H̃ alone, 9m²),
-/// Z and Z·H̃ (6m²), seven CG vectors, the pair factors and the single-precision
-/// H̃ and scratch of the Gauss–Seidel solves.
+/// Z and Z·H̃ (6m²), nine CG vectors (one the best iterate), the pair factors
+/// and the single-precision H̃ and scratch of the Gauss–Seidel solves.
 pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
     let lay = Layout::new(m, symmetric);
-    let doubles = 33 * m * m + 7 * lay.len() + PairPrecond::doubles(lay);
+    let doubles = 33 * m * m + 9 * lay.len() + PairPrecond::doubles(lay);
     doubles as u128 * 8 + Sgs::bytes(m) as u128
 }
 
 /// Identify M, C, K like [`crate::identify::identify`], by preconditioned CG.
 /// Non-convergence is not an error: the report says what was achieved.
+///
+/// Runs on a worker of the current rayon pool (directly if this thread is one):
+/// called from outside the pool, every `rayon::join` of the triangular solves
+/// would be sent into the pool and waited for by a third thread. The whole solve
+/// runs there, not only the iteration, so that its allocations share one malloc
+/// arena (the iteration alone on the worker raised the peak memory at m = 1000 by
+/// 0.11 GB: it could not reuse what the set-up had freed).
 pub fn identify_cg(
+    cols: &Columns,
+    lam: [f64; 3],
+    symmetric: bool,
+    opts: CgOptions,
+    progress: Option<Progress>,
+    par: Par,
+) -> Result<Identified, PodidError> {
+    rayon::scope(|_| identify_cg_here(cols, lam, symmetric, opts, progress, par))
+}
+
+fn identify_cg_here(
     cols: &Columns,
     lam: [f64; 3],
     symmetric: bool,
@@ -381,9 +424,9 @@ pub fn identify_cg(
     let gram_seconds = start.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let q = basis_of(gm.h.as_ref(), par).map_err(PodidError::Invalid)?;
+    let (q, diag) = basis_of(gm.h.as_ref(), par).map_err(PodidError::Invalid)?;
     let basis_seconds = t.elapsed().as_secs_f64();
-    let (ht, bt) = to_basis(gm.h.as_ref(), gm.b.as_ref(), q.as_ref(), par);
+    let (ht, bt) = to_basis(gm.h.as_ref(), gm.b.as_ref(), q.as_ref(), diag, par);
     drop(gm);
     let layout = Layout::new(m, symmetric);
     let pen = scaling.scaled_lam(lam).map(|l| 4.0 * l * l);

@@ -26,6 +26,7 @@ use crate::pairs::{Layout, TILE};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, MatRef, Par};
 use rayon::prelude::*;
 
@@ -82,56 +83,75 @@ fn off_fraction(a: MatRef<f64>) -> f64 {
     }
 }
 
+/// Qᵀ A Q for A (m×m) symmetric (`sign` = 1) or antisymmetric (−1): A Q by one
+/// GEMM, of Qᵀ(A Q) only the lower triangle (a triangular product, half a
+/// GEMM), mirrored with `sign`, so the result is exactly (anti)symmetric.
+fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
+    let m = q.nrows();
+    let mut aq = Mat::zeros(m, m);
+    matmul(aq.as_mut(), Accum::Replace, a, q, 1.0, par);
+    let mut out = Mat::zeros(m, m);
+    triangular::matmul(
+        out.as_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        q.transpose(),
+        BlockStructure::Rectangular,
+        aq.as_ref(),
+        BlockStructure::Rectangular,
+        1.0,
+        par,
+    );
+    for j in 0..m {
+        if sign < 0.0 {
+            out[(j, j)] = 0.0;
+        }
+        for i in 0..j {
+            out[(i, j)] = sign * out[(j, i)];
+        }
+    }
+    out
+}
+
 /// Q: eigenvectors of the sum of the three diagonal blocks of H (3m×3m), in
 /// ascending order; when one eigenbasis leaves too much off their diagonals
 /// ([`JOINT_MIN_OFF`], wide bands) refined by [`joint::refine`] to diagonalise
 /// the three blocks (each scaled to unit trace) together, and ordered by the
-/// frequency of each mode.
-pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<Mat<f64>, String> {
+/// frequency of each mode. Also returns the blocks Qᵀ H_bb Q it formed if Q was
+/// not refined afterwards: [`to_basis`] needs them too (they are 3 of its 5
+/// transforms, about 0.6 of an operator GEMM at m = 1000).
+#[allow(clippy::type_complexity)]
+pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]>), String> {
     let m = h.nrows() / 3;
     let block = |b: usize| h.submatrix(b * m, b * m, m, m);
     let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block(b)[(i, j)]).sum::<f64>());
     let mut q = eigenvectors(sum.as_ref(), par)?;
-    let mut mats: Vec<Mat<f64>> = (0..3)
-        .map(|b| {
+    let diag = [0, 1, 2].map(|b| congruence(block(b), q.as_ref(), 1.0, par));
+    if diag
+        .iter()
+        .all(|a| off_fraction(a.as_ref()) <= JOINT_MIN_OFF)
+    {
+        return Ok((q, Some(diag)));
+    }
+    let mut mats: Vec<Mat<f64>> = diag
+        .into_iter()
+        .enumerate()
+        .map(|(b, a)| {
             let trace: f64 = (0..m).map(|i| block(b)[(i, i)]).sum();
             let scale = if trace > 0.0 { 1.0 / trace } else { 1.0 };
-            let mut sq = Mat::zeros(m, m);
-            matmul(
-                sq.as_mut(),
-                Accum::Replace,
-                block(b),
-                q.as_ref(),
-                scale,
-                par,
-            );
-            let mut qsq = Mat::zeros(m, m);
-            matmul(
-                qsq.as_mut(),
-                Accum::Replace,
-                q.transpose(),
-                sq.as_ref(),
-                1.0,
-                par,
-            );
-            qsq
+            a * faer::Scale(scale)
         })
         .collect();
-    if mats
-        .iter()
-        .any(|a| off_fraction(a.as_ref()) > JOINT_MIN_OFF)
-    {
-        joint::refine(&mut mats, &mut q, JOINT_SWEEPS, par);
-        // order the modes by frequency, (Qᵀ H_KK Q)_kk / (Qᵀ H_CC Q)_kk ~ 1/ω_k²: the
-        // Gauss–Seidel sweeps of [`crate::sgs`] then meet the modes that couple
-        // most in turn (50–150 Hz: 11–14 % fewer iterations at m = 400–1000; on
-        // the 20 % band, where the modes share one frequency, 5 % more)
-        let key = |k: usize| mats[2][(k, k)] / mats[1][(k, k)];
-        let mut order: Vec<usize> = (0..m).collect();
-        order.sort_by(|&a, &b| key(a).total_cmp(&key(b)));
-        q = Mat::from_fn(m, m, |i, j| q[(i, order[j])]);
-    }
-    Ok(q)
+    joint::refine(&mut mats, &mut q, JOINT_SWEEPS, par);
+    // order the modes by frequency, (Qᵀ H_KK Q)_kk / (Qᵀ H_CC Q)_kk ~ 1/ω_k²: the
+    // Gauss–Seidel sweeps of [`crate::sgs`] then meet the modes that couple
+    // most in turn (50–150 Hz: 11–14 % fewer iterations at m = 400–1000; on
+    // the 20 % band, where the modes share one frequency, 5 % more)
+    let key = |k: usize| mats[2][(k, k)] / mats[1][(k, k)];
+    let mut order: Vec<usize> = (0..m).collect();
+    order.sort_by(|&a, &b| key(a).total_cmp(&key(b)));
+    q = Mat::from_fn(m, m, |i, j| q[(i, order[j])]);
+    Ok((q, None))
 }
 
 /// a ↦ a·(I₃⊗Q) for a with 3m columns (one GEMM per block column).
@@ -155,35 +175,27 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
 /// (H̃, B̃) = ((I⊗Q)ᵀ H (I⊗Q), Qᵀ B (I⊗Q)) for H of the structure of
 /// [`crate::gram`]: blocks S4, −T3, −S2 / T3, S2, −T1 / −S2, T1, S0 with S_k
 /// symmetric and T_k antisymmetric. Only the five distinct blocks are
-/// transformed (20m³ flops, not 36m³ for all nine), each made exactly
-/// (anti)symmetric, so H̃ is exactly symmetric.
-pub fn to_basis(h: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, par: Par) -> (Mat<f64>, Mat<f64>) {
+/// transformed (15m³ flops, not 36m³ for all nine), each exactly
+/// (anti)symmetric ([`congruence`]), so H̃ is exactly symmetric; `diag`, if
+/// given, are the three diagonal ones already formed by [`basis_of`] (then 6m³).
+pub fn to_basis(
+    h: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    diag: Option<[Mat<f64>; 3]>,
+    par: Par,
+) -> (Mat<f64>, Mat<f64>) {
     let m = q.nrows();
     let blk = |i: usize, j: usize| h.submatrix(i * m, j * m, m, m);
     debug_assert!((0..m).all(|i| (0..m).all(|j| {
         blk(0, 2)[(i, j)] == -blk(1, 1)[(i, j)] && blk(0, 1)[(i, j)] == -blk(1, 0)[(i, j)]
     })));
-    // Qᵀ A Q, (anti)symmetrised
-    let transform = |a: MatRef<f64>, sign: f64| {
-        let mut aq = Mat::zeros(m, m);
-        matmul(aq.as_mut(), Accum::Replace, a, q, 1.0, par);
-        let mut out = Mat::zeros(m, m);
-        matmul(
-            out.as_mut(),
-            Accum::Replace,
-            q.transpose(),
-            aq.as_ref(),
-            1.0,
-            par,
-        );
-        Mat::from_fn(m, m, |i, j| 0.5 * (out[(i, j)] + sign * out[(j, i)]))
-    };
-    let (s4, s2, s0) = (
-        transform(blk(0, 0), 1.0),
-        transform(blk(1, 1), 1.0),
-        transform(blk(2, 2), 1.0),
+    let [s4, s2, s0] =
+        diag.unwrap_or_else(|| [0, 1, 2].map(|b| congruence(blk(b, b), q, 1.0, par)));
+    let (t3, t1) = (
+        congruence(blk(1, 0), q, -1.0, par),
+        congruence(blk(2, 1), q, -1.0, par),
     );
-    let (t3, t1) = (transform(blk(1, 0), -1.0), transform(blk(2, 1), -1.0));
     let blocks: [[(&Mat<f64>, f64); 3]; 3] = [
         [(&s4, 1.0), (&t3, -1.0), (&s2, -1.0)],
         [(&t3, 1.0), (&s2, 1.0), (&t1, -1.0)],
@@ -245,38 +257,53 @@ fn small_cholesky(a: &mut [f64], n: usize) -> bool {
     floored
 }
 
-/// x ← L⁻¹ x with a packed N×N factor from [`small_cholesky`] (N is a
-/// constant, so the loops unroll: this runs once per pair per solve).
-#[inline(always)]
-pub fn forward<const N: usize>(l: &[f64], x: &mut [f64; N]) {
-    let l = &l[..N * (N + 1) / 2];
-    for i in 0..N {
-        let mut s = x[i];
-        for k in 0..i {
-            s -= l[tri(i, k)] * x[k];
+/// W = L⁻¹ in place, for a packed factor L from [`small_cholesky`] (whose
+/// diagonal already holds 1/L_ii = W_ii), column by column.
+fn invert(l: &mut [f64], n: usize) {
+    let mut w = vec![0.0; l.len()];
+    for j in 0..n {
+        w[tri(j, j)] = l[tri(j, j)];
+        for i in j + 1..n {
+            let s: f64 = (j..i).map(|k| l[tri(i, k)] * w[tri(k, j)]).sum();
+            w[tri(i, j)] = -s * l[tri(i, i)];
         }
-        x[i] = s * l[tri(i, i)];
     }
+    l.copy_from_slice(&w);
 }
 
-/// x ← L⁻ᵀ x, as [`forward`].
+/// x ↦ W x (or Wᵀ x) for a stored inverse factor W = L⁻¹ (packed lower
+/// triangle). Each output is an independent dot product: no chain of
+/// dependent steps as in a substitution with L, which made the penalty mode's
+/// 6×6 pair solves latency-bound (N is a constant, so the loops unroll: this
+/// runs about twice per pair per triangular solve).
 #[inline(always)]
-pub fn backward<const N: usize>(l: &[f64], x: &mut [f64; N]) {
-    let l = &l[..N * (N + 1) / 2];
-    for i in (0..N).rev() {
-        let mut s = x[i];
-        for k in i + 1..N {
-            s -= l[tri(k, i)] * x[k];
+pub fn inv_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+    let w = &w[..N * (N + 1) / 2];
+    let mut out = [0.0; N];
+    if transpose {
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for i in k..N {
+                s += w[tri(i, k)] * x[i];
+            }
+            *o = s;
         }
-        x[i] = s * l[tri(i, i)];
+    } else {
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for k in 0..i + 1 {
+                s += w[tri(i, k)] * x[k];
+            }
+            *o = s;
+        }
     }
+    out
 }
 
-/// Solve L Lᵀ x = r in place with a packed N×N factor from [`small_cholesky`].
+/// Solve L Lᵀ x = r: x = Wᵀ W r.
 #[inline]
-fn small_solve<const N: usize>(l: &[f64], x: &mut [f64; N]) {
-    forward::<N>(l, x);
-    backward::<N>(l, x);
+fn small_solve<const N: usize>(w: &[f64], x: &mut [f64; N]) {
+    *x = inv_mul::<N>(w, &inv_mul::<N>(w, x, false), true);
 }
 
 /// [`small_solve`] of a 3-vector stored in a slice.
@@ -287,48 +314,48 @@ fn solve3(l: &[f64], x: &mut [f64]) {
     x.copy_from_slice(&v);
 }
 
-/// Factor a small SPD block given as its packed lower triangle; if a pivot had
-/// to be floored, also return D − L Lᵀ (packed), the part the factor misses.
+/// Factor a small SPD block given as its packed lower triangle, stored as the
+/// inverse W = L⁻¹ of its Cholesky factor ([`inv_mul`]); if a pivot had to be
+/// floored, also return D − L Lᵀ (packed), the part the factor misses.
 fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
     let mut l = a.clone();
-    if !small_cholesky(&mut l, n) {
-        return (l, None);
-    }
-    let entry = |i: usize, k: usize| {
-        if k == i {
-            1.0 / l[tri(i, i)]
-        } else {
-            l[tri(i, k)]
-        }
-    };
-    let mut delta = a;
-    for i in 0..n {
-        for j in 0..=i {
-            delta[tri(i, j)] -= (0..=j).map(|k| entry(i, k) * entry(j, k)).sum::<f64>();
-        }
-    }
-    (l, Some(delta))
-}
-
-/// x ↦ L x (or Lᵀ x) with a packed factor from [`small_cholesky`].
-#[inline(always)]
-pub fn small_mul<const N: usize>(l: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
-    let mut out = [0.0; N];
-    for i in 0..N {
-        for k in 0..=i {
-            let lik = if k == i {
+    let floored = small_cholesky(&mut l, n).then(|| {
+        let entry = |i: usize, k: usize| {
+            if k == i {
                 1.0 / l[tri(i, i)]
             } else {
                 l[tri(i, k)]
-            };
-            if transpose {
-                out[k] += lik * x[i];
-            } else {
-                out[i] += lik * x[k];
+            }
+        };
+        let mut delta = a;
+        for i in 0..n {
+            for j in 0..=i {
+                delta[tri(i, j)] -= (0..=j).map(|k| entry(i, k) * entry(j, k)).sum::<f64>();
             }
         }
+        delta
+    });
+    invert(&mut l, n);
+    (l, floored)
+}
+
+/// x ↦ L x (or Lᵀ x) from the stored W = L⁻¹, by substitution (for
+/// [`PairPrecond::mul_factor`]; the solves never need it).
+#[inline]
+fn small_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+    let mut z = [0.0; N];
+    if transpose {
+        for i in (0..N).rev() {
+            let s: f64 = (i + 1..N).map(|k| w[tri(k, i)] * z[k]).sum();
+            z[i] = (x[i] - s) / w[tri(i, i)];
+        }
+    } else {
+        for i in 0..N {
+            let s: f64 = (0..i).map(|k| w[tri(i, k)] * z[k]).sum();
+            z[i] = (x[i] - s) / w[tri(i, i)];
+        }
     }
-    out
+    z
 }
 
 /// A pair block whose factor was floored: its coordinates and D − L Lᵀ.
@@ -342,9 +369,9 @@ struct Correction {
 /// preconditioner of [`crate::sgs`] uses as its diagonal.
 pub struct PairPrecond {
     layout: Layout,
-    /// factor of D(j), 6 doubles per j
+    /// W = R⁻¹ for the Cholesky factor R of D(j), 6 doubles per j ([`factor`])
     diag: Vec<f64>,
-    /// factor of the pair block, 6 (symmetric: A) or 21 (6×6) doubles per pair
+    /// W = R⁻¹ of the pair block, 6 (symmetric: A) or 21 (6×6) doubles per pair
     pairs: Vec<f64>,
     /// blocks whose factor had to be floored (degenerate data; usually none)
     corrections: Vec<Correction>,
@@ -462,7 +489,8 @@ impl PairPrecond {
         &self.pairs[width * p..width * p + width]
     }
 
-    /// out = R v (or Rᵀ v) for the block-diagonal Cholesky factor R of D = R Rᵀ.
+    /// out = R v (or Rᵀ v) for the block-diagonal Cholesky factor R of D = R Rᵀ
+    /// (not used by the solves, which need only R⁻¹: a check for tests).
     pub fn mul_factor(&self, v: &[f64], out: &mut [f64], transpose: bool) {
         let lay = self.layout;
         let (vd, vs, vk) = lay.split(v);

@@ -35,7 +35,7 @@
 //! dot products of the leaves read contiguous memory.
 
 use crate::pairs::Layout;
-use crate::precond::{backward, forward, small_mul, PairPrecond};
+use crate::precond::{inv_mul, PairPrecond};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
@@ -187,13 +187,16 @@ impl Sgs {
         backward: bool,
         work: &mut SgsWork,
     ) {
-        self.solve_with(pre, r, y, lower, backward, Ends::Plain, work);
+        self.solve_with(pre, r, y, lower, None, backward, Ends::Plain, work);
     }
 
     /// [`Sgs::solve`] with the per-pair products of Eisenstat's split done in
     /// the leaves (saving passes over the vectors): with R the factor of D,
-    /// the right-hand side is R r if `ends` is [`Ends::FactorIn`], and y is
-    /// written as Rᵀ (y + t) for [`Ends::FactorOut`] (t = 0 if `None`).
+    /// the right-hand side is R r if `ends` is [`Ends::FactorIn`] (then `rty`,
+    /// if given, receives Rᵀ y), and y is written as Rᵀ y + s for
+    /// [`Ends::FactorOut`] (s = 0 if `None`). Only R⁻¹ is used: Rᵀ y of the
+    /// first solve is its intermediate r − R⁻¹ w, so Rᵀ (y₂ + y₁) in a second
+    /// solve is `FactorOut` with s = Rᵀ y₁ from the first.
     #[allow(clippy::too_many_arguments)]
     pub fn solve_with(
         &self,
@@ -201,6 +204,7 @@ impl Sgs {
         r: &[f64],
         y: &mut [f64],
         lower: Option<&mut [f64]>,
+        rty: Option<&mut [f64]>,
         backward: bool,
         ends: Ends,
         work: &mut SgsWork,
@@ -209,6 +213,7 @@ impl Sgs {
         let n = lay.len();
         assert!(r.len() == n && y.len() == n && work.y.len() == 3 * lay.m * lay.m);
         assert!(lower.as_ref().is_none_or(|l| l.len() == n));
+        assert!(rty.as_ref().is_none_or(|l| l.len() == n));
         if let Ends::FactorOut(Some(t)) = ends {
             assert!(t.len() == n);
         }
@@ -223,6 +228,7 @@ impl Sgs {
                 w: work.w.as_mut_ptr(),
                 out: y.as_mut_ptr(),
                 lower: lower.map_or(std::ptr::null_mut(), |l| l.as_mut_ptr()),
+                rty: rty.map_or(std::ptr::null_mut(), |l| l.as_mut_ptr()),
                 order: std::ptr::null_mut(),
             },
             next,
@@ -247,6 +253,7 @@ impl Sgs {
                 w: std::ptr::null_mut(),
                 out: std::ptr::null_mut(),
                 lower: std::ptr::null_mut(),
+                rty: std::ptr::null_mut(),
                 order: &mut order,
             },
             next: &[],
@@ -280,6 +287,8 @@ struct Ptrs {
     w: *mut f32,
     out: *mut f64,
     lower: *mut f64,
+    /// Rᵀ y of a [`Ends::FactorIn`] solve (null if not wanted)
+    rty: *mut f64,
     /// not null: only record the leaves (tile row, tile column) in solve order
     order: *mut Vec<(u32, u32)>,
 }
@@ -484,6 +493,7 @@ impl Solve<'_> {
                 self.r.as_ptr(),
                 self.ptr.out as *const f64,
                 self.ptr.lower,
+                self.ptr.rty,
                 t,
             ] {
                 if !base.is_null() {
@@ -591,7 +601,13 @@ impl Solve<'_> {
                 }
             }
         };
-        // the right-hand side and t (Ends::FactorOut) at coordinate `at`
+        let rty = |at: usize, v: &[f64]| {
+            if !self.ptr.rty.is_null() {
+                // SAFETY: as `lower`
+                unsafe { std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.rty.add(at), v.len()) }
+            }
+        };
+        // the right-hand side and s (Ends::FactorOut) at coordinate `at`
         let rhs = |at: usize| [self.r[at], self.r[at + 1], self.r[at + 2]];
         let t3 = |at: usize| match self.ends {
             Ends::FactorOut(Some(t)) => Some([t[at], t[at + 1], t[at + 2]]),
@@ -630,8 +646,9 @@ impl Solve<'_> {
                 couple(&mut ad, tile_c, &at_c, k, &|l| z[k][l]);
                 let wd = ad.map(|v| v as f64);
                 let at = 3 * c;
-                let (v, o) = block_solve(ends, self.pre.diag_factor(c), rhs(at), wd, t3(at));
+                let (v, o, rv) = block_solve(ends, self.pre.diag_factor(c), rhs(at), wd, t3(at));
                 out(at, &o);
+                rty(at, &rv);
                 lower(at, &wd);
                 x[k][k] = v.map(|s| s as f32);
                 continue;
@@ -666,16 +683,19 @@ impl Solve<'_> {
             let ls = [0, 1, 2].map(|b| (wu[b] as f64 + wl[b] as f64) * RSQRT2);
             let factor = self.pre.pair_factor(p);
             let (upper, low) = if symmetric {
-                let (v, o) = block_solve(ends, factor, rhs(s0), ls, t3(s0));
+                let (v, o, rv) = block_solve(ends, factor, rhs(s0), ls, t3(s0));
                 out(s0, &o);
+                rty(s0, &rv);
                 let y = v.map(|s| (s * RSQRT2) as f32);
                 (y, y)
             } else {
                 let lt = [0, 1, 2].map(|b| (wu[b] as f64 - wl[b] as f64) * RSQRT2);
                 let t6 = t3(s0).zip(t3(t0)).map(|(a, b)| cat(a, b));
-                let (v, o) = block_solve(ends, factor, cat(rhs(s0), rhs(t0)), cat(ls, lt), t6);
+                let (v, o, rv) = block_solve(ends, factor, cat(rhs(s0), rhs(t0)), cat(ls, lt), t6);
                 out(s0, &o[..3]);
                 out(t0, &o[3..]);
+                rty(s0, &rv[..3]);
+                rty(t0, &rv[3..]);
                 lower(t0, &lt);
                 (
                     [0, 1, 2].map(|b| ((v[b] + v[b + 3]) * RSQRT2) as f32),
@@ -705,34 +725,39 @@ impl Solve<'_> {
     }
 }
 
-/// One block of D in a leaf, with R its packed factor (D = R Rᵀ), right-hand
-/// side r and lower terms w: y = D⁻¹(r − w), or D⁻¹(R r − w) for
-/// [`Ends::FactorIn`], and what is written out, y or for [`Ends::FactorOut`]
-/// Rᵀ(y + t). (Written as R⁻ᵀ(r − R⁻¹w) and R⁻¹(r − w) + Rᵀt, which saves
-/// products with R, the iteration of a near-singular test problem no longer
-/// noticed that it had reached the attainable accuracy: the products are kept.)
+/// One block of D in a leaf, with W = R⁻¹ its stored inverse factor (D = R Rᵀ),
+/// right-hand side r and lower terms w: y = D⁻¹(r − w), or D⁻¹(R r − w) for
+/// [`Ends::FactorIn`]; returns y, what is written out (y, or for
+/// [`Ends::FactorOut`] Rᵀ y + s), and Rᵀ y for `FactorIn`. Products with W
+/// only: D⁻¹(R r − w) = Wᵀ(r − W w) with Rᵀ y = r − W w, and Rᵀ D⁻¹(r − w) =
+/// W(r − w). (With R itself these were substitutions, chains of dependent
+/// steps, and the penalty mode's 6×6 blocks made the leaves latency-bound.)
 #[inline(always)]
 fn block_solve<const N: usize>(
     ends: Ends,
     l: &[f64],
     r: [f64; N],
     w: [f64; N],
-    t: Option<[f64; N]>,
-) -> ([f64; N], [f64; N]) {
-    let r = match ends {
-        Ends::FactorIn => small_mul::<N>(l, &r, false),
-        _ => r,
-    };
-    let mut y: [f64; N] = std::array::from_fn(|q| r[q] - w[q]);
-    forward::<N>(l, &mut y);
-    backward::<N>(l, &mut y);
+    s: Option<[f64; N]>,
+) -> ([f64; N], [f64; N], [f64; N]) {
     match ends {
-        Ends::FactorOut(_) => {
-            let t = t.unwrap_or([0.0; N]);
-            let o: [f64; N] = std::array::from_fn(|q| y[q] + t[q]);
-            (y, small_mul::<N>(l, &o, true))
+        Ends::FactorIn => {
+            let ww = inv_mul::<N>(l, &w, false);
+            let rty: [f64; N] = std::array::from_fn(|q| r[q] - ww[q]);
+            let y = inv_mul::<N>(l, &rty, true);
+            (y, y, rty)
         }
-        _ => (y, y),
+        _ => {
+            let d: [f64; N] = std::array::from_fn(|q| r[q] - w[q]);
+            let u = inv_mul::<N>(l, &d, false);
+            let y = inv_mul::<N>(l, &u, true);
+            let o = match (ends, s) {
+                (Ends::FactorOut(_), Some(s)) => std::array::from_fn(|q| u[q] + s[q]),
+                (Ends::FactorOut(_), None) => u,
+                _ => y,
+            };
+            (y, o, u)
+        }
     }
 }
 
@@ -866,20 +891,33 @@ mod tests {
                 let s = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
                 assert!(d <= 1e-12 * s, "symmetric={symmetric}: {d} vs {s}");
             };
-            // FactorIn: the solve of R r
+            // FactorIn: the solve of R r, and Rᵀ y
             let mut rr = vec![0.0; n];
             pre.mul_factor(&r, &mut rr, false);
-            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            let (mut a, mut b, mut rty) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
             sgs.solve(&pre, &rr, &mut a, None, false, &mut work);
-            sgs.solve_with(&pre, &r, &mut b, None, false, Ends::FactorIn, &mut work);
+            let ends = Ends::FactorIn;
+            sgs.solve_with(
+                &pre,
+                &r,
+                &mut b,
+                None,
+                Some(&mut rty),
+                false,
+                ends,
+                &mut work,
+            );
             close(&b, &a);
-            // FactorOut: Rᵀ (y + t)
+            let mut want = vec![0.0; n];
+            pre.mul_factor(&a, &mut want, true);
+            close(&rty, &want);
+            // FactorOut: Rᵀ y + s
             sgs.solve(&pre, &r, &mut a, None, true, &mut work);
-            let sum: Vec<f64> = a.iter().zip(&t).map(|(y, t)| y + t).collect();
-            pre.mul_factor(&sum, &mut a, true);
+            pre.mul_factor(&a, &mut want, true);
+            let sum: Vec<f64> = want.iter().zip(&t).map(|(y, t)| y + t).collect();
             let ends = Ends::FactorOut(Some(&t));
-            sgs.solve_with(&pre, &r, &mut b, None, true, ends, &mut work);
-            close(&b, &a);
+            sgs.solve_with(&pre, &r, &mut b, None, None, true, ends, &mut work);
+            close(&b, &sum);
         }
     }
 
