@@ -311,20 +311,28 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
     )
 
 
+def grid(args: argparse.Namespace, sizes: str) -> list[tuple[str, str, int]]:
+    """(band, mode, m) of every case: the bands, modes and the given sizes."""
+    return [
+        (band, mode, int(m))
+        for band in args.bands.split(",")
+        for mode in args.modes.split(",")
+        for m in sizes.split(",")
+    ]
+
+
 def main_auto(args: argparse.Namespace, me: str) -> str:
     rows = []
-    for band in args.bands.split(","):
-        for mode in args.modes.split(","):
-            for m in [int(x) for x in args.auto_sizes.split(",")]:
-                base = {"kind": "solve", "m": m, "band": band, "mode": mode}
-                d = run_worker(me, {**base, "solver": "direct"})
-                c = run_worker(me, {**base, "solver": "cg"})
-                td, tc = val(d, "t_total"), val(c, "t_total")
-                rows.append([
-                    band, mode, m, val(c, "n"), td, tc, val(c, "iterations"),
-                    td / tc if td and tc else None, val(d, "peak_gb"), val(c, "peak_gb"),
-                ])  # fmt: skip
-                print(f"{band:6s} {mode} m={m:3d}: direct {td} s, cg {tc} s", flush=True)
+    for band, mode, m in grid(args, args.auto_sizes):
+        base = {"kind": "solve", "m": m, "band": band, "mode": mode}
+        d = run_worker(me, {**base, "solver": "direct"})
+        c = run_worker(me, {**base, "solver": "cg"})
+        td, tc = val(d, "t_total"), val(c, "t_total")
+        rows.append([
+            band, mode, m, val(c, "n"), td, tc, val(c, "iterations"),
+            td / tc if td and tc else None, val(d, "peak_gb"), val(c, "peak_gb"),
+        ])  # fmt: skip
+        print(f"{band:6s} {mode} m={m:3d}: direct {td} s, cg {tc} s", flush=True)
     header = [
         "band", "mode", "m", "unknowns", "direct core s", "cg core s", "cg iterations",
         "direct / cg", "direct GB", "cg GB",
@@ -338,16 +346,14 @@ def main_auto(args: argparse.Namespace, me: str) -> str:
 
 def main_stall(args: argparse.Namespace, me: str) -> str:
     rows = []
-    for band in args.bands.split(","):
-        for mode in args.modes.split(","):
-            for m in [int(x) for x in args.stall_sizes.split(",")]:
-                case = {"kind": "stall", "m": m, "band": band, "mode": mode}
-                r = run_worker(me, {**case, "max_iter": args.stall_max_iter})
-                rows.append([
-                    band, mode, m, val(r, "iterations"), val(r, "residual"), val(r, "seconds"),
-                    val(r, "conv_iterations"), val(r, "conv_residual"),
-                ])  # fmt: skip
-                print(f"{band:6s} {mode} m={m:3d}: {r}", flush=True)
+    for band, mode, m in grid(args, args.stall_sizes):
+        case = {"kind": "stall", "m": m, "band": band, "mode": mode}
+        r = run_worker(me, {**case, "max_iter": args.stall_max_iter})
+        rows.append([
+            band, mode, m, val(r, "iterations"), val(r, "residual"), val(r, "seconds"),
+            val(r, "conv_iterations"), val(r, "conv_residual"),
+        ])  # fmt: skip
+        print(f"{band:6s} {mode} m={m:3d}: {r}", flush=True)
     header = [
         "band", "mode", "m", "iterations (tol 1e-300)", "true residual", "time s",
         "iterations (default tol)", "residual (default tol)",
