@@ -1122,6 +1122,15 @@ mod tests {
         }
     }
 
+    /// `x` with every entry off by up to `rel` (times 2), kept symmetric.
+    fn perturbed(x: &[Mat<f64>; 3], rel: f64, rng: &mut Lcg) -> [Mat<f64>; 3] {
+        x.clone().map(|x| {
+            let m = x.nrows();
+            let d = Mat::from_fn(m, m, |_, _| rel * rng.next());
+            Mat::from_fn(m, m, |i, j| x[(i, j)] * (1.0 + d[(i, j)] + d[(j, i)]))
+        })
+    }
+
     /// A stable symmetric system of order m (M, K ≻ 0, C ≻ 0), O(1) entries.
     fn system(m: usize, rng: &mut Lcg) -> [Mat<f64>; 3] {
         let spd = |rng: &mut Lcg, shift: f64| {
@@ -1648,10 +1657,7 @@ mod tests {
             m,
             p,
         };
-        let start = truth.clone().map(|x| {
-            let d = Mat::from_fn(m, m, |_, _| 0.05 * rng.next());
-            Mat::from_fn(m, m, |i, j| x[(i, j)] * (1.0 + d[(i, j)] + d[(j, i)]))
-        });
+        let start = perturbed(&truth, 0.05, &mut rng);
         for solver in [StepKind::Dense, StepKind::MatrixFree] {
             let opts = OeOptions {
                 solver,
@@ -1698,11 +1704,7 @@ mod tests {
                 m,
                 p,
             };
-            // start 5 % off in every entry, kept symmetric
-            let start = truth.clone().map(|x| {
-                let d = Mat::from_fn(m, m, |_, _| 0.05 * rng.next());
-                Mat::from_fn(m, m, |i, j| x[(i, j)] * (1.0 + d[(i, j)] + d[(j, i)]))
-            });
+            let start = perturbed(&truth, 0.05, &mut rng);
             for solver in [StepKind::Dense, StepKind::MatrixFree] {
                 let opts = OeOptions {
                     log_diagonal,
