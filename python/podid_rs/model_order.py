@@ -227,7 +227,7 @@ def _refine_quietly(start, U_n, F_n, omega, R, max_iter, threads):
         warnings.simplefilter("ignore", StartWarning)
         warnings.simplefilter("ignore", ConvergenceWarning)
         return refine(start, U_n, F_n, omega, basis=R, weights="relative",
-                      max_iter=max_iter, threads=threads)
+                      max_iter=max_iter, threads=threads, curvature=True)
 
 
 def sweep_orders(
@@ -410,7 +410,7 @@ def final_fit(
             warnings.simplefilter("ignore", ConvergenceWarning)  # the summary states the stop
             return refine(
                 model, U_n, F_n, omega, basis=R, weights="relative", objective=objective,
-                max_iter=max_iter, threads=threads, progress=progress,
+                max_iter=max_iter, threads=threads, progress=progress, curvature=True,
             )  # fmt: skip
 
     model = refit(start, "complex")

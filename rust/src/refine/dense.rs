@@ -11,6 +11,7 @@
 //! symmetrised N_Z, plus the rank-one terms of the floor ε tr(L Lᵀ) I.
 //! Memory: the moments (m(m+1)/2 × 5m(m+1)/2, twice), O(m⁴), and N_θ.
 
+use super::curvature::Curvature;
 use super::lines::{line_pieces, response_weight, terms_per_line};
 use super::{lines, n_per_block, tri, Evaluation, Params, Problem, StepSolver, CONDITION_FLOOR};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -36,6 +37,30 @@ pub(crate) struct Clock {
 pub(crate) struct DenseNormal {
     nth: Vec<f64>,
     clock: Clock,
+    /// N_θ + H and H, H the parametrisation's curvature ([`super::curvature`]), when
+    /// allowed
+    nth_curv: Option<Vec<f64>>,
+    curv: Option<Curvature>,
+    curvature: bool,
+    /// whether the next step uses N_θ + H
+    use_curv: bool,
+}
+
+impl DenseNormal {
+    pub(crate) fn with_curvature(curvature: bool) -> Self {
+        DenseNormal {
+            curvature,
+            ..Default::default()
+        }
+    }
+
+    /// The matrix of the next step: N_θ, or N_θ + H.
+    fn current(&self) -> &[f64] {
+        match (&self.nth_curv, self.use_curv) {
+            (Some(full), true) => full,
+            _ => &self.nth,
+        }
+    }
 }
 
 impl StepSolver for DenseNormal {
@@ -47,7 +72,16 @@ impl StepSolver for DenseNormal {
         ev: &Evaluation,
         par: Par,
     ) -> Vec<f64> {
-        let (nth, g) = normal_equations(pb, params, l, ev, par, &mut self.clock);
+        let (nth, g, gz) = normal_equations(pb, params, l, ev, par, &mut self.clock);
+        self.curv = match self.curvature {
+            true => Curvature::new(params, l, &gz),
+            false => None,
+        };
+        self.nth_curv = self.curv.as_ref().map(|cv| {
+            let mut full = nth.clone();
+            cv.dense_add(&mut full);
+            full
+        });
         self.nth = nth;
         g
     }
@@ -68,15 +102,21 @@ impl StepSolver for DenseNormal {
         _cancelled: &mut dyn FnMut() -> bool,
     ) -> Option<Vec<f64>> {
         let n = g.len();
-        let dmax = (0..n).map(|i| self.nth[i * n + i]).fold(0.0f64, f64::max);
+        let nth = self.current();
+        let dmax = (0..n).map(|i| nth[i * n + i]).fold(0.0f64, f64::max);
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
-        damped_step(&self.nth, g, mu, floor, par)
+        damped_step(nth, g, mu, floor, par)
+    }
+
+    fn set_curvature(&mut self, on: bool) {
+        self.use_curv = on;
     }
 
     fn quad(&mut self, x: &[f64], _par: Par) -> f64 {
         let n = x.len();
+        let nth = self.current();
         (0..n)
-            .map(|j| x[j] * (0..n).map(|i| self.nth[j * n + i] * x[i]).sum::<f64>())
+            .map(|j| x[j] * (0..n).map(|i| nth[j * n + i] * x[i]).sum::<f64>())
             .sum()
     }
 }
@@ -339,8 +379,8 @@ fn block_pair(
     out
 }
 
-/// Gauss–Newton matrix N_θ (column-major, n×n) and gradient g_θ = Jᵀr at the
-/// current point (scaled units).
+/// Gauss–Newton matrix N_θ (column-major, n×n), gradient g_θ = Jᵀr and the
+/// Z-gradient (m × 3m, [`lines::gradient_z`]) at the current point (scaled units).
 pub(crate) fn normal_equations(
     pb: &Problem,
     params: &Params,
@@ -348,7 +388,7 @@ pub(crate) fn normal_equations(
     ev: &Evaluation,
     par: Par,
     clock: &mut Clock,
-) -> (Vec<f64>, Vec<f64>) {
+) -> (Vec<f64>, Vec<f64>, Mat<f64>) {
     let (mo, gz) = moments(pb, ev, par, clock);
     let t0 = Instant::now();
     let nb = n_per_block(params.m);
@@ -368,7 +408,7 @@ pub(crate) fn normal_equations(
     }
     let g = lines::theta_gradient(params, l, &gz);
     clock.congruence += t0.elapsed().as_secs_f64();
-    (nth, g)
+    (nth, g, gz)
 }
 
 /// Solve (N + μ diag(N)) δ = −g by Cholesky; None if it is not positive definite.

@@ -27,6 +27,7 @@
 //! with a = Lᵀx and X̄_jj = |x_j|² summed over the term's columns (the floor's
 //! O(ε) terms are left out of the damping), s_jk = L_jj on a logged diagonal.
 
+use super::curvature::Curvature;
 use super::lines::{self, line_pieces, response_weight, terms_per_line};
 use super::{
     n_per_block, solve_lines, solve_lines_adjoint, tri, Evaluation, Params, Problem, StepSolver,
@@ -91,6 +92,12 @@ pub(crate) struct MatrixFree {
     t_products: f64,
     /// the CG iteration cap (after which the current iterate is the step)
     max_cg: usize,
+    /// add the parametrisation's curvature ([`super::curvature`]), and it at this point
+    curvature: bool,
+    curv: Option<Curvature>,
+    curv_diag: Vec<f64>,
+    /// whether the next step (and its products) uses it
+    use_curv: bool,
 }
 
 impl MatrixFree {
@@ -122,7 +129,16 @@ impl MatrixFree {
             t_diagonal: 0.0,
             t_products: 0.0,
             max_cg,
+            curvature: false,
+            curv: None,
+            curv_diag: Vec::new(),
+            use_curv: false,
         }
+    }
+
+    pub(crate) fn with_curvature(mut self, curvature: bool) -> Self {
+        self.curvature = curvature;
+        self
     }
 
     /// diag(N_θ) at the prepared point.
@@ -273,6 +289,9 @@ impl MatrixFree {
                 |r, c| rz[(b * m + r, c)],
                 &mut out[b * nb..(b + 1) * nb],
             );
+        }
+        if let (Some(cv), true) = (&self.curv, self.use_curv) {
+            cv.apply_add(v, &mut out);
         }
         self.products += 1;
         self.t_products += t0.elapsed().as_secs_f64();
@@ -554,6 +573,15 @@ impl StepSolver for MatrixFree {
         }
         let gz = lines::gradient_z(pb, ev, &a, par);
         let grad = lines::theta_gradient(params, l, &gz);
+        self.curv = if self.curvature {
+            Curvature::new(params, l, &gz)
+        } else {
+            None
+        };
+        self.curv_diag = match &self.curv {
+            Some(cv) => cv.diagonal(),
+            None => Vec::new(),
+        };
         if self.use_gram || self.prepares.is_multiple_of(DIAG_REFRESH) {
             let t1 = Instant::now();
             let mut gram = std::mem::take(&mut self.gram);
@@ -578,15 +606,25 @@ impl StepSolver for MatrixFree {
         cancelled: &mut dyn FnMut() -> bool,
     ) -> Option<Vec<f64>> {
         let n = g.len();
-        let dmax = self.diag.iter().fold(0.0f64, |a, v| a.max(*v));
+        // diag(N + H): the Gauss–Newton diagonal and the parametrisation's curvature
+        let diag: Vec<f64> = if self.curv_diag.is_empty() || !self.use_curv {
+            self.diag.clone()
+        } else {
+            self.diag
+                .iter()
+                .zip(&self.curv_diag)
+                .map(|(a, b)| a + b)
+                .collect()
+        };
+        let dmax = diag.iter().fold(0.0f64, |a, v| a.max(*v));
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
-        let damp: Vec<f64> = self.diag.iter().map(|d| mu * d.max(floor)).collect();
+        let damp: Vec<f64> = diag.iter().map(|d| mu * d.max(floor)).collect();
         // preconditioner: N + μD restricted to the 3×3 blocks (M, C, K at one (j, k)),
         // inverted per block (Jacobi where a block is not numerically positive)
         let nb = n / 3;
         let pre: Vec<[f64; 6]> = (0..nb)
             .map(|t| {
-                let e = |b: usize| self.diag[b * nb + t].max(floor) + damp[b * nb + t];
+                let e = |b: usize| diag[b * nb + t].max(floor) + damp[b * nb + t];
                 let a = [
                     [e(0), self.blocks[3 * nb + t], self.blocks[4 * nb + t]],
                     [0.0, e(1), self.blocks[5 * nb + t]],
@@ -661,6 +699,10 @@ impl StepSolver for MatrixFree {
         let xdx: f64 = x.iter().zip(&damp).map(|(a, e)| a * a * e).sum();
         self.last = Some((x.clone(), xax - xdx));
         Some(x)
+    }
+
+    fn set_curvature(&mut self, on: bool) {
+        self.use_curv = on;
     }
 
     fn quad(&mut self, step: &[f64], par: Par) -> f64 {
