@@ -733,24 +733,24 @@ impl Solve<'_> {
 /// W(r − w). (With R itself these were substitutions, chains of dependent
 /// steps, and the penalty mode's 6×6 blocks made the leaves latency-bound.)
 #[inline(always)]
-fn block_solve<const N: usize>(
+fn block_solve<const N: usize, T: Copy + Into<f64>>(
     ends: Ends,
-    l: &[f64],
+    l: &[T],
     r: [f64; N],
     w: [f64; N],
     s: Option<[f64; N]>,
 ) -> ([f64; N], [f64; N], [f64; N]) {
     match ends {
         Ends::FactorIn => {
-            let ww = inv_mul::<N>(l, &w, false);
+            let ww = inv_mul::<N, T>(l, &w, false);
             let rty: [f64; N] = std::array::from_fn(|q| r[q] - ww[q]);
-            let y = inv_mul::<N>(l, &rty, true);
+            let y = inv_mul::<N, T>(l, &rty, true);
             (y, y, rty)
         }
         _ => {
             let d: [f64; N] = std::array::from_fn(|q| r[q] - w[q]);
-            let u = inv_mul::<N>(l, &d, false);
-            let y = inv_mul::<N>(l, &u, true);
+            let u = inv_mul::<N, T>(l, &d, false);
+            let y = inv_mul::<N, T>(l, &u, true);
             let o = match (ends, s) {
                 (Ends::FactorOut(_), Some(s)) => std::array::from_fn(|q| u[q] + s[q]),
                 (Ends::FactorOut(_), None) => u,
