@@ -551,7 +551,8 @@ mod tests {
     }
 
     /// When every block of H is diagonal in one basis the preconditioner is the
-    /// inverse: one iteration.
+    /// inverse up to the single-precision rounding of its pair factors: one
+    /// iteration reaches ~1e-7, a second (after the true-residual update) tol.
     #[test]
     fn preconditioner_is_exact_for_simultaneously_diagonal_blocks() {
         let m = 5;
@@ -582,7 +583,7 @@ mod tests {
             layout.pack(rhs_z.as_ref(), &mut b);
             let (_, rep) = pcg(&mut op, &pre, &sgs, &b, OPTS, &mut None).unwrap();
             assert!(
-                rep.converged && rep.iterations == 1,
+                rep.converged && rep.iterations <= 2,
                 "{symmetric} {pen:?}: {rep:?}"
             );
         }

@@ -178,11 +178,11 @@ impl Layout {
 
     /// Split a pair-major array (`width` values per pair) into the runs of its
     /// tile columns.
-    pub fn split_by_tile_column<'a>(
+    pub fn split_by_tile_column<'a, T>(
         &self,
-        mut a: &'a mut [f64],
+        mut a: &'a mut [T],
         width: usize,
-    ) -> Vec<&'a mut [f64]> {
+    ) -> Vec<&'a mut [T]> {
         let nt = self.n_tiles();
         let mut out = Vec::with_capacity(nt);
         for tk in 0..nt {

@@ -260,7 +260,8 @@ fn small_cholesky(a: &mut [f64], n: usize) -> bool {
 /// W = L⁻¹ in place, for a packed factor L from [`small_cholesky`] (whose
 /// diagonal already holds 1/L_ii = W_ii), column by column.
 fn invert(l: &mut [f64], n: usize) {
-    let mut w = vec![0.0; l.len()];
+    let mut w = [0.0; MAX_PACKED];
+    let w = &mut w[..l.len()];
     for j in 0..n {
         w[tri(j, j)] = l[tri(j, j)];
         for i in j + 1..n {
@@ -268,7 +269,7 @@ fn invert(l: &mut [f64], n: usize) {
             w[tri(i, j)] = -s * l[tri(i, i)];
         }
     }
-    l.copy_from_slice(&w);
+    l.copy_from_slice(w);
 }
 
 /// x ↦ W x (or Wᵀ x) for a stored inverse factor W = L⁻¹ (packed lower
@@ -277,14 +278,18 @@ fn invert(l: &mut [f64], n: usize) {
 /// 6×6 pair solves latency-bound (N is a constant, so the loops unroll: this
 /// runs about twice per pair per triangular solve).
 #[inline(always)]
-pub fn inv_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+pub fn inv_mul<const N: usize, T: Copy + Into<f64>>(
+    w: &[T],
+    x: &[f64; N],
+    transpose: bool,
+) -> [f64; N] {
     let w = &w[..N * (N + 1) / 2];
     let mut out = [0.0; N];
     if transpose {
         for (k, o) in out.iter_mut().enumerate() {
             let mut s = 0.0;
             for i in k..N {
-                s += w[tri(i, k)] * x[i];
+                s += w[tri(i, k)].into() * x[i];
             }
             *o = s;
         }
@@ -292,7 +297,7 @@ pub fn inv_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64
         for (i, o) in out.iter_mut().enumerate() {
             let mut s = 0.0;
             for k in 0..i + 1 {
-                s += w[tri(i, k)] * x[k];
+                s += w[tri(i, k)].into() * x[k];
             }
             *o = s;
         }
@@ -302,24 +307,26 @@ pub fn inv_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64
 
 /// Solve L Lᵀ x = r: x = Wᵀ W r.
 #[inline]
-fn small_solve<const N: usize>(w: &[f64], x: &mut [f64; N]) {
-    *x = inv_mul::<N>(w, &inv_mul::<N>(w, x, false), true);
+fn small_solve<const N: usize, T: Copy + Into<f64>>(w: &[T], x: &mut [f64; N]) {
+    *x = inv_mul::<N, T>(w, &inv_mul::<N, T>(w, x, false), true);
 }
 
 /// [`small_solve`] of a 3-vector stored in a slice.
 #[inline]
-fn solve3(l: &[f64], x: &mut [f64]) {
+fn solve3<T: Copy + Into<f64>>(l: &[T], x: &mut [f64]) {
     let mut v = [x[0], x[1], x[2]];
-    small_solve::<3>(l, &mut v);
+    small_solve::<3, T>(l, &mut v);
     x.copy_from_slice(&v);
 }
 
 /// Factor a small SPD block given as its packed lower triangle, stored as the
 /// inverse W = L⁻¹ of its Cholesky factor ([`inv_mul`]); if a pivot had to be
 /// floored, also return D − L Lᵀ (packed), the part the factor misses.
-fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
-    let mut l = a.clone();
-    let floored = small_cholesky(&mut l, n).then(|| {
+fn factor(a: &[f64], n: usize) -> (Packed, Option<Vec<f64>>) {
+    let len = a.len();
+    let mut l = [0.0; MAX_PACKED];
+    l[..len].copy_from_slice(a);
+    let floored = small_cholesky(&mut l[..len], n).then(|| {
         let entry = |i: usize, k: usize| {
             if k == i {
                 1.0 / l[tri(i, i)]
@@ -327,7 +334,7 @@ fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
                 l[tri(i, k)]
             }
         };
-        let mut delta = a;
+        let mut delta = a.to_vec();
         for i in 0..n {
             for j in 0..=i {
                 delta[tri(i, j)] -= (0..=j).map(|k| entry(i, k) * entry(j, k)).sum::<f64>();
@@ -335,28 +342,43 @@ fn factor(a: Vec<f64>, n: usize) -> (Vec<f64>, Option<Vec<f64>>) {
         }
         delta
     });
-    invert(&mut l, n);
+    invert(&mut l[..len], n);
     (l, floored)
 }
 
 /// x ↦ L x (or Lᵀ x) from the stored W = L⁻¹, by substitution (for
 /// [`PairPrecond::mul_factor`]; the solves never need it).
 #[inline]
-fn small_mul<const N: usize>(w: &[f64], x: &[f64; N], transpose: bool) -> [f64; N] {
+fn small_mul<const N: usize, T: Copy + Into<f64>>(
+    w: &[T],
+    x: &[f64; N],
+    transpose: bool,
+) -> [f64; N] {
+    let w = |i: usize| -> f64 { w[i].into() };
     let mut z = [0.0; N];
     if transpose {
         for i in (0..N).rev() {
-            let s: f64 = (i + 1..N).map(|k| w[tri(k, i)] * z[k]).sum();
-            z[i] = (x[i] - s) / w[tri(i, i)];
+            let s: f64 = (i + 1..N).map(|k| w(tri(k, i)) * z[k]).sum();
+            z[i] = (x[i] - s) / w(tri(i, i));
         }
     } else {
         for i in 0..N {
-            let s: f64 = (0..i).map(|k| w[tri(i, k)] * z[k]).sum();
-            z[i] = (x[i] - s) / w[tri(i, i)];
+            let s: f64 = (0..i).map(|k| w(tri(i, k)) * z[k]).sum();
+            z[i] = (x[i] - s) / w(tri(i, i));
         }
     }
     z
 }
+
+/// Storage of the pairs' inverse factors W = R⁻¹. Single precision: they are
+/// the bulk of the bytes the triangular solves stream (21 values per pair in
+/// the penalty mode, as many as its two packed vectors of 6), and rounding W
+/// to f32 perturbs each pair block D by a relative ~1e-7 in its own scaling
+/// (the entries of a triangular inverse factor keep their relative precision
+/// under diagonal scaling, so a penalty 10¹⁵ above the data does not spill
+/// into the data part) — the size of the single-precision couplings' error,
+/// which the double-precision true residual corrects in the same way.
+pub type PairFactor = f32;
 
 /// A pair block whose factor was floored: its coordinates and D − L Lᵀ.
 struct Correction {
@@ -371,18 +393,29 @@ pub struct PairPrecond {
     layout: Layout,
     /// W = R⁻¹ for the Cholesky factor R of D(j), 6 doubles per j ([`factor`])
     diag: Vec<f64>,
-    /// W = R⁻¹ of the pair block, 6 (symmetric: A) or 21 (6×6) doubles per pair
-    pairs: Vec<f64>,
+    /// W = R⁻¹ of the pair block, 6 (symmetric: A) or 21 (6×6) values per
+    /// pair, in single precision (see [`PairFactor`])
+    pairs: Vec<PairFactor>,
     /// blocks whose factor had to be floored (degenerate data; usually none)
     corrections: Vec<Correction>,
 }
 
-/// Packed lower triangle of the n×n matrix f(i, j).
-fn packed(n: usize, f: &dyn Fn(usize, usize) -> f64) -> Vec<f64> {
-    (0..n)
-        .flat_map(|i| (0..=i).map(move |j| (i, j)))
-        .map(|(i, j)| f(i, j))
-        .collect()
+/// Values of a packed lower triangle of at most 6×6 (the first n(n+1)/2 used):
+/// on the stack, since the set-up factors one per pair (500 000 at m = 1000:
+/// with three heap vectors per pair the penalty mode's factors took 0.22 s,
+/// on the stack 0.17 s, load 5).
+const MAX_PACKED: usize = 21;
+type Packed = [f64; MAX_PACKED];
+
+/// Packed lower triangle of the n×n matrix f(i, j) (first n(n+1)/2 values).
+fn packed(n: usize, f: &dyn Fn(usize, usize) -> f64) -> Packed {
+    let mut out = [0.0; MAX_PACKED];
+    for i in 0..n {
+        for j in 0..=i {
+            out[tri(i, j)] = f(i, j);
+        }
+    }
+    out
 }
 
 impl PairPrecond {
@@ -404,15 +437,15 @@ impl PairPrecond {
         let mut corrections = Vec::new();
         let mut diag = Vec::with_capacity(6 * m);
         for (j, dk) in d.iter().enumerate() {
-            let (l, delta) = factor(packed(3, &|i, c| dk[i][c]), 3);
-            diag.extend(l);
+            let (l, delta) = factor(&packed(3, &|i, c| dk[i][c])[..6], 3);
+            diag.extend(&l[..6]);
             if let Some(delta) = delta {
                 let coords = (0..3).map(|b| 3 * j + b).collect();
                 corrections.push(Correction { coords, delta });
             }
         }
         let width = if layout.symmetric { 6 } else { 21 };
-        let mut pairs = vec![0.0; width * n_pairs];
+        let mut pairs: Vec<PairFactor> = vec![0.0; width * n_pairs];
         let cols = layout.split_by_tile_column(&mut pairs, width);
         let floored: Vec<Correction> = cols
             .into_par_iter()
@@ -426,7 +459,7 @@ impl PairPrecond {
                         let out = &mut run[width * (p - first)..width * (p - first + 1)];
                         let a = |i: usize, c: usize| 0.5 * (d[j][i][c] + d[k][i][c]);
                         let (block, delta) = if layout.symmetric {
-                            factor(packed(3, &|i, c| a(i, c)), 3)
+                            factor(&packed(3, &|i, c| a(i, c))[..6], 3)
                         } else {
                             let cc = |i: usize, c: usize| 0.5 * (d[k][i][c] - d[j][i][c]);
                             let full = |i: usize, c: usize| match (i < 3, c < 3) {
@@ -437,9 +470,11 @@ impl PairPrecond {
                                     a(i - 3, c - 3) + if i == c { pen[i - 3] } else { 0.0 }
                                 }
                             };
-                            factor(packed(6, &full), 6)
+                            factor(&packed(6, &full)[..21], 6)
                         };
-                        out.copy_from_slice(&block);
+                        for (o, v) in out.iter_mut().zip(&block) {
+                            *o = *v as PairFactor;
+                        }
                         if let Some(delta) = delta {
                             let sigma = (0..3).map(|b| 3 * m + 3 * p + b);
                             let tau = (0..3).map(|b| 3 * m + 3 * n_pairs + 3 * p + b);
@@ -465,7 +500,7 @@ impl PairPrecond {
     }
 
     /// The packed factors of the pairs p_lo..p_hi.
-    pub fn pair_factors(&self, p_lo: usize, p_hi: usize) -> &[f64] {
+    pub fn pair_factors(&self, p_lo: usize, p_hi: usize) -> &[PairFactor] {
         let width = if self.layout.symmetric { 6 } else { 21 };
         &self.pairs[width * p_lo..width * p_hi]
     }
@@ -484,7 +519,7 @@ impl PairPrecond {
     /// The packed factor of the block of pair p: 3×3 (exact-symmetric mode)
     /// or 6×6 on (σ, τ) (penalty mode).
     #[inline]
-    pub fn pair_factor(&self, p: usize) -> &[f64] {
+    pub fn pair_factor(&self, p: usize) -> &[PairFactor] {
         let width = if self.layout.symmetric { 6 } else { 21 };
         &self.pairs[width * p..width * p + width]
     }
@@ -500,7 +535,7 @@ impl PairPrecond {
             .zip(vd.chunks_exact(3))
             .zip(self.diag.chunks_exact(6))
         {
-            o.copy_from_slice(&small_mul::<3>(l, &[x[0], x[1], x[2]], transpose));
+            o.copy_from_slice(&small_mul::<3, _>(l, &[x[0], x[1], x[2]], transpose));
         }
         const CH: usize = 1024;
         if lay.symmetric {
@@ -510,7 +545,7 @@ impl PairPrecond {
                 .for_each(|((os, vs), ls)| {
                     let it = os.chunks_exact_mut(3).zip(vs.chunks_exact(3));
                     for ((o, x), l) in it.zip(ls.chunks_exact(6)) {
-                        o.copy_from_slice(&small_mul::<3>(l, &[x[0], x[1], x[2]], transpose));
+                        o.copy_from_slice(&small_mul::<3, _>(l, &[x[0], x[1], x[2]], transpose));
                     }
                 });
         } else {
@@ -523,7 +558,7 @@ impl PairPrecond {
                     let ins = vs.chunks_exact(3).zip(vk.chunks_exact(3));
                     for (((s, t), (x, y)), l) in outs.zip(ins).zip(ls.chunks_exact(21)) {
                         let v6 = [x[0], x[1], x[2], y[0], y[1], y[2]];
-                        let r = small_mul::<6>(l, &v6, transpose);
+                        let r = small_mul::<6, _>(l, &v6, transpose);
                         s.copy_from_slice(&r[..3]);
                         t.copy_from_slice(&r[3..]);
                     }
@@ -549,9 +584,11 @@ impl PairPrecond {
         }
     }
 
-    /// Doubles held by the factors (for the memory estimate).
+    /// Doubles held by the factors (for the memory estimate; the pairs' single
+    /// precision values count half, rounded up).
     pub fn doubles(layout: Layout) -> usize {
-        6 * layout.m + if layout.symmetric { 6 } else { 21 } * layout.n_pairs()
+        let pair_values = if layout.symmetric { 6 } else { 21 } * layout.n_pairs();
+        6 * layout.m + (pair_values * std::mem::size_of::<PairFactor>()).div_ceil(8)
     }
 
     /// z = P⁻¹ r.
@@ -578,7 +615,7 @@ impl PairPrecond {
                     let it = xs.chunks_exact_mut(3).zip(xk.chunks_exact_mut(3));
                     for ((s, t), l) in it.zip(ls.chunks_exact(21)) {
                         let mut x = [s[0], s[1], s[2], t[0], t[1], t[2]];
-                        small_solve::<6>(l, &mut x);
+                        small_solve::<6, _>(l, &mut x);
                         s.copy_from_slice(&x[..3]);
                         t.copy_from_slice(&x[3..]);
                     }

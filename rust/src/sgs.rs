@@ -69,6 +69,9 @@ pub struct Sgs {
     par: Par,
     /// products of at least this many flops are cut in halves run as rayon tasks
     pub split_flops: f64,
+    /// the leaves may run their AVX2 build where the CPU has it (tests turn this
+    /// off to compare the two builds)
+    pub simd: bool,
     /// for each leaf (tile row, tile column) of the forward [0] and backward [1]
     /// solves, the leaf that follows it in the sequential solve order, packed as
     /// (row << 16) | column ([`NO_LEAF`] for the last); filled on first use
@@ -164,6 +167,7 @@ impl Sgs {
             tiles,
             par,
             split_flops: SPLIT_FLOPS,
+            simd: true,
             next: Default::default(),
         }
     }
@@ -520,11 +524,30 @@ impl Solve<'_> {
         }
     }
 
+    /// [`Solve::leaf_body`], compiled for AVX2 where the CPU has it (the crate
+    /// is built for baseline x86-64, SSE2): the same arithmetic (no fused
+    /// multiply-adds are formed), in wider registers.
+    fn leaf(&self, ri: Modes, rc: Modes) {
+        #[cfg(target_arch = "x86_64")]
+        if self.sgs.simd && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2 (checked above)
+            return unsafe { self.leaf_avx2(ri, rc) };
+        }
+        self.leaf_body(ri, rc)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn leaf_avx2(&self, ri: Modes, rc: Modes) {
+        self.leaf_body(ri, rc)
+    }
+
     /// Entry by entry: the pairs (i, c), i in `ri`, c in `rc`, `ri` wholly
     /// before `rc`, or (`ri` = `rc`) the diagonal block: pairs i before c and
     /// the diagonal entries. Both ranges are tiles. Local indices count in solve
     /// order; what the leaf touches of Y and W is copied into small arrays.
-    fn leaf(&self, ri: Modes, rc: Modes) {
+    #[inline(always)]
+    fn leaf_body(&self, ri: Modes, rc: Modes) {
         if !self.ptr.order.is_null() {
             // SAFETY: only [`Sgs::leaf_order`] sets it, sequentially, to its own vector
             unsafe { (*self.ptr.order).push(((ri.lo / LEAF) as u32, (rc.lo / LEAF) as u32)) };
@@ -733,24 +756,24 @@ impl Solve<'_> {
 /// W(r − w). (With R itself these were substitutions, chains of dependent
 /// steps, and the penalty mode's 6×6 blocks made the leaves latency-bound.)
 #[inline(always)]
-fn block_solve<const N: usize>(
+fn block_solve<const N: usize, T: Copy + Into<f64>>(
     ends: Ends,
-    l: &[f64],
+    l: &[T],
     r: [f64; N],
     w: [f64; N],
     s: Option<[f64; N]>,
 ) -> ([f64; N], [f64; N], [f64; N]) {
     match ends {
         Ends::FactorIn => {
-            let ww = inv_mul::<N>(l, &w, false);
+            let ww = inv_mul::<N, T>(l, &w, false);
             let rty: [f64; N] = std::array::from_fn(|q| r[q] - ww[q]);
-            let y = inv_mul::<N>(l, &rty, true);
+            let y = inv_mul::<N, T>(l, &rty, true);
             (y, y, rty)
         }
         _ => {
             let d: [f64; N] = std::array::from_fn(|q| r[q] - w[q]);
-            let u = inv_mul::<N>(l, &d, false);
-            let y = inv_mul::<N>(l, &u, true);
+            let u = inv_mul::<N, T>(l, &d, false);
+            let y = inv_mul::<N, T>(l, &u, true);
             let o = match (ends, s) {
                 (Ends::FactorOut(_), Some(s)) => std::array::from_fn(|q| u[q] + s[q]),
                 (Ends::FactorOut(_), None) => u,
@@ -846,7 +869,8 @@ mod tests {
         }
     }
 
-    /// The solves do the same arithmetic on any number of threads.
+    /// The solves do the same arithmetic on any number of threads, with either
+    /// build of the leaves.
     #[test]
     fn solves_do_not_depend_on_the_thread_count() {
         let m = 9 * LEAF + 5;
@@ -858,15 +882,21 @@ mod tests {
             sgs.fork = 2 * LEAF;
             sgs.split_flops = 1e3; // exercise the products cut into tasks
             let r = vector(lay.len(), 3);
-            let run = |threads: usize| {
+            let run = |sgs: &Sgs, threads: usize| {
                 crate::with_threads(threads, || {
                     let mut work = SgsWork::new(m);
-                    let (mut y, mut l) = (vec![0.0; lay.len()], vec![0.0; lay.len()]);
-                    sgs.solve(&pre, &r, &mut y, Some(&mut l), true, &mut work);
-                    (y, l)
+                    [false, true].map(|backward| {
+                        let (mut y, mut l) = (vec![0.0; lay.len()], vec![0.0; lay.len()]);
+                        sgs.solve(&pre, &r, &mut y, Some(&mut l), backward, &mut work);
+                        (y, l)
+                    })
                 })
             };
-            assert_eq!(run(1), run(2), "symmetric={symmetric}");
+            let two = run(&sgs, 2);
+            assert_eq!(run(&sgs, 1), two, "symmetric={symmetric}");
+            // and the AVX2 build of the leaves does the baseline's arithmetic
+            sgs.simd = false;
+            assert_eq!(run(&sgs, 2), two, "symmetric={symmetric}, baseline leaves");
         }
     }
 
