@@ -20,6 +20,7 @@ Every case runs in its own process (its time and peak memory are its own).
 
     python benches/bench_refine.py                      # scipy + large (≈ 10 min)
     python benches/bench_refine.py --parts scipy
+    python benches/bench_refine.py --parts large --curvature   # refine(curvature=True)
     python benches/bench_refine.py --crossover --sizes 10,20,30,40,50
 """
 
@@ -71,7 +72,7 @@ def podid_case(case: dict) -> dict:
         res, secs = timed(
             lambda: refine(
                 start, U, F, omega, ftol=FTOL, solver=case.get("solver", "auto"),
-                max_iter=case.get("max_iter") or 200,
+                max_iter=case.get("max_iter") or 200, curvature=case.get("curvature", False),
             )
         )  # fmt: skip
     rep = res.info["refinement"]
@@ -189,7 +190,8 @@ def main_scipy(args: argparse.Namespace, me: str) -> str:
 
 def main_large(args: argparse.Namespace, me: str) -> str:
     m, s = args.large_m, args.large_s
-    case = {"kind": "podid", "m": m, "s": s, "solver": "auto", "max_iter": args.large_max_iter}
+    case = {"kind": "podid", "m": m, "s": s, "solver": "auto", "max_iter": args.large_max_iter,
+            "curvature": args.curvature}  # fmt: skip
     r = run_worker(me, case, timeout=7200)
     print(f"podid_rs m={m} s={s}: {r}", flush=True)
     n = 3 * m * (m + 1) // 2
@@ -209,7 +211,8 @@ def main_large(args: argparse.Namespace, me: str) -> str:
     ]  # fmt: skip
     loads = loads_of(r)
     return (
-        f"Large m: the same problem at m = {m}, s = {s} ({n} unknowns); solver='auto'. "
+        f"Large m: the same problem at m = {m}, s = {s} ({n} unknowns); solver='auto', "
+        f"curvature={args.curvature}. "
         "Time = the whole refine() call, 2 cores.\n"
         + (f"1-minute load average: {min(loads):.1f}–{max(loads):.1f}.\n" if loads else "")
         + "\n"
@@ -265,6 +268,8 @@ def main() -> None:
     ap.add_argument("--large-m", type=int, default=100)
     ap.add_argument("--large-s", type=int, default=2000)
     ap.add_argument("--large-max-iter", type=int, default=None, help="cap the large case's steps")
+    ap.add_argument("--curvature", action="store_true",
+                    help="the large case with refine(curvature=True)")  # fmt: skip
     ap.add_argument("--crossover", action="store_true", help="dense vs matrix-free over m")
     ap.add_argument("--sizes", default="10,20,30,40,50")
     ap.add_argument("--out", type=Path, default=None)
