@@ -182,7 +182,7 @@ mod tests {
 
     /// H of the module note checked against the definition: ½c's second-order part
     /// for c(X) = 2 tr(Γ X) linear in X (so that only the parametrisation curves it),
-    /// by finite differences of c along θ, with S ⪰ 0 (|S| = S then).
+    /// by finite differences of c along θ, with S ⪰ 0 (S₊ = S then).
     #[test]
     fn curvature_is_the_second_derivative_of_a_linear_cost_through_the_factors() {
         let m = 4;

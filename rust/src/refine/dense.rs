@@ -37,9 +37,7 @@ pub(crate) struct Clock {
 pub(crate) struct DenseNormal {
     nth: Vec<f64>,
     clock: Clock,
-    /// N_θ + H and H, H the parametrisation's curvature ([`super::curvature`]), when
-    /// allowed
-    nth_curv: Option<Vec<f64>>,
+    /// H, the parametrisation's curvature ([`super::curvature`]), when allowed
     curv: Option<Curvature>,
     curvature: bool,
     /// whether the next step uses N_θ + H
@@ -54,12 +52,9 @@ impl DenseNormal {
         }
     }
 
-    /// The matrix of the next step: N_θ, or N_θ + H.
-    fn current(&self) -> &[f64] {
-        match (&self.nth_curv, self.use_curv) {
-            (Some(full), true) => full,
-            _ => &self.nth,
-        }
+    /// H when the next step uses it.
+    fn used_curvature(&self) -> Option<&Curvature> {
+        self.curv.as_ref().filter(|_| self.use_curv)
     }
 }
 
@@ -77,11 +72,6 @@ impl StepSolver for DenseNormal {
             true => Curvature::new(params, l, &gz),
             false => None,
         };
-        self.nth_curv = self.curv.as_ref().map(|cv| {
-            let mut full = nth.clone();
-            cv.dense_add(&mut full);
-            full
-        });
         self.nth = nth;
         g
     }
@@ -101,11 +91,7 @@ impl StepSolver for DenseNormal {
         par: Par,
         _cancelled: &mut dyn FnMut() -> bool,
     ) -> Option<Vec<f64>> {
-        let n = g.len();
-        let nth = self.current();
-        let dmax = (0..n).map(|i| nth[i * n + i]).fold(0.0f64, f64::max);
-        let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
-        damped_step(nth, g, mu, floor, par)
+        damped_step(&self.nth, self.used_curvature(), g, mu, par)
     }
 
     fn set_curvature(&mut self, on: bool) {
@@ -114,9 +100,12 @@ impl StepSolver for DenseNormal {
 
     fn quad(&mut self, x: &[f64], _par: Par) -> f64 {
         let n = x.len();
-        let nth = self.current();
+        let mut hx = vec![0.0; n];
+        if let Some(cv) = self.used_curvature() {
+            cv.apply_add(x, &mut hx);
+        }
         (0..n)
-            .map(|j| x[j] * (0..n).map(|i| nth[j * n + i] * x[i]).sum::<f64>())
+            .map(|j| x[j] * ((0..n).map(|i| self.nth[j * n + i] * x[i]).sum::<f64>() + hx[j]))
             .sum()
     }
 }
@@ -411,12 +400,24 @@ pub(crate) fn normal_equations(
     (nth, g, gz)
 }
 
-/// Solve (N + μ diag(N)) δ = −g by Cholesky; None if it is not positive definite.
-fn damped_step(nth: &[f64], g: &[f64], mu: f64, floor: f64, par: Par) -> Option<Vec<f64>> {
+/// Solve (A + μ diag(A)) δ = −g by Cholesky, A = N or N + H (the parametrisation's
+/// curvature, when given); None if it is not positive definite.
+fn damped_step(
+    nth: &[f64],
+    curvature: Option<&Curvature>,
+    g: &[f64],
+    mu: f64,
+    par: Par,
+) -> Option<Vec<f64>> {
     let n = g.len();
     let mut a = nth.to_vec();
+    if let Some(cv) = curvature {
+        cv.dense_add(&mut a);
+    }
+    let dmax = (0..n).map(|i| a[i * n + i]).fold(0.0f64, f64::max);
+    let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
     for i in 0..n {
-        a[i * n + i] += mu * nth[i * n + i].max(floor);
+        a[i * n + i] += mu * a[i * n + i].max(floor);
     }
     let mut am = MatMut::from_column_major_slice_mut(&mut a, n, n);
     let params = Default::default();
