@@ -1188,6 +1188,22 @@ mod tests {
         })
     }
 
+    /// The matrix-free product N v equals the dense N_θ (column-major) times v, for a
+    /// random v (`scale` = the largest diagonal entry of N_θ).
+    fn assert_products_match(mf: &mut matfree::MatrixFree, nth: &[f64], scale: f64, rng: &mut Lcg) {
+        let n = (nth.len() as f64).sqrt().round() as usize;
+        let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+        let nv = mf.apply(&v, Par::Seq);
+        for a in 0..n {
+            let want: f64 = (0..n).map(|b| nth[b * n + a] * v[b]).sum();
+            assert!(
+                (nv[a] - want).abs() <= 1e-12 * scale * n as f64,
+                "(Nv)[{a}]: {} vs {want}",
+                nv[a]
+            );
+        }
+    }
+
     /// A stable symmetric system of order m (M, K ≻ 0, C ≻ 0), O(1) entries.
     fn system(m: usize, rng: &mut Lcg) -> [Mat<f64>; 3] {
         let spd = |rng: &mut Lcg, shift: f64| {
@@ -1456,16 +1472,7 @@ mod tests {
                 }
             }
             for _ in 0..3 {
-                let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
-                let nv = mf.apply(&v, Par::Seq);
-                for a in 0..n {
-                    let want: f64 = (0..n).map(|b| nth[b * n + a] * v[b]).sum();
-                    assert!(
-                        (nv[a] - want).abs() <= 1e-12 * scale * n as f64,
-                        "m {m} (Nv)[{a}]: {} vs {want}",
-                        nv[a]
-                    );
-                }
+                assert_products_match(&mut mf, &nth, scale, &mut rng);
             }
             // with the parametrisation's curvature both steps use the same N + H
             let mut dn = DenseNormal::with_curvature(true);
@@ -1687,15 +1694,7 @@ mod tests {
             assert!((g2[q] - gth[q]).abs() <= 1e-12 * scale.sqrt() * (1.0 + gth[q].abs()));
             assert!((mf.diagonal()[q] - nth[q * nt + q]).abs() <= 1e-9 * scale);
         }
-        let v: Vec<f64> = (0..nt).map(|_| rng.next()).collect();
-        let nv = mf.apply(&v, Par::Seq);
-        for a in 0..nt {
-            let want: f64 = (0..nt).map(|b| nth[b * nt + a] * v[b]).sum();
-            assert!(
-                (nv[a] - want).abs() <= 1e-12 * scale * nt as f64,
-                "(Nv)[{a}]"
-            );
-        }
+        assert_products_match(&mut mf, &nth, scale, &mut rng);
         // a weighted zero target is refused, a zero one with weight 0 is not
         let mut t0 = target.clone();
         t0[1] = c64::new(0.0, 0.0);
