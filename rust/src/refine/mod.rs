@@ -781,6 +781,14 @@ pub const FTOL_WINDOW: usize = 10;
 /// on the beam: 0.69 / 0.91 dB at 50–300 / 20–800 Hz against 0.39 / 0.58 with this one.
 pub const CURVATURE_SWITCH: f64 = 0.2;
 
+/// Levenberg–Marquardt after a rejected step: μ ← μν, ν ← 2ν; true when μ has grown
+/// past any use (no descent).
+fn more_damping(mu: &mut f64, nu: &mut f64) -> bool {
+    *mu *= *nu;
+    *nu *= 2.0;
+    *mu > 1e16
+}
+
 /// Whether the symmetric part of `x` has every eigenvalue at least ½ε tr(x) (ε =
 /// [`CONDITION_FLOOR`]): true of every matrix the parametrisation gives back
 /// (L Lᵀ + ε tr(L Lᵀ) I), false of a singular one.
@@ -1011,13 +1019,12 @@ pub fn refine(
     let mut stop = Stop::MaxIter;
     let mut fresh = true; // the step solver must be prepared at the new point
     let mut rejected_here = false; // a step from the current point was rejected
-    let allow_curvature = opts.curvature;
     let kind = opts.solver.resolve(m, data.s(), lines::terms_per_line(&pb));
     let mut solver: Box<dyn StepSolver> = match kind {
         StepKind::MatrixFree => {
-            Box::new(matfree::MatrixFree::new(MAX_CG_ITER).with_curvature(allow_curvature))
+            Box::new(matfree::MatrixFree::new(MAX_CG_ITER).with_curvature(opts.curvature))
         }
-        _ => Box::new(DenseNormal::with_curvature(allow_curvature)),
+        _ => Box::new(DenseNormal::with_curvature(opts.curvature)),
     };
     let mut gth = Vec::new();
     while iterations < opts.max_iter {
@@ -1042,7 +1049,7 @@ pub fn refine(
             let (before, now) = (history[history.len() - 2].1, history[history.len() - 1].1);
             before - now >= CURVATURE_SWITCH * before
         };
-        solver.set_curvature(allow_curvature && (rejected_here || !falling_fast));
+        solver.set_curvature(opts.curvature && (rejected_here || !falling_fast));
         let t0 = Instant::now();
         let mut cancelled = false;
         let step = {
@@ -1059,27 +1066,17 @@ pub fn refine(
         if cancelled {
             return Err(PodidError::Interrupted);
         }
+        // no step, or a long step in a log-diagonal (it can overflow the model in one
+        // go): damp more
+        let step = step.filter(|st| !(params.log_diagonal && log_step_too_long(&params, st)));
         let Some(step) = step else {
             rejected_here = true;
-            mu *= nu;
-            nu *= 2.0;
-            if mu > 1e16 {
+            if more_damping(&mut mu, &mut nu) {
                 stop = Stop::NoDescent;
                 break;
             }
             continue;
         };
-        if params.log_diagonal && log_step_too_long(&params, &step) {
-            // a long step in a log-diagonal can overflow the model in one go: damp more
-            rejected_here = true;
-            mu *= nu;
-            nu *= 2.0;
-            if mu > 1e16 {
-                stop = Stop::NoDescent;
-                break;
-            }
-            continue;
-        }
         let trial: Vec<f64> = theta.iter().zip(&step).map(|(a, b)| a + b).collect();
         let lt = params.unpack(&trial);
         let mckt = lt.clone().map(|x| gram_lower(&x));
@@ -1124,9 +1121,7 @@ pub fn refine(
                 break;
             }
             rejected_here = true;
-            mu *= nu;
-            nu *= 2.0;
-            if mu > 1e16 {
+            if more_damping(&mut mu, &mut nu) {
                 stop = Stop::NoDescent;
                 break;
             }
