@@ -95,7 +95,6 @@ pub(crate) struct MatrixFree {
     /// add the parametrisation's curvature ([`super::curvature`]), and it at this point
     curvature: bool,
     curv: Option<Curvature>,
-    curv_diag: Vec<f64>,
     /// whether the next step (and its products) uses it
     use_curv: bool,
 }
@@ -131,7 +130,6 @@ impl MatrixFree {
             max_cg,
             curvature: false,
             curv: None,
-            curv_diag: Vec::new(),
             use_curv: false,
         }
     }
@@ -578,10 +576,6 @@ impl StepSolver for MatrixFree {
         } else {
             None
         };
-        self.curv_diag = match &self.curv {
-            Some(cv) => cv.diagonal(),
-            None => Vec::new(),
-        };
         if self.use_gram || self.prepares.is_multiple_of(DIAG_REFRESH) {
             let t1 = Instant::now();
             let mut gram = std::mem::take(&mut self.gram);
@@ -607,14 +601,14 @@ impl StepSolver for MatrixFree {
     ) -> Option<Vec<f64>> {
         let n = g.len();
         // diag(N + H): the Gauss–Newton diagonal and the parametrisation's curvature
-        let diag: Vec<f64> = if self.curv_diag.is_empty() || !self.use_curv {
-            self.diag.clone()
-        } else {
-            self.diag
+        let diag: Vec<f64> = match (&self.curv, self.use_curv) {
+            (Some(cv), true) => self
+                .diag
                 .iter()
-                .zip(&self.curv_diag)
+                .zip(cv.diagonal())
                 .map(|(a, b)| a + b)
-                .collect()
+                .collect(),
+            _ => self.diag.clone(),
         };
         let dmax = diag.iter().fold(0.0f64, |a, v| a.max(*v));
         let floor = 1e-12 * dmax.max(f64::MIN_POSITIVE);
