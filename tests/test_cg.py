@@ -131,11 +131,11 @@ def test_auto_rule():
     # unregularised: one 3m×3m system, direct at any size
     assert choose_solver(400, (0.0, 0.0, 0.0), False) == "direct"
     # up to AUTO_DIRECT_MAX_UNKNOWNS unknowns: direct
-    assert 3 * 14 * 14 <= AUTO_DIRECT_MAX_UNKNOWNS < 3 * 15 * 15
-    assert choose_solver(14, (1.0, 1.0, 1.0), False) == "direct"
-    assert choose_solver(15, (1.0, 1.0, 1.0), False) == "cg"
-    assert choose_solver(20, (0.0, 0.0, 0.0), True) == "direct"
-    assert choose_solver(21, (0.0, 0.0, 0.0), True) == "cg"
+    assert 3 * 10 * 10 <= AUTO_DIRECT_MAX_UNKNOWNS < 3 * 11 * 11
+    assert choose_solver(10, (1.0, 1.0, 1.0), False) == "direct"
+    assert choose_solver(11, (1.0, 1.0, 1.0), False) == "cg"
+    assert choose_solver(13, (0.0, 0.0, 0.0), True) == "direct"  # 3·13·14/2 = 273
+    assert choose_solver(14, (0.0, 0.0, 0.0), True) == "cg"  # 315
     _, U, F, omega = chain(30, "narrow")
     assert identify(U, F, omega, 100.0).method == "cg"
     assert identify(U, F, omega, 100.0, backend="numpy").method == "cholesky"

@@ -39,8 +39,8 @@ CG_TOL = 1e-11
 #: default iteration limit of ``solver="cg"``
 CG_MAX_ITER = 10_000
 #: ``solver="auto"`` takes the direct path up to this many unknowns (3m² or
-#: 3m(m+1)/2), CG beyond (see ``identify``).
-AUTO_DIRECT_MAX_UNKNOWNS = 650
+#: 3m(m+1)/2), CG beyond (see ``identify``; measured by ``benches/bench_cg.py --auto``).
+AUTO_DIRECT_MAX_UNKNOWNS = 300
 
 
 class RankDeficientWarning(UserWarning):
@@ -429,14 +429,16 @@ def identify(
         preconditioned conjugate gradients, Rust backend only: O(m²) memory, about
         18m³ flops per iteration) or ``"auto"``: direct when the problem is
         unregularised (a 3m×3m system), or when it has at most
-        ``AUTO_DIRECT_MAX_UNKNOWNS`` = 650 unknowns (m ≤ 14 with a penalty,
-        m ≤ 20 exact-symmetric) and its dense matrix takes at most half the
+        ``AUTO_DIRECT_MAX_UNKNOWNS`` = 300 unknowns (m ≤ 10 with a penalty,
+        m ≤ 13 exact-symmetric) and its dense matrix takes at most half the
         available memory; CG otherwise. Measured on the full-order chain
         (``benches/bench_cg.py --auto``, s = 2m lines, both modes, 20 % and
-        50–150 Hz bands, Gauss–Seidel-preconditioned CG): direct was faster or
-        level up to 513–630 unknowns, CG faster from 675 on (1.8–3× at 675–975,
-        5–390× at 1200–10800). Near the crossover both take under 0.04 s, and the direct path also
-        reveals rank deficiency, which CG cannot.
+        50–150 Hz bands, whole calls): CG is faster from 100–170 unknowns on
+        (1.3–3.9× at 300–650 unknowns, 4–20× at 1200–1900), except on 50–150 Hz
+        exact-symmetric, where it needs 80–300 iterations at m ≤ 17 and is level
+        with the direct path up to about 460 unknowns (0.87–1.3×). Up to 300
+        unknowns both take under 1.5 ms, and the direct path also reveals rank
+        deficiency, which CG cannot.
     tol : CG stops when the relative residual of the scaled normal equations is
         ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to
         3e-9 in our tests).
