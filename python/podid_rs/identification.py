@@ -434,7 +434,7 @@ def identify(
         available memory; CG otherwise. Measured on the full-order chain
         (``benches/bench_cg.py --auto``, s = 2m lines, both modes, 20 % and
         50–150 Hz bands, whole calls): CG is faster from 100–170 unknowns on
-        (1.3–3.9× at 300–650 unknowns, 4–20× at 1200–1900), except on 50–150 Hz
+        (1.3–4.7× at 300–650 unknowns, 4–20× at 1200–1900), except on 50–150 Hz
         exact-symmetric, where it needs 80–300 iterations at m ≤ 17 and is level
         with the direct path up to about 460 unknowns (0.87–1.3×). Up to 300
         unknowns both take under 1.5 ms, and the direct path also reveals rank
