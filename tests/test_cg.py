@@ -142,6 +142,31 @@ def test_auto_rule():
     assert identify(U, F, omega, 0.0).method == "cholesky"
 
 
+def test_auto_redoes_a_stalled_cg_by_the_direct_path():
+    # two load cases at m = 16, exact-symmetric (408 unknowns: CG by the rule): the
+    # normal equations are singular, CG stalls far above tol and cannot say why
+    sys_ = mass_spring_chain(16)
+    omega = 2 * np.pi * np.linspace(5.0, 200.0, 64)
+    F = np.zeros((64, 16), complex)
+    F[:, [3, 9]] = np.random.default_rng(1).standard_normal((64, 2))
+    U = sys_.response(omega, F)
+    assert choose_solver(16, (0.0, 0.0, 0.0), True) == "cg"
+    with pytest.warns(ConvergenceWarning):
+        cg = identify(U, F, omega, symmetric=True, solver="cg")
+    assert cg.relative_residual > 1e-6
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        auto = identify(U, F, omega, symmetric=True)
+    assert [type(w.message).__name__ for w in caught] == ["RankDeficientWarning"]
+    assert auto.method == "eigen-min-norm" and not auto.well_posed and auto.rank < 408
+    assert auto.info["stalled_cg"]["iterations"] == cg.iterations
+    assert auto.info["stalled_cg"]["relative_residual"] == cg.relative_residual
+    # a well-posed problem of the same size: CG, no fallback
+    _, U, F, omega = chain(16, "narrow")
+    res = identify(U, F, omega, symmetric=True)
+    assert res.method == "cg" and "stalled_cg" not in res.info
+
+
 class _Terminal(io.StringIO):
     def isatty(self) -> bool:
         return True

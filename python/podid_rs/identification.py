@@ -41,6 +41,12 @@ CG_MAX_ITER = 10_000
 #: ``solver="auto"`` takes the direct path up to this many unknowns (3m² or
 #: 3m(m+1)/2), CG beyond (see ``identify``; measured by ``benches/bench_cg.py --auto``).
 AUTO_DIRECT_MAX_UNKNOWNS = 300
+#: a CG run of ``solver="auto"`` that stops by itself above ``tol`` (singular
+#: normal equations, e.g. too few load cases, or an unattainable tol) is redone by
+#: the direct path up to this many unknowns (m = 40 with a penalty: 0.7 s in the
+#: README's direct-path table), which reports the rank and returns the
+#: minimum-norm answer where CG can only stall.
+AUTO_FALLBACK_MAX_UNKNOWNS = 4800
 
 
 class RankDeficientWarning(UserWarning):
@@ -361,17 +367,22 @@ def _identify_cg(
     return out
 
 
-def choose_solver(m: int, lam: Triple, symmetric: bool) -> str:
-    """The path ``solver="auto"`` takes (see :func:`identify`)."""
+def _direct_fits(m: int, lam: Triple, symmetric: bool, max_unknowns: int) -> bool:
+    """At most ``max_unknowns`` unknowns, and the dense matrix takes at most half the
+    available memory."""
     from . import _core
 
-    if not symmetric and not any(lam):
-        return "direct"  # one 3m×3m factorisation: always cheap
     n = 3 * m * (m + 1) // 2 if symmetric else 3 * m * m
     avail = available_memory_bytes()
     dense = int(_core.direct_memory_bytes(m, lam, symmetric))
-    fits = avail is None or dense <= 0.5 * avail
-    return "direct" if n <= AUTO_DIRECT_MAX_UNKNOWNS and fits else "cg"
+    return n <= max_unknowns and (avail is None or dense <= 0.5 * avail)
+
+
+def choose_solver(m: int, lam: Triple, symmetric: bool) -> str:
+    """The path ``solver="auto"`` takes (see :func:`identify`)."""
+    if not symmetric and not any(lam):
+        return "direct"  # one 3m×3m factorisation: always cheap
+    return "direct" if _direct_fits(m, lam, symmetric, AUTO_DIRECT_MAX_UNKNOWNS) else "cg"
 
 
 def _check_cg_options(tol: object, max_iter: object, progress: object) -> tuple[float, int]:
@@ -438,7 +449,10 @@ def identify(
         exact-symmetric, where it needs 80–300 iterations at m ≤ 17 and is level
         with the direct path up to about 460 unknowns (0.87–1.3×). Up to 300
         unknowns both take under 1.5 ms, and the direct path also reveals rank
-        deficiency, which CG cannot.
+        deficiency, which CG cannot: where CG stops by itself above ``tol`` and the
+        problem has at most ``AUTO_FALLBACK_MAX_UNKNOWNS`` = 4800 unknowns, ``auto``
+        redoes it by the direct path (``info["stalled_cg"]`` then says what CG
+        reached).
     tol : CG stops when the relative residual of the scaled normal equations is
         ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to
         3e-9 in our tests).
@@ -498,10 +512,16 @@ def identify(
         if solver == "cg":
             raise ValueError("solver='cg' needs backend='rust'; the numpy backend is direct only")
         solver = "direct"
-    elif solver == "auto":
+    auto = solver == "auto"
+    if auto:
         solver = choose_solver(data.m, lam_t, symmetric)
+    stalled_cg = None
     if solver == "cg":
         out = _identify_cg(data, lam_t, symmetric, threads, tol, max_iter, progress)
+        stalled = not out["converged"] and out["iterations"] < max_iter
+        if auto and stalled and _direct_fits(data.m, lam_t, symmetric, AUTO_FALLBACK_MAX_UNKNOWNS):
+            stalled_cg = {k: out[k] for k in ("iterations", "relative_residual")}
+            out = _identify_rust(data, lam_t, symmetric, threads)
     elif backend == "rust":
         out = _identify_rust(data, lam_t, symmetric, threads)
     else:
@@ -546,6 +566,7 @@ def identify(
             "scaling": tuple(out["scaling"]),
             "timings": dict(out.get("timings", {})),
             **({"converged": bool(out["converged"]), "tol": tol} if "converged" in out else {}),
+            **({"stalled_cg": stalled_cg} if stalled_cg else {}),
         },
         iterations=int(out["iterations"]) if "iterations" in out else None,
         relative_residual=float(out["relative_residual"]) if "iterations" in out else None,
