@@ -442,7 +442,7 @@ fn sweep_memory_bytes(m: usize) -> u128 {
 #[pyfunction]
 #[pyo3(signature = (u, f, omega, p, start, weights = None, weight_matrices = None,
     log_magnitude = None, max_iter = 200, ftol = 1e-7, xtol = 1e-12, log_diagonal = true, progress = None,
-    threads = 0, solver = "auto", curvature = false))]
+    threads = 0, solver = "auto", curvature = false, modal_metric = false))]
 #[allow(clippy::too_many_arguments)]
 fn refine_output_error<'py>(
     py: Python<'py>,
@@ -470,6 +470,7 @@ fn refine_output_error<'py>(
     threads: usize,
     solver: &str,
     curvature: bool,
+    modal_metric: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     use crate::refine::{LogTarget, OeData, OeOptions, StepKind, Weights};
     let solver = StepKind::from_name(solver).map_err(|e| PyValueError::new_err(e.to_string()))?;
@@ -517,6 +518,7 @@ fn refine_output_error<'py>(
         log_diagonal,
         solver,
         curvature,
+        modal_metric,
     };
     let rep = run_iterative(py, threads, progress, |report| {
         crate::refine::refine(data, &start, opts, Par::rayon(0), Some(report))

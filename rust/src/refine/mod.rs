@@ -44,6 +44,7 @@ mod curvature;
 mod dense;
 mod lines;
 mod matfree;
+mod modal;
 
 use crate::cg::Progress;
 use crate::data::Scaling;
@@ -212,6 +213,9 @@ pub struct OeOptions {
     /// optimum puts C on the cone's boundary; off by default — on noise-free data from
     /// a start a few per cent off it can take more steps than Gauss–Newton alone
     pub curvature: bool,
+    /// matrix-free step only: damp and precondition by the modal metric and take the
+    /// Gauss–Newton step in X ([`modal`]) instead of μ·diag N_θ and its 3×3 blocks
+    pub modal_metric: bool,
 }
 
 impl Default for OeOptions {
@@ -223,6 +227,7 @@ impl Default for OeOptions {
             log_diagonal: true,
             solver: StepKind::Auto,
             curvature: false,
+            modal_metric: false,
         }
     }
 }
@@ -367,8 +372,18 @@ pub(crate) trait StepSolver {
         cancelled: &mut dyn FnMut() -> bool,
     ) -> Option<Vec<f64>>;
     fn quad(&mut self, step: &[f64], par: Par) -> f64;
+    /// The decrease of the cost the Gauss–Newton model predicts for `step`:
+    /// −2gᵀδ − δᵀNδ (a solver that retracts its step gives its model's own).
+    fn predicted(&mut self, g: &[f64], step: &[f64], par: Par) -> f64 {
+        let gd: f64 = g.iter().zip(step).map(|(a, b)| a * b).sum();
+        -2.0 * gd - self.quad(step, par)
+    }
     /// Whether the next step uses the parametrisation's curvature ([`curvature`]).
     fn set_curvature(&mut self, on: bool);
+    /// The LM damping μ of the first step (after the first `prepare`).
+    fn initial_damping(&self) -> f64 {
+        1e-3
+    }
     /// Wall time of the solver's own parts, seconds (for the report).
     fn timings(&self) -> Vec<(&'static str, f64)> {
         Vec::new()
@@ -1021,9 +1036,11 @@ pub fn refine(
     let mut rejected_here = false; // a step from the current point was rejected
     let kind = opts.solver.resolve(m, data.s(), lines::terms_per_line(&pb));
     let mut solver: Box<dyn StepSolver> = match kind {
-        StepKind::MatrixFree => {
-            Box::new(matfree::MatrixFree::new(MAX_CG_ITER).with_curvature(opts.curvature))
-        }
+        StepKind::MatrixFree => Box::new(
+            matfree::MatrixFree::new(MAX_CG_ITER)
+                .with_curvature(opts.curvature)
+                .with_modal_metric(opts.modal_metric),
+        ),
         _ => Box::new(DenseNormal::with_curvature(opts.curvature)),
     };
     let mut gth = Vec::new();
@@ -1040,7 +1057,7 @@ pub fn refine(
             }
         }
         if mu == 0.0 {
-            mu = 1e-3;
+            mu = solver.initial_damping();
         }
         iterations += 1;
         // Gauss–Newton alone right after a step that lowered the cost fast, unless a
@@ -1083,8 +1100,7 @@ pub fn refine(
         let t0 = Instant::now();
         let evt = pb.evaluate(&mckt)?;
         t_eval += t0.elapsed().as_secs_f64();
-        let gd: f64 = gth.iter().zip(&step).map(|(a, b)| a * b).sum();
-        let predicted = -2.0 * gd - solver.quad(&step, par);
+        let predicted = solver.predicted(&gth, &step, par);
         let actual = ev.cost - evt.cost;
         let snorm = step.iter().map(|v| v * v).sum::<f64>().sqrt();
         let tnorm = theta.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -1502,6 +1518,110 @@ mod tests {
     }
 
     #[test]
+    fn modal_metric_is_the_gauss_newton_matrix_on_modal_unknowns() {
+        let mut rng = Lcg(21);
+        for (m, p, log_diagonal, matrix) in [
+            (4, 2, true, false),
+            (3, 1, false, false),
+            (3, 2, true, true),
+        ] {
+            let (omega, u, f, wscal, wmat) = noisy_data(m, p, 8, &mut rng);
+            let weights = if matrix {
+                Weights::Matrix(&wmat)
+            } else {
+                Weights::Scalar(&wscal)
+            };
+            let data = OeData {
+                omega: &omega,
+                u: &u,
+                f: &f,
+                weights,
+                m,
+                p,
+            };
+            let pb = problem(data);
+            let params = Params { m, log_diagonal };
+            let lf = system(m, &mut rng).map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
+            let mck = lf.clone().map(|x| gram_lower(&x));
+            let ev = pb.evaluate(&mck).unwrap();
+            let (nth, _, _) =
+                dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
+            let mut mf = matfree::MatrixFree::new(MAX_CG_ITER).with_modal_metric(true);
+            mf.prepare(&pb, &params, &lf, &ev, Par::Seq);
+            let b = mf.modal().expect("the modal metric of a regular model");
+            let n = params.len();
+            let quad = |a: &[f64], v: &[f64], w: &[f64]| -> f64 {
+                let _ = a;
+                v.iter().zip(w).map(|(x, y)| x * y).sum()
+            };
+            let nquad = |v: &[f64]| -> f64 {
+                (0..n)
+                    .map(|a| v[a] * (0..n).map(|c| nth[c * n + a] * v[c]).sum::<f64>())
+                    .sum()
+            };
+            // on a single modal unknown, vᵀ B v is the Gauss–Newton matrix's vᵀ N v
+            // (up to the parametrisation's O(ε) floor)
+            for blk in 0..3 {
+                for j in 0..m {
+                    for k in 0..=j {
+                        let v = b.modal_direction(blk, j, k);
+                        let (got, want) = (quad(&[], &v, &b.apply(&v)), nquad(&v));
+                        assert!(
+                            (got - want).abs() <= 1e-8 * want.abs(),
+                            "m {m} block {blk} ({j}, {k}): vᵀBv {got} vs vᵀNv {want}"
+                        );
+                    }
+                }
+            }
+            // a step taken in X lands on X + P δθ exactly (to rounding), where it stays
+            // positive definite, and is refused where it leaves the cone
+            let v: Vec<f64> = (0..n).map(|_| 1e-3 * rng.next()).collect();
+            let th = params.pack(&lf);
+            let step = mf.retract(&v).expect("a small step stays in the cone");
+            let moved: Vec<f64> = th.iter().zip(&step).map(|(a, c)| a + c).collect();
+            let lm = params.unpack(&moved);
+            let nb = n / 3;
+            for blk in 0..3 {
+                let want = lines::tangent(&params, &lf[blk], &v[blk * nb..(blk + 1) * nb]);
+                let (x0, x1) = (gram_lower(&lf[blk]), gram_lower(&lm[blk]));
+                let top = (0..m).map(|i| x0[(i, i)].abs()).fold(0.0, f64::max);
+                for i in 0..m {
+                    for j in 0..m {
+                        let got = x1[(i, j)] - x0[(i, j)];
+                        assert!(
+                            (got - want[(i, j)]).abs() <= 1e-10 * top,
+                            "m {m} block {blk}: δX[{i}][{j}] {got} vs {}",
+                            want[(i, j)]
+                        );
+                    }
+                }
+            }
+            // δX_00 = 2 L_00 δL_00 (times L_00 on a logged diagonal) ≪ −X_00
+            let mut out = vec![0.0; n];
+            out[tri(0, 0)] = -1e4 * (1.0 + 1.0 / lf[0][(0, 0)].abs());
+            assert!(mf.retract(&out).is_none(), "m {m}: X + δX left the cone");
+            // symmetric, positive definite, and solve() is its inverse
+            for _ in 0..3 {
+                let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+                let w: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+                let (bv, bw) = (b.apply(&v), b.apply(&w));
+                let (vbw, wbv) = (quad(&[], &v, &bw), quad(&[], &w, &bv));
+                assert!((vbw - wbv).abs() <= 1e-10 * (vbw.abs() + wbv.abs()));
+                assert!(quad(&[], &v, &bv) > 0.0);
+                let back = b.solve(&bv, 0.0);
+                let vn = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let err = back
+                    .iter()
+                    .zip(&v)
+                    .map(|(a, c)| (a - c).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!(err <= 1e-8 * vn, "m {m}: ‖B⁻¹Bv − v‖ = {err:e}");
+            }
+        }
+    }
+
+    #[test]
     fn gauss_newton_matrix_and_gradient_match_finite_differences() {
         let mut rng = Lcg(7);
         let m = 3;
@@ -1738,15 +1858,20 @@ mod tests {
             p,
         };
         let start = perturbed(&truth, 0.05, &mut rng);
-        for solver in [StepKind::Dense, StepKind::MatrixFree] {
+        for (solver, modal_metric) in [
+            (StepKind::Dense, false),
+            (StepKind::MatrixFree, false),
+            (StepKind::MatrixFree, true),
+        ] {
             let opts = OeOptions {
                 solver,
+                modal_metric,
                 ..Default::default()
             };
             let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
             assert!(
                 rep.cost < 1e-10 * rep.cost_start,
-                "{solver:?}: cost {} from {}",
+                "{solver:?} (modal {modal_metric}): cost {} from {}",
                 rep.cost,
                 rep.cost_start
             );
@@ -1785,10 +1910,15 @@ mod tests {
                 p,
             };
             let start = perturbed(&truth, 0.05, &mut rng);
-            for solver in [StepKind::Dense, StepKind::MatrixFree] {
+            for (solver, modal_metric) in [
+                (StepKind::Dense, false),
+                (StepKind::MatrixFree, false),
+                (StepKind::MatrixFree, true),
+            ] {
                 let opts = OeOptions {
                     log_diagonal,
                     solver,
+                    modal_metric,
                     ..Default::default()
                 };
                 let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
@@ -1805,7 +1935,7 @@ mod tests {
                         .sum();
                     assert!(
                         (num / den).sqrt() < 1e-8,
-                        "m {m} block {b}: {}",
+                        "m {m} block {b} (modal {modal_metric}): {}",
                         (num / den).sqrt()
                     );
                 }

@@ -1,0 +1,326 @@
+//! The modal metric of the matrix-free step: LM damping and CG preconditioner.
+//!
+//! In the modal coordinates of the current model (T: the M-orthonormal undamped
+//! modes, TᵀMT = I, TᵀKT = Ω²) a change δY = Tᵀ δX T of M, C or K moves line i's
+//! response by δx = −φ_b H (δY y), H = D⁻¹T⁻ᵀ, y = T⁻¹x. Near a resonance D is
+//! nearly diagonal in these coordinates, so the Gauss–Newton matrix in Y is nearly
+//! block diagonal: one 3×3 block per modal pair (j, k), coupling M, C, K,
+//!
+//! ```text
+//!     B_jk = Σ β_jk [ω⁴ 0 −ω²; 0 ω² 0; −ω² 0 1],
+//!     β_jk = w² (|y_k|² G_jj + |y_j|² G_kk + 2 Re(ȳ_k y_j G_jk))   (j > k),
+//!     β_jj = w² |y_j|² G_jj,       G = Hᴴ H = T⁻¹ D⁻ᴴ D⁻¹ T⁻ᵀ  (per line and column)
+//! ```
+//!
+//! (the M–C and C–K couplings Re(φ̄_b φ_b') vanish). Pulled back through the
+//! factors, B_θ = P̃ᵀ 𝒯ᵀ B 𝒯 P̃ (P̃: δθ ↦ δL Lᵀ + L δLᵀ, 𝒯: δX ↦ Tᵀ δX T) is
+//! symmetric positive definite, and B_θ⁻¹ = P̃⁻¹ 𝒯⁻¹ B⁻¹ 𝒯⁻ᵀ P̃⁻ᵀ costs O(m³):
+//! P̃⁻¹ δX = L Φ(L⁻¹ δX L⁻ᵀ), Φ = the strict lower triangle plus half the diagonal.
+//!
+//! With [`super::OeOptions::modal_metric`] the matrix-free step uses it as the
+//! preconditioner of (N + μB_θ) δ = −g and as the LM damping itself: the damping is
+//! then proportional in every direction instead of μ·diag(N), which on a badly
+//! conditioned N damps the weak directions far more than the strong ones and makes LM
+//! crawl — and takes the step in X (`matfree.rs`). Measured in a NumPy prototype
+//! (chain, m = 40, 1000 lines, 0.1 % noise): CG iterations to a relative residual of
+//! 1e-2 / 1e-4: 29 / 55 against 187 / 896 with the 3×3 blocks of N_θ (and diag
+//! damping); with exact solves LM converged in 13 steps (m = 20) where diag damping
+//! was still crawling at 22. The whole refinement: README, `bench_refine.py --parts
+//! metric`.
+
+use super::lines::theta_scale;
+use super::{n_per_block, tri, Params};
+use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::{c64, Accum, Mat, MatRef, Par, Side};
+
+/// The modal metric at one point.
+pub(crate) struct ModalMetric {
+    m: usize,
+    log_diagonal: bool,
+    /// the factors L_b and their inverses
+    l: [Mat<f64>; 3],
+    li: [Mat<f64>; 3],
+    /// T (modes, columns) and T⁻¹ = Tᵀ M
+    t: Mat<f64>,
+    ti: Mat<f64>,
+    /// Σβ, Σω²β, Σω⁴β per modal pair (j, k), index tri(j, k)
+    sums: Vec<[f64; 3]>,
+}
+
+/// Inverse of a lower-triangular matrix; None when it is singular.
+fn lower_inverse(l: &Mat<f64>) -> Option<Mat<f64>> {
+    let m = l.nrows();
+    let top = (0..m).map(|j| l[(j, j)].abs()).fold(0.0, f64::max);
+    if !(0..m).all(|j| l[(j, j)].abs() > 1e-150 * top.max(f64::MIN_POSITIVE)) {
+        return None;
+    }
+    let mut inv = Mat::<f64>::identity(m, m);
+    solve_lower_triangular_in_place(l.as_ref(), inv.as_mut(), Par::Seq);
+    let finite = inv.col_iter().all(|c| c.iter().all(|v| v.is_finite()));
+    finite.then_some(inv)
+}
+
+fn mul(a: MatRef<f64>, b: MatRef<f64>) -> Mat<f64> {
+    let mut out = Mat::zeros(a.nrows(), b.ncols());
+    matmul(out.as_mut(), Accum::Replace, a, b, 1.0, Par::Seq);
+    out
+}
+
+/// a b aᵀ
+fn congruence(a: MatRef<f64>, b: MatRef<f64>) -> Mat<f64> {
+    mul(mul(a, b).as_ref(), a.transpose())
+}
+
+impl ModalMetric {
+    /// The modes of the current model and the factors' inverses; None when a factor
+    /// is numerically singular (the caller then uses the diagonal of N instead).
+    pub(crate) fn new(params: &Params, l: &[Mat<f64>; 3]) -> Option<ModalMetric> {
+        let m = params.m;
+        let li = [
+            lower_inverse(&l[0])?,
+            lower_inverse(&l[1])?,
+            lower_inverse(&l[2])?,
+        ];
+        // K̂ = L_M⁻¹ K L_M⁻ᵀ = (L_M⁻¹ L_K)(L_M⁻¹ L_K)ᵀ = Q Ω² Qᵀ; T = L_M⁻ᵀ Q
+        let a = mul(li[0].as_ref(), l[2].as_ref());
+        let khat = mul(a.as_ref(), a.transpose());
+        let evd = khat.self_adjoint_eigen(Side::Lower).ok()?;
+        let q = evd.U();
+        let t = mul(li[0].transpose(), q);
+        let ti = mul(q.transpose(), l[0].transpose());
+        let finite = |x: &Mat<f64>| x.col_iter().all(|c| c.iter().all(|v| v.is_finite()));
+        if !finite(&t) || !finite(&ti) {
+            return None;
+        }
+        Some(ModalMetric {
+            m,
+            log_diagonal: params.log_diagonal,
+            l: l.clone(),
+            li,
+            t,
+            ti,
+            sums: vec![[0.0; 3]; n_per_block(m)],
+        })
+    }
+
+    /// T⁻¹ (for the per-line sums).
+    pub(crate) fn ti(&self) -> MatRef<'_, f64> {
+        self.ti.as_ref()
+    }
+
+    pub(crate) fn set_sums(&mut self, flat: &[f64]) {
+        for (s, c) in self.sums.iter_mut().zip(flat.chunks(3)) {
+            *s = [c[0], c[1], c[2]];
+        }
+    }
+
+    fn scale(&self, b: usize, j: usize, k: usize) -> f64 {
+        let params = Params {
+            m: self.m,
+            log_diagonal: self.log_diagonal,
+        };
+        theta_scale(&params, &self.l[b], j, k)
+    }
+
+    /// The 3×3 block at pair t, as its M–K 2×2 part [a, c; c, d] and its C entry.
+    fn block(&self, t: usize) -> ([f64; 3], f64) {
+        let [s0, s2, s4] = self.sums[t];
+        ([s4, -s2, s0], s2)
+    }
+
+    /// B_θ v.
+    pub(crate) fn apply(&self, v: &[f64]) -> Vec<f64> {
+        let (m, nb) = (self.m, n_per_block(self.m));
+        // δY_b = Tᵀ (δL Lᵀ + L δLᵀ) T
+        let dy: Vec<Mat<f64>> = (0..3)
+            .map(|b| {
+                let dl = Mat::from_fn(m, m, |j, k| {
+                    if k > j {
+                        0.0
+                    } else {
+                        v[b * nb + tri(j, k)] * self.scale(b, j, k)
+                    }
+                });
+                let x = mul(dl.as_ref(), self.l[b].transpose());
+                let dx = Mat::from_fn(m, m, |i, j| x[(i, j)] + x[(j, i)]);
+                congruence(self.t.transpose(), dx.as_ref())
+            })
+            .collect();
+        let mut out = vec![0.0; 3 * nb];
+        let mut gy = [0, 1, 2].map(|_| Mat::<f64>::zeros(m, m));
+        for j in 0..m {
+            for k in 0..=j {
+                let t = tri(j, k);
+                let ([a, c, d], e) = self.block(t);
+                let (ym, yc, yk) = (dy[0][(j, k)], dy[1][(j, k)], dy[2][(j, k)]);
+                gy[0][(j, k)] = a * ym + c * yk;
+                gy[1][(j, k)] = e * yc;
+                gy[2][(j, k)] = c * ym + d * yk;
+            }
+        }
+        for b in 0..3 {
+            // G_X = T G_Y Tᵀ; (B_θ v)_jk = ((G_X + G_Xᵀ) L)_jk s_jk
+            let gx = congruence(self.t.as_ref(), gy[b].as_ref());
+            let sym = Mat::from_fn(m, m, |i, j| gx[(i, j)] + gx[(j, i)]);
+            let r = mul(sym.as_ref(), self.l[b].as_ref());
+            for j in 0..m {
+                for k in 0..=j {
+                    out[b * nb + tri(j, k)] = r[(j, k)] * self.scale(b, j, k);
+                }
+            }
+        }
+        out
+    }
+
+    /// B_θ⁻¹ r / (1 + shift): the preconditioner of N + μB_θ (shift = μ).
+    pub(crate) fn solve(&self, r: &[f64], shift: f64) -> Vec<f64> {
+        let (m, nb) = (self.m, n_per_block(self.m));
+        // dual in Y: c_jk = H_jk + H_kj (j > k), H_jj; H = T⁻¹ L⁻ᵀ Φ*(Lᵀ R) L⁻¹ T⁻ᵀ
+        let c: Vec<Mat<f64>> = (0..3)
+            .map(|b| {
+                let rr = Mat::from_fn(m, m, |j, k| {
+                    if k > j {
+                        0.0
+                    } else {
+                        r[b * nb + tri(j, k)] / self.scale(b, j, k)
+                    }
+                });
+                let a = mul(self.l[b].transpose(), rr.as_ref());
+                let s = Mat::from_fn(m, m, |j, k| match j.cmp(&k) {
+                    std::cmp::Ordering::Greater => a[(j, k)],
+                    std::cmp::Ordering::Equal => 0.5 * a[(j, j)],
+                    std::cmp::Ordering::Less => 0.0,
+                });
+                let gx = congruence(self.li[b].transpose(), s.as_ref());
+                congruence(self.ti.as_ref(), gx.as_ref())
+            })
+            .collect();
+        let mut dy = [0, 1, 2].map(|_| Mat::<f64>::zeros(m, m));
+        let f = 1.0 / (1.0 + shift);
+        for j in 0..m {
+            for k in 0..=j {
+                let t = tri(j, k);
+                let dual = |b: usize| {
+                    if j == k {
+                        c[b][(j, j)]
+                    } else {
+                        c[b][(j, k)] + c[b][(k, j)]
+                    }
+                };
+                let ([a, cc, d], e) = self.block(t);
+                let det = a * d - cc * cc;
+                let (cm, ck) = (dual(0), dual(2));
+                let (ym, yk) = if det > 1e-14 * (a * d).abs() && det.is_finite() {
+                    ((d * cm - cc * ck) / det, (a * ck - cc * cm) / det)
+                } else {
+                    (safe_div(cm, a), safe_div(ck, d))
+                };
+                let yc = safe_div(dual(1), e);
+                for (b, y) in [ym, yc, yk].into_iter().enumerate() {
+                    dy[b][(j, k)] = f * y;
+                    dy[b][(k, j)] = f * y;
+                }
+            }
+        }
+        self.theta_of(&dy)
+    }
+
+    /// δθ = P̃⁻¹ (T⁻ᵀ δY_b T⁻¹) for each block.
+    fn theta_of(&self, dy: &[Mat<f64>; 3]) -> Vec<f64> {
+        self.theta_of_x(
+            &dy.each_ref()
+                .map(|d| congruence(self.ti.transpose(), d.as_ref())),
+        )
+    }
+
+    /// δθ = P̃⁻¹ δX_b for each block (δX symmetric).
+    pub(crate) fn theta_of_x(&self, dxs: &[Mat<f64>; 3]) -> Vec<f64> {
+        let (m, nb) = (self.m, n_per_block(self.m));
+        let mut out = vec![0.0; 3 * nb];
+        for (b, dx) in dxs.iter().enumerate() {
+            // W = L⁻¹ δX L⁻ᵀ; δL = L Φ(W)
+            let w = congruence(self.li[b].as_ref(), dx.as_ref());
+            let z = Mat::from_fn(m, m, |j, k| match j.cmp(&k) {
+                std::cmp::Ordering::Greater => w[(j, k)],
+                std::cmp::Ordering::Equal => 0.5 * w[(j, j)],
+                std::cmp::Ordering::Less => 0.0,
+            });
+            let dl = mul(self.l[b].as_ref(), z.as_ref());
+            for j in 0..m {
+                for k in 0..=j {
+                    out[b * nb + tri(j, k)] = dl[(j, k)] / self.scale(b, j, k);
+                }
+            }
+        }
+        out
+    }
+
+    /// The θ direction of one modal unknown: δY_b = E_jk + E_kj (E_jj on the
+    /// diagonal), the other blocks 0.
+    #[cfg(test)]
+    pub(crate) fn modal_direction(&self, b: usize, j: usize, k: usize) -> Vec<f64> {
+        let m = self.m;
+        let mut dy = [0, 1, 2].map(|_| Mat::<f64>::zeros(m, m));
+        dy[b][(j, k)] = 1.0;
+        dy[b][(k, j)] = 1.0;
+        self.theta_of(&dy)
+    }
+}
+
+fn safe_div(a: f64, b: f64) -> f64 {
+    if b > 0.0 && b.is_finite() {
+        a / b
+    } else {
+        0.0
+    }
+}
+
+/// Adds line i's part of the sums (Σβ, Σω²β, Σω⁴β per pair, `out` 3·nb) for one
+/// Gram term G (row-major m×m Hermitian, D⁻ᴴ…D⁻¹) and its columns' responses x and
+/// weights w² (`cols`: (x, w²) pairs), at scaled frequency `om`.
+pub(crate) fn add_line_sums(
+    ti: MatRef<f64>,
+    g: &[c64],
+    cols: &[(&[c64], f64)],
+    om: f64,
+    out: &mut [f64],
+) {
+    let m = ti.nrows();
+    // G_Y = T⁻¹ G T⁻ᵀ by real products: T⁻¹ [Re G | Im G], then each half · T⁻ᵀ
+    let gri = Mat::<f64>::from_fn(m, 2 * m, |r, c| {
+        let z = g[r * m + (c % m)];
+        if c < m {
+            z.re
+        } else {
+            z.im
+        }
+    });
+    let left = mul(ti, gri.as_ref());
+    let gyr = mul(left.as_ref().subcols(0, m), ti.transpose());
+    let gyi = mul(left.as_ref().subcols(m, m), ti.transpose());
+    let (w2, w4) = (om * om, om * om * om * om);
+    for &(x, wt) in cols {
+        // y = T⁻¹ x
+        let y: Vec<c64> = (0..m)
+            .map(|r| (0..m).map(|c| x[c] * ti[(r, c)]).sum())
+            .collect();
+        for j in 0..m {
+            let yj = y[j];
+            let (yj2, gjj) = (yj.norm_sqr(), gyr[(j, j)]);
+            for k in 0..=j {
+                let beta = if j == k {
+                    yj2 * gjj
+                } else {
+                    let yk = y[k];
+                    let gjk = c64::new(gyr[(j, k)], gyi[(j, k)]);
+                    yk.norm_sqr() * gjj + yj2 * gyr[(k, k)] + 2.0 * (yk.conj() * yj * gjk).re
+                } * wt;
+                let o = &mut out[3 * tri(j, k)..3 * tri(j, k) + 3];
+                o[0] += beta;
+                o[1] += w2 * beta;
+                o[2] += w4 * beta;
+            }
+        }
+    }
+}
