@@ -13,6 +13,9 @@ symmetric=True)``, relative weights (the default), stopping ``ftol`` = 1e-5.
 * ``large`` (m = 100, s = 2000): ``refine()`` with the automatic (matrix-free)
   step: time, steps, peak memory; the dense normal matrix would be
   (3m(m+1)/2)² doubles.
+* ``metric``: the matrix-free step with ``metric="diagonal"`` (default) and
+  ``"modal"`` at the m:s pairs of ``--metric-sizes`` (and dense up to
+  ``--metric-dense-max``).
 * ``--crossover``: dense against matrix-free steps over m at s = 800 (the rule of
   ``solver="auto"``).
 
@@ -22,6 +25,8 @@ Every case runs in its own process (its time and peak memory are its own).
     python benches/bench_refine.py --parts scipy
     python benches/bench_refine.py --parts large --curvature   # refine(curvature=True)
     python benches/bench_refine.py --crossover --sizes 10,20,30,40,50
+    python benches/bench_refine.py --parts metric           # metric='diagonal' vs 'modal'
+    python benches/bench_refine.py --parts large --metric modal
 """
 
 from __future__ import annotations
@@ -73,6 +78,7 @@ def podid_case(case: dict) -> dict:
             lambda: refine(
                 start, U, F, omega, ftol=FTOL, solver=case.get("solver", "auto"),
                 max_iter=case.get("max_iter") or 200, curvature=case.get("curvature", False),
+                metric=case.get("metric", "diagonal"),
             )
         )  # fmt: skip
     rep = res.info["refinement"]
@@ -191,7 +197,7 @@ def main_scipy(args: argparse.Namespace, me: str) -> str:
 def main_large(args: argparse.Namespace, me: str) -> str:
     m, s = args.large_m, args.large_s
     case = {"kind": "podid", "m": m, "s": s, "solver": "auto", "max_iter": args.large_max_iter,
-            "curvature": args.curvature}  # fmt: skip
+            "curvature": args.curvature, "metric": args.metric}  # fmt: skip
     r = run_worker(me, case, timeout=7200)
     print(f"podid_rs m={m} s={s}: {r}", flush=True)
     n = 3 * m * (m + 1) // 2
@@ -212,12 +218,44 @@ def main_large(args: argparse.Namespace, me: str) -> str:
     loads = loads_of(r)
     return (
         f"Large m: the same problem at m = {m}, s = {s} ({n} unknowns); solver='auto', "
-        f"curvature={args.curvature}. "
+        f"curvature={args.curvature}, metric={args.metric!r}. "
         "Time = the whole refine() call, 2 cores.\n"
         + (f"1-minute load average: {min(loads):.1f}–{max(loads):.1f}.\n" if loads else "")
         + "\n"
         + markdown_table(header, [row])
         + ("" if "error" not in r else f"\n\n{r['error']}")
+    )
+
+
+def main_metric(args: argparse.Namespace, me: str) -> str:
+    """The matrix-free step with metric='diagonal' and 'modal', and the dense step."""
+    rows, loads = [], []
+    for spec in args.metric_sizes.split(","):
+        m, s = (int(x) for x in spec.split(":"))
+        base = {"kind": "podid", "m": m, "s": s}
+        runs = [("matrix-free, diagonal", {**base, "solver": "matrix-free"}),
+                ("matrix-free, modal", {**base, "metric": "modal"})]  # fmt: skip
+        if m <= args.metric_dense_max:
+            runs.append(("dense", {**base, "solver": "dense"}))
+        for name, case in runs:
+            r = run_worker(me, case, timeout=7200)
+            loads += loads_of(r)
+            rows.append([
+                m, s, name, val(r, "seconds"), f"{val(r, 'iterations')} ({val(r, 'accepted')})",
+                val(r, "cg"), val(r, "stop"), val(r, "cost_start"), val(r, "cost"),
+                val(r, "peak_gb"),
+            ])  # fmt: skip
+            print(f"m={m} s={s} {name}: {val(r, 'seconds')} s, cost {val(r, 'cost')}", flush=True)
+    header = ["m", "s", "step", "time s", "steps (accepted)", "CG products", "stop",
+              "cost start", "final cost", "peak GB"]  # fmt: skip
+    return (
+        "The matrix-free step's metric (LM damping and CG preconditioner): μ·diag N_θ "
+        "(default) against the modal metric with steps in X; the dense step for "
+        "reference. Whole refine() calls, max_iter 200.\n"
+        + (f"1-minute load average: {min(loads):.1f}–{max(loads):.1f} (2 cores).\n"
+           if loads else "")  # fmt: skip
+        + "\n"
+        + markdown_table(header, rows)
     )
 
 
@@ -261,7 +299,13 @@ def main_crossover(args: argparse.Namespace, me: str) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--parts", default="scipy,large")
+    ap.add_argument("--parts", default="scipy,large", help="scipy, large, metric")
+    ap.add_argument("--metric", default="diagonal", choices=("diagonal", "modal"),
+                    help="the large case's matrix-free metric")  # fmt: skip
+    ap.add_argument("--metric-sizes", default="40:1000,60:1200",
+                    help="m:s pairs of the metric part")  # fmt: skip
+    ap.add_argument("--metric-dense-max", type=int, default=40,
+                    help="the metric part runs the dense step up to this m")  # fmt: skip
     ap.add_argument("--m", type=int, default=20)
     ap.add_argument("--s", type=int, default=800)
     ap.add_argument("--max-nfev", type=int, default=None, help="cap SciPy's evaluations")
@@ -285,6 +329,8 @@ def main() -> None:
             texts.append(main_scipy(args, me))
         if "large" in parts:
             texts.append(main_large(args, me))
+        if "metric" in parts:
+            texts.append(main_metric(args, me))
         text = "\n\n".join(texts)
         name = "refine.md"
     write_report(text, args.out or Path("bench-results") / name)

@@ -28,6 +28,19 @@ def rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
+def assert_same_minimum(d, f) -> None:
+    """The dense step's answer d and another step's f: the same least-squares minimum
+    (costs to 1e-9, models to the data's resolution), f stable by construction."""
+    cd, cf = d.info["refinement"]["cost"], f.info["refinement"]["cost"]
+    assert abs(cd - cf) <= 1e-9 * cd
+    assert cd < d.info["refinement"]["cost_start"]
+    for a, b in ((d.M, f.M), (d.C, f.C), (d.K, f.K)):
+        assert rel(b, a) < 1e-5
+    for X in (f.M, f.K):
+        assert np.linalg.eigvalsh(X).min() > 0
+    assert np.linalg.eigvalsh(f.C).min() >= -1e-12 * np.abs(f.C).max()
+
+
 def two_percent_off(sys_: SecondOrderSystem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """M, C, K with every entry ~2 % off, kept symmetric (seeded)."""
     rng = np.random.default_rng(3)
@@ -83,16 +96,7 @@ def test_dense_and_matrix_free_steps_reach_the_same_model(weights):
             assert res.info["refinement"]["converged"], res.info["refinement"]["stop"]
             out[solver] = res
     d, f = out["dense"], out["matrix-free"]
-    cd, cf = d.info["refinement"]["cost"], f.info["refinement"]["cost"]
-    # the same least-squares minimum: costs to 1e-9, models to the data's resolution
-    assert abs(cd - cf) <= 1e-9 * cd
-    assert cd < d.info["refinement"]["cost_start"]
-    for a, b in ((d.M, f.M), (d.C, f.C), (d.K, f.K)):
-        assert rel(b, a) < 1e-5
-    # stable by construction whatever the step
-    for X in (f.M, f.K):
-        assert np.linalg.eigvalsh(X).min() > 0
-    assert np.linalg.eigvalsh(f.C).min() >= -1e-12 * np.abs(f.C).max()
+    assert_same_minimum(d, f)
 
 
 def test_auto_solves_small_orders_densely_and_bad_names_are_refused():
@@ -115,3 +119,39 @@ def test_reported_db_errors_are_those_of_the_start_and_the_answer():
     for (Mx, Cx, Kx), key in (((M1, C1, K1), "db_before"), ((res.M, res.C, res.K), "db_after")):
         e = db_errors(SecondOrderSystem(Mx, Cx, Kx).response(omega, F), U)
         assert rep[key] == pytest.approx((np.median(e), np.percentile(e, 95)), rel=1e-8)
+
+
+def test_the_modal_metric_reaches_the_exact_model_in_fewer_steps():
+    # metric="modal": LM damped and CG preconditioned in the current model's modes, each
+    # step taken in X = L Lᵀ — on noise-free data the exact model, and sooner than
+    # μ·diag N (measured: 13 steps against 49)
+    sys_, U, F, omega = chain_data(5, 60, 2, 0.0)
+    start = two_percent_off(sys_)
+    diag = refine(start, U, F, omega, solver="matrix-free", ftol=1e-12)
+    res = refine(start, U, F, omega, metric="modal", ftol=1e-12)
+    rep = res.info["refinement"]
+    assert rep["solver"] == "matrix-free" and rep["metric"] == "modal"
+    assert rep["converged"], rep["stop"]
+    for X, T in ((res.M, sys_.M), (res.C, sys_.C), (res.K, sys_.K)):
+        assert rel(X, T) < 1e-8
+    assert res.iterations < diag.iterations
+
+
+def test_the_modal_metric_reaches_the_dense_steps_minimum_on_noisy_data():
+    sys_, U, F, omega = chain_data(4, 80, 2, 1e-3, seed=1)
+    start = identify(U, F, omega, symmetric=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the start may be made physical
+        d = refine(start, U, F, omega, solver="dense", ftol=1e-10, max_iter=400)
+        f = refine(start, U, F, omega, metric="modal", ftol=1e-10, max_iter=400)
+    assert f.info["refinement"]["converged"], f.info["refinement"]["stop"]
+    assert_same_minimum(d, f)
+
+
+def test_a_bad_metric_is_refused_by_name():
+    sys_, U, F, omega = chain_data(3, 40, 1, 1e-3)
+    start = (sys_.M, sys_.C, sys_.K)
+    with pytest.raises(ValueError, match="metric"):
+        refine(start, U, F, omega, metric="euclid")
+    with pytest.raises(ValueError, match="matrix-free"):
+        refine(start, U, F, omega, metric="modal", solver="dense")
