@@ -327,11 +327,12 @@ def refine(
         through the factors (O(m³) per use), as both — and each step taken in X = L Lᵀ
         itself (Cholesky of X + δX; the step in the factors, with their curvature, where
         X + δX leaves the cone). Implies ``solver="matrix-free"``. Measured
-        (``benches/bench_refine.py --metric``, chain with 0.1 % noise): m = 40 at 1000
-        lines 3.6 s to cost 0.058327 in 30 steps (``"diagonal"`` 66 s and 200 steps to
-        0.058587; dense 36.6 s to 0.058330); but at m = 100, 2000 lines, where the start
-        sits on the cone's edge and every step leaves it, 0.250 after 200 steps against
-        0.233 — hence not the default.
+        (``benches/bench_refine.py --parts metric``, chain with 0.1 % noise): m = 40 at
+        1000 lines 2.45 s to cost 0.058327 in 29 steps (``"diagonal"`` 50.7 s and 200
+        steps to 0.058568; dense 19.3 s to 0.058330), m = 60 at 1200 lines 34.9 s
+        against 211 s; but at m = 100, 2000 lines, where the start sits on the cone's
+        edge and every step leaves it, 0.260 after 200 steps against 0.233 — hence not
+        the default.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,

@@ -38,6 +38,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par, Side};
 
 /// S₊ of each block and the logged-diagonal terms at one point.
+#[derive(Clone)]
 pub(crate) struct Curvature {
     /// S_b₊ (m × m) per block
     pos_s: [Mat<f64>; 3],

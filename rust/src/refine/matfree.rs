@@ -208,9 +208,28 @@ impl MatrixFree {
                 Metric::Diagonal((damp, _)) => v.iter().zip(damp).map(|(a, e)| a * e).collect(),
             }
         };
+        // with the curvature H (the modal path's step in the factors): B_θ⁻¹ does not
+        // see H, which dominates where a factor is nearly singular — a few CG
+        // iterations on (1 + μ)B_θ + H (O(m³) each), preconditioned by B_θ⁻¹, instead
+        let curv = match (&self.curv, self.use_curv) {
+            (Some(cv), true) => Some(cv.clone()),
+            _ => None,
+        };
         let precondition = |r: &[f64]| -> Vec<f64> {
             match &metric {
-                Metric::Modal(b) => b.solve(r, mu),
+                Metric::Modal(b) => match &curv {
+                    Some(cv) => inner_solve(
+                        r,
+                        |v| {
+                            let mut out: Vec<f64> =
+                                b.apply(v).iter().map(|x| (1.0 + mu) * x).collect();
+                            cv.apply_add(v, &mut out);
+                            out
+                        },
+                        |v| b.solve(v, mu),
+                    ),
+                    None => b.solve(r, mu),
+                },
                 Metric::Diagonal((_, pre)) => {
                     let nb = n / 3;
                     let mut z = vec![0.0; n];
@@ -252,6 +271,7 @@ impl MatrixFree {
                 break;
             }
             let alpha = rz / dad;
+            let r_prev = r.clone();
             for q in 0..n {
                 x[q] += alpha * d[q];
                 r[q] -= alpha * ad[q];
@@ -266,7 +286,14 @@ impl MatrixFree {
             }
             z = precondition(&r);
             let rz2 = dot(&r, &z);
-            let beta = rz2 / rz;
+            // Polak–Ribière (flexible CG: the inner solve is not one fixed matrix); the
+            // same β as Fletcher–Reeves for a fixed preconditioner
+            let beta = if curv.is_some() && matches!(metric, Metric::Modal(_)) {
+                let zr_old: f64 = z.iter().zip(&r_prev).map(|(a, c)| a * c).sum();
+                ((rz2 - zr_old) / rz).max(0.0)
+            } else {
+                rz2 / rz
+            };
             rz = rz2;
             for q in 0..n {
                 d[q] = z[q] + beta * d[q];
@@ -694,6 +721,43 @@ enum Metric {
     Modal(Box<ModalMetric>),
     /// μ·diag(N + H), and the inverted 3×3 blocks of N + μD
     Diagonal((Vec<f64>, Vec<[f64; 6]>)),
+}
+
+/// Inner iterations of the preconditioner with the curvature.
+const INNER_CG: usize = 8;
+
+/// About A⁻¹ r by INNER_CG preconditioned CG iterations (A = `apply`, preconditioner
+/// `pre`), from 0.
+fn inner_solve(
+    r: &[f64],
+    apply: impl Fn(&[f64]) -> Vec<f64>,
+    pre: impl Fn(&[f64]) -> Vec<f64>,
+) -> Vec<f64> {
+    let mut x = vec![0.0; r.len()];
+    let mut res = r.to_vec();
+    let mut z = pre(&res);
+    let mut d = z.clone();
+    let mut rz = dot(&res, &z);
+    for _ in 0..INNER_CG {
+        let ad = apply(&d);
+        let dad = dot(&d, &ad);
+        if dad.is_nan() || rz.is_nan() || dad <= 0.0 || rz <= 0.0 {
+            break;
+        }
+        let alpha = rz / dad;
+        for q in 0..x.len() {
+            x[q] += alpha * d[q];
+            res[q] -= alpha * ad[q];
+        }
+        z = pre(&res);
+        let rz2 = dot(&res, &z);
+        let beta = rz2 / rz;
+        rz = rz2;
+        for q in 0..x.len() {
+            d[q] = z[q] + beta * d[q];
+        }
+    }
+    x
 }
 
 /// Block pairs (b, b') of the 3×3 blocks of N_θ kept per unknown (j, k): the
