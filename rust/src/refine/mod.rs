@@ -1485,6 +1485,10 @@ mod tests {
             for _ in 0..3 {
                 assert_products_match(&mut mf, &nth, scale, &mut rng);
             }
+            // the modal metric of the same point
+            let mut mm = matfree::MatrixFree::new(MAX_CG_ITER).with_modal_metric(true);
+            mm.prepare(&pb, &params, &lf, &ev, Par::Seq);
+            assert_modal_metric(&mm, &nth, &params, &lf, &mut rng);
             // with the parametrisation's curvature both steps use the same N + H
             let mut dn = DenseNormal::with_curvature(true);
             dn.prepare(&pb, &params, &lf, &ev, Par::Seq);
@@ -1517,107 +1521,83 @@ mod tests {
         }
     }
 
-    #[test]
-    fn modal_metric_is_the_gauss_newton_matrix_on_modal_unknowns() {
-        let mut rng = Lcg(21);
-        for (m, p, log_diagonal, matrix) in [
-            (4, 2, true, false),
-            (3, 1, false, false),
-            (3, 2, true, true),
-        ] {
-            let (omega, u, f, wscal, wmat) = noisy_data(m, p, 8, &mut rng);
-            let weights = if matrix {
-                Weights::Matrix(&wmat)
-            } else {
-                Weights::Scalar(&wscal)
-            };
-            let data = OeData {
-                omega: &omega,
-                u: &u,
-                f: &f,
-                weights,
-                m,
-                p,
-            };
-            let pb = problem(data);
-            let params = Params { m, log_diagonal };
-            let lf = system(m, &mut rng).map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
-            let mck = lf.clone().map(|x| gram_lower(&x));
-            let ev = pb.evaluate(&mck).unwrap();
-            let (nth, _, _) =
-                dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
-            let mut mf = matfree::MatrixFree::new(MAX_CG_ITER).with_modal_metric(true);
-            mf.prepare(&pb, &params, &lf, &ev, Par::Seq);
-            let b = mf.modal().expect("the modal metric of a regular model");
-            let n = params.len();
-            let quad = |a: &[f64], v: &[f64], w: &[f64]| -> f64 {
-                let _ = a;
-                v.iter().zip(w).map(|(x, y)| x * y).sum()
-            };
-            let nquad = |v: &[f64]| -> f64 {
-                (0..n)
-                    .map(|a| v[a] * (0..n).map(|c| nth[c * n + a] * v[c]).sum::<f64>())
-                    .sum()
-            };
-            // on a single modal unknown, vᵀ B v is the Gauss–Newton matrix's vᵀ N v
-            // (up to the parametrisation's O(ε) floor)
-            for blk in 0..3 {
+    /// The modal metric at a point against the dense N_θ there (`nth`, n×n): B_θ = N_θ on
+    /// every single modal unknown, a step taken in X lands on X + Pδθ (and one out of the
+    /// cone is refused), B_θ symmetric positive definite with solve() its inverse.
+    fn assert_modal_metric(
+        mf: &matfree::MatrixFree,
+        nth: &[f64],
+        params: &Params,
+        lf: &[Mat<f64>; 3],
+        rng: &mut Lcg,
+    ) {
+        let m = params.m;
+        let b = mf.modal().expect("the modal metric of a regular model");
+        let n = params.len();
+        let dot = |v: &[f64], w: &[f64]| -> f64 { v.iter().zip(w).map(|(x, y)| x * y).sum() };
+        let nquad = |v: &[f64]| -> f64 {
+            (0..n)
+                .map(|a| v[a] * (0..n).map(|c| nth[c * n + a] * v[c]).sum::<f64>())
+                .sum()
+        };
+        // on a single modal unknown, vᵀ B v is the Gauss–Newton matrix's vᵀ N v
+        // (up to the parametrisation's O(ε) floor)
+        for blk in 0..3 {
+            for j in 0..m {
+                for k in 0..=j {
+                    let v = b.modal_direction(blk, j, k);
+                    let (got, want) = (dot(&v, &b.apply(&v)), nquad(&v));
+                    assert!(
+                        (got - want).abs() <= 1e-8 * want.abs(),
+                        "m {m} block {blk} ({j}, {k}): vᵀBv {got} vs vᵀNv {want}"
+                    );
+                }
+            }
+        }
+        // a step taken in X lands on X + P δθ exactly (to rounding), where it stays
+        // positive definite, and is refused where it leaves the cone
+        let v: Vec<f64> = (0..n).map(|_| 1e-3 * rng.next()).collect();
+        let th = params.pack(lf);
+        let step = mf.retract(&v).expect("a small step stays in the cone");
+        let moved: Vec<f64> = th.iter().zip(&step).map(|(a, c)| a + c).collect();
+        let lm = params.unpack(&moved);
+        let nb = n / 3;
+        for blk in 0..3 {
+            let want = lines::tangent(params, &lf[blk], &v[blk * nb..(blk + 1) * nb]);
+            let (x0, x1) = (gram_lower(&lf[blk]), gram_lower(&lm[blk]));
+            let top = (0..m).map(|i| x0[(i, i)].abs()).fold(0.0, f64::max);
+            for i in 0..m {
                 for j in 0..m {
-                    for k in 0..=j {
-                        let v = b.modal_direction(blk, j, k);
-                        let (got, want) = (quad(&[], &v, &b.apply(&v)), nquad(&v));
-                        assert!(
-                            (got - want).abs() <= 1e-8 * want.abs(),
-                            "m {m} block {blk} ({j}, {k}): vᵀBv {got} vs vᵀNv {want}"
-                        );
-                    }
+                    let got = x1[(i, j)] - x0[(i, j)];
+                    assert!(
+                        (got - want[(i, j)]).abs() <= 1e-10 * top,
+                        "m {m} block {blk}: δX[{i}][{j}] {got} vs {}",
+                        want[(i, j)]
+                    );
                 }
             }
-            // a step taken in X lands on X + P δθ exactly (to rounding), where it stays
-            // positive definite, and is refused where it leaves the cone
-            let v: Vec<f64> = (0..n).map(|_| 1e-3 * rng.next()).collect();
-            let th = params.pack(&lf);
-            let step = mf.retract(&v).expect("a small step stays in the cone");
-            let moved: Vec<f64> = th.iter().zip(&step).map(|(a, c)| a + c).collect();
-            let lm = params.unpack(&moved);
-            let nb = n / 3;
-            for blk in 0..3 {
-                let want = lines::tangent(&params, &lf[blk], &v[blk * nb..(blk + 1) * nb]);
-                let (x0, x1) = (gram_lower(&lf[blk]), gram_lower(&lm[blk]));
-                let top = (0..m).map(|i| x0[(i, i)].abs()).fold(0.0, f64::max);
-                for i in 0..m {
-                    for j in 0..m {
-                        let got = x1[(i, j)] - x0[(i, j)];
-                        assert!(
-                            (got - want[(i, j)]).abs() <= 1e-10 * top,
-                            "m {m} block {blk}: δX[{i}][{j}] {got} vs {}",
-                            want[(i, j)]
-                        );
-                    }
-                }
-            }
-            // δX_00 = 2 L_00 δL_00 (times L_00 on a logged diagonal) ≪ −X_00
-            let mut out = vec![0.0; n];
-            out[tri(0, 0)] = -1e4 * (1.0 + 1.0 / lf[0][(0, 0)].abs());
-            assert!(mf.retract(&out).is_none(), "m {m}: X + δX left the cone");
-            // symmetric, positive definite, and solve() is its inverse
-            for _ in 0..3 {
-                let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
-                let w: Vec<f64> = (0..n).map(|_| rng.next()).collect();
-                let (bv, bw) = (b.apply(&v), b.apply(&w));
-                let (vbw, wbv) = (quad(&[], &v, &bw), quad(&[], &w, &bv));
-                assert!((vbw - wbv).abs() <= 1e-10 * (vbw.abs() + wbv.abs()));
-                assert!(quad(&[], &v, &bv) > 0.0);
-                let back = b.solve(&bv, 0.0);
-                let vn = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-                let err = back
-                    .iter()
-                    .zip(&v)
-                    .map(|(a, c)| (a - c).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                assert!(err <= 1e-8 * vn, "m {m}: ‖B⁻¹Bv − v‖ = {err:e}");
-            }
+        }
+        // δX_00 = 2 L_00 δL_00 (times L_00 on a logged diagonal) ≪ −X_00
+        let mut out = vec![0.0; n];
+        out[tri(0, 0)] = -1e4 * (1.0 + 1.0 / lf[0][(0, 0)].abs());
+        assert!(mf.retract(&out).is_none(), "m {m}: X + δX left the cone");
+        // symmetric, positive definite, and solve() is its inverse
+        for _ in 0..3 {
+            let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let w: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let (bv, bw) = (b.apply(&v), b.apply(&w));
+            let (vbw, wbv) = (dot(&v, &bw), dot(&w, &bv));
+            assert!((vbw - wbv).abs() <= 1e-10 * (vbw.abs() + wbv.abs()));
+            assert!(dot(&v, &bv) > 0.0);
+            let back = b.solve(&bv, 0.0);
+            let vn = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let err = back
+                .iter()
+                .zip(&v)
+                .map(|(a, c)| (a - c).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(err <= 1e-8 * vn, "m {m}: ‖B⁻¹Bv − v‖ = {err:e}");
         }
     }
 
