@@ -187,12 +187,7 @@ impl ModalMetric {
                     }
                 });
                 let a = mul(self.l[b].transpose(), rr.as_ref());
-                let s = Mat::from_fn(m, m, |j, k| match j.cmp(&k) {
-                    std::cmp::Ordering::Greater => a[(j, k)],
-                    std::cmp::Ordering::Equal => 0.5 * a[(j, j)],
-                    std::cmp::Ordering::Less => 0.0,
-                });
-                let gx = congruence(self.li[b].transpose(), s.as_ref());
+                let gx = congruence(self.li[b].transpose(), half_lower(&a).as_ref());
                 congruence(self.ti.as_ref(), gx.as_ref())
             })
             .collect();
@@ -241,12 +236,7 @@ impl ModalMetric {
         for (b, dx) in dxs.iter().enumerate() {
             // W = L⁻¹ δX L⁻ᵀ; δL = L Φ(W)
             let w = congruence(self.li[b].as_ref(), dx.as_ref());
-            let z = Mat::from_fn(m, m, |j, k| match j.cmp(&k) {
-                std::cmp::Ordering::Greater => w[(j, k)],
-                std::cmp::Ordering::Equal => 0.5 * w[(j, j)],
-                std::cmp::Ordering::Less => 0.0,
-            });
-            let dl = mul(self.l[b].as_ref(), z.as_ref());
+            let dl = mul(self.l[b].as_ref(), half_lower(&w).as_ref());
             for j in 0..m {
                 for k in 0..=j {
                     out[b * nb + tri(j, k)] = dl[(j, k)] / self.scale(b, j, k);
@@ -266,6 +256,16 @@ impl ModalMetric {
         dy[b][(k, j)] = 1.0;
         self.theta_of(&dy)
     }
+}
+
+/// Φ(A): the strict lower triangle of A and half its diagonal (Φ(Z + Zᵀ) = Z for a
+/// lower-triangular Z; also the adjoint that pairs a lower-triangular dual with W).
+fn half_lower(a: &Mat<f64>) -> Mat<f64> {
+    Mat::from_fn(a.nrows(), a.ncols(), |j, k| match j.cmp(&k) {
+        std::cmp::Ordering::Greater => a[(j, k)],
+        std::cmp::Ordering::Equal => 0.5 * a[(j, j)],
+        std::cmp::Ordering::Less => 0.0,
+    })
 }
 
 fn safe_div(a: f64, b: f64) -> f64 {
