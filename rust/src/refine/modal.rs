@@ -129,19 +129,26 @@ impl ModalMetric {
         ([s4, -s2, s0], s2)
     }
 
+    /// Block b of a θ-vector as a lower-triangular m×m matrix, each entry combined with
+    /// its θ-scale s_jk by `with` (δL = s·δθ; a dual divides).
+    fn lower_of(&self, b: usize, v: &[f64], with: impl Fn(f64, f64) -> f64) -> Mat<f64> {
+        let (m, nb) = (self.m, n_per_block(self.m));
+        Mat::from_fn(m, m, |j, k| {
+            if k > j {
+                0.0
+            } else {
+                with(v[b * nb + tri(j, k)], self.scale(b, j, k))
+            }
+        })
+    }
+
     /// B_θ v.
     pub(crate) fn apply(&self, v: &[f64]) -> Vec<f64> {
         let (m, nb) = (self.m, n_per_block(self.m));
         // δY_b = Tᵀ (δL Lᵀ + L δLᵀ) T
         let dy: Vec<Mat<f64>> = (0..3)
             .map(|b| {
-                let dl = Mat::from_fn(m, m, |j, k| {
-                    if k > j {
-                        0.0
-                    } else {
-                        v[b * nb + tri(j, k)] * self.scale(b, j, k)
-                    }
-                });
+                let dl = self.lower_of(b, v, |x, s| x * s);
                 let x = mul(dl.as_ref(), self.l[b].transpose());
                 let dx = Mat::from_fn(m, m, |i, j| x[(i, j)] + x[(j, i)]);
                 congruence(self.t.transpose(), dx.as_ref())
@@ -175,17 +182,11 @@ impl ModalMetric {
 
     /// B_θ⁻¹ r / (1 + shift): the preconditioner of N + μB_θ (shift = μ).
     pub(crate) fn solve(&self, r: &[f64], shift: f64) -> Vec<f64> {
-        let (m, nb) = (self.m, n_per_block(self.m));
+        let m = self.m;
         // dual in Y: c_jk = H_jk + H_kj (j > k), H_jj; H = T⁻¹ L⁻ᵀ Φ*(Lᵀ R) L⁻¹ T⁻ᵀ
         let c: Vec<Mat<f64>> = (0..3)
             .map(|b| {
-                let rr = Mat::from_fn(m, m, |j, k| {
-                    if k > j {
-                        0.0
-                    } else {
-                        r[b * nb + tri(j, k)] / self.scale(b, j, k)
-                    }
-                });
+                let rr = self.lower_of(b, r, |x, s| x / s);
                 let a = mul(self.l[b].transpose(), rr.as_ref());
                 let gx = congruence(self.li[b].transpose(), half_lower(&a).as_ref());
                 congruence(self.ti.as_ref(), gx.as_ref())
