@@ -112,6 +112,27 @@ def test_an_unstable_indefinite_start_is_made_physical_with_a_warning():
     assert_physical(model)
 
 
+def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
+    # |d| for a negative eigenvalue (the estimator's sign error keeps its size), the
+    # rtol floor for a zero one in M, K; C keeps its zero; eigenvectors unchanged
+    from podid_rs.refinement import physical_start
+
+    Q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((3, 3)))
+    sym = lambda d: (Q * np.asarray(d, float)) @ Q.T  # noqa: E731
+    M, C, K = sym([-0.5, 1.0, 2.0]), sym([-0.1, 0.0, 3.0]), sym([0.0, 1.0, 4.0])
+    given = [X.copy() for X in (M, C, K)]
+    (M1, C1, K1), rep = physical_start(M, C, K, rtol=1e-6)
+    for got, want in ((M1, [0.5, 1.0, 2.0]), (C1, [0.1, 0.0, 3.0]), (K1, [4e-6, 1.0, 4.0])):
+        assert np.array_equal(got, got.T)
+        np.testing.assert_allclose(np.diag(Q.T @ got @ Q), want, rtol=1e-12, atol=1e-12)
+    assert rep["eigenvalues_raised"] == (1, 1, 1)
+    for X, before in zip((M, C, K), given, strict=True):
+        assert np.array_equal(X, before)  # the caller's matrices untouched
+    # a physical model (a refined one given back) is kept as it is
+    (M2, C2, K2), rep2 = physical_start(M1, C1 + 1e-3 * np.eye(3), K1)
+    assert rep2["eigenvalues_raised"] == (0, 0, 0) and max(rep2["relative_change"]) < 1e-15
+
+
 def test_a_rank_deficient_start_is_warned_about():
     chain = pr.mass_spring_chain(4)
     w = 2 * np.pi * np.linspace(5.0, 250.0, 80)
