@@ -13,9 +13,9 @@ symmetric=True)``, relative weights (the default), stopping ``ftol`` = 1e-5.
 * ``large`` (m = 100, s = 2000): ``refine()`` with the automatic (matrix-free)
   step: time, steps, peak memory; the dense normal matrix would be
   (3m(m+1)/2)² doubles.
-* ``metric``: the matrix-free step with ``metric="diagonal"`` (default) and
-  ``"modal"`` at the m:s pairs of ``--metric-sizes`` (and dense up to
-  ``--metric-dense-max``).
+* ``metric``: the matrix-free step with ``metric="diagonal"`` and ``"modal"``
+  (``refine``'s default for a matrix-free step) at the m:s pairs of
+  ``--metric-sizes`` (and dense up to ``--metric-dense-max``).
 * ``--crossover``: dense against matrix-free steps over m at s = 800 (the rule of
   ``solver="auto"``).
 
@@ -26,7 +26,7 @@ Every case runs in its own process (its time and peak memory are its own).
     python benches/bench_refine.py --parts large --curvature   # refine(curvature=True)
     python benches/bench_refine.py --crossover --sizes 10,20,30,40,50
     python benches/bench_refine.py --parts metric           # metric='diagonal' vs 'modal'
-    python benches/bench_refine.py --parts large --metric modal
+    python benches/bench_refine.py --parts large --metric diagonal  # (default: auto = modal)
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def podid_case(case: dict) -> dict:
             lambda: refine(
                 start, U, F, omega, ftol=FTOL, solver=case.get("solver", "auto"),
                 max_iter=case.get("max_iter") or 200, curvature=case.get("curvature", False),
-                metric=case.get("metric", "diagonal"),
+                metric=case.get("metric", "auto"),
             )
         )  # fmt: skip
     rep = res.info["refinement"]
@@ -233,7 +233,7 @@ def main_metric(args: argparse.Namespace, me: str) -> str:
     for spec in args.metric_sizes.split(","):
         m, s = (int(x) for x in spec.split(":"))
         base = {"kind": "podid", "m": m, "s": s}
-        runs = [("matrix-free, diagonal", {**base, "solver": "matrix-free"}),
+        runs = [("matrix-free, diagonal", {**base, "solver": "matrix-free", "metric": "diagonal"}),
                 ("matrix-free, modal", {**base, "metric": "modal"})]  # fmt: skip
         if m <= args.metric_dense_max:
             runs.append(("dense", {**base, "solver": "dense"}))
@@ -250,7 +250,7 @@ def main_metric(args: argparse.Namespace, me: str) -> str:
               "cost start", "final cost", "peak GB"]  # fmt: skip
     return (
         "The matrix-free step's metric (LM damping and CG preconditioner): μ·diag N_θ "
-        "(default) against the modal metric with steps in X; the dense step for "
+        "against the modal metric with steps in X (the default); the dense step for "
         "reference. Whole refine() calls, max_iter 200.\n"
         + (f"1-minute load average: {min(loads):.1f}–{max(loads):.1f} (2 cores).\n"
            if loads else "")  # fmt: skip
@@ -300,8 +300,8 @@ def main_crossover(args: argparse.Namespace, me: str) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--parts", default="scipy,large", help="scipy, large, metric")
-    ap.add_argument("--metric", default="diagonal", choices=("diagonal", "modal"),
-                    help="the large case's matrix-free metric")  # fmt: skip
+    ap.add_argument("--metric", default="auto", choices=("auto", "diagonal", "modal"),
+                    help="the large case's metric (auto: refine()'s default)")  # fmt: skip
     ap.add_argument("--metric-sizes", default="40:1000,60:1200",
                     help="m:s pairs of the metric part")  # fmt: skip
     ap.add_argument("--metric-dense-max", type=int, default=40,

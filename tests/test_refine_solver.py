@@ -127,10 +127,11 @@ def test_the_modal_metric_reaches_the_exact_model_in_fewer_steps():
     # μ·diag N (measured: 14–22 steps, runs differ in the order of parallel sums, against 49)
     sys_, U, F, omega = chain_data(5, 60, 2, 0.0)
     start = two_percent_off(sys_)
-    diag = refine(start, U, F, omega, solver="matrix-free", ftol=1e-12)
+    diag = refine(start, U, F, omega, solver="matrix-free", metric="diagonal", ftol=1e-12)
     res = refine(start, U, F, omega, metric="modal", ftol=1e-12)
     rep = res.info["refinement"]
     assert rep["solver"] == "matrix-free" and rep["metric"] == "modal"
+    assert diag.info["refinement"]["metric"] == "diagonal"
     assert rep["converged"], rep["stop"]
     for X, T in ((res.M, sys_.M), (res.C, sys_.C), (res.K, sys_.K)):
         assert rel(X, T) < 1e-8
@@ -146,6 +147,21 @@ def test_the_modal_metric_reaches_the_dense_steps_minimum_on_noisy_data():
         f = refine(start, U, F, omega, metric="modal", ftol=1e-10, max_iter=400)
     assert f.info["refinement"]["converged"], f.info["refinement"]["stop"]
     assert_same_minimum(d, f)
+
+
+def test_the_default_metric_is_modal_where_the_step_is_matrix_free():
+    # metric="auto": the modal metric for a matrix-free step (its own steps reported),
+    # the dense step (chosen by solver="auto" at small m) as it was
+    sys_, U, F, omega = chain_data(4, 60, 2, 1e-3, seed=2)
+    start = two_percent_off(sys_)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # max_iter = 5: not converged, nor meant to
+        free = refine(start, U, F, omega, solver="matrix-free", max_iter=5)
+        dense = refine(start, U, F, omega, max_iter=5).info["refinement"]
+    rep = free.info["refinement"]
+    assert rep["solver"] == "matrix-free" and rep["metric"] == "modal"
+    assert rep["solver_stats"]["x_steps"] + rep["solver_stats"]["factor_steps"] >= 1
+    assert dense["solver"] == "dense" and dense["metric"] == "dense"
 
 
 def test_a_bad_metric_is_refused_by_name():

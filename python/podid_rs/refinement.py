@@ -285,7 +285,7 @@ def refine(
     solver: Literal["auto", "dense", "matrix-free"] = "auto",
     objective: Literal["complex", "log-magnitude"] = "complex",
     curvature: bool = False,
-    metric: Literal["diagonal", "modal"] = "diagonal",
+    metric: Literal["auto", "diagonal", "modal"] = "auto",
 ) -> IdentificationResult:
     """Refine ``model`` to the least output error on the data (DESIGN §6).
 
@@ -332,18 +332,20 @@ def refine(
         0.94 → 0.58 dB (20–800 Hz) off the measurement. Off by default: on noise-free
         data from a start a few per cent off it can take more steps. The order sweep
         and the final fit (:mod:`podid_rs.model_order`) turn it on.
-    metric : the matrix-free step's LM damping and CG preconditioner. ``"diagonal"``
-        (default): μ·diag(N) and the 3×3 M–C–K blocks of N. ``"modal"``: the
-        Gauss–Newton matrix's blocks in the current model's undamped modes, pulled back
-        through the factors (O(m³) per use), as both — and each step taken in X = L Lᵀ
-        itself (Cholesky of X + δX; the step in the factors, with their curvature, where
-        X + δX leaves the cone). Implies ``solver="matrix-free"``. Measured
-        (``benches/bench_refine.py --parts metric``, chain with 0.1 % noise): m = 40 at
-        1000 lines 2.45 s to cost 0.058327 in 29 steps (``"diagonal"`` 50.7 s and 200
-        steps to 0.058568; dense 19.3 s to 0.058330), m = 60 at 1200 lines 34.9 s
-        against 211 s; but at m = 100, 2000 lines, where the start sits on the cone's
-        edge and every step leaves it, 0.260 after 200 steps against 0.233 — hence not
-        the default.
+    metric : the matrix-free step's LM damping and CG preconditioner. ``"diagonal"``:
+        μ·diag(N) and the 3×3 M–C–K blocks of N. ``"modal"``: the Gauss–Newton matrix's
+        blocks in the current model's undamped modes, pulled back through the factors
+        (O(m³) per use), as both — and each step taken in X = L Lᵀ itself (Cholesky of
+        X + δX; the step in the factors, with their curvature, where X + δX leaves the
+        cone); implies ``solver="matrix-free"``. ``"auto"`` (default): ``"modal"``
+        wherever the step is matrix-free (the dense step, m ≤ 40 with
+        ``solver="auto"``, damps by μ·diag(N) either way). Measured
+        (``benches/bench_refine.py --parts metric`` and ``--parts large``, chain with
+        0.1 % noise, whole calls): m = 40 at 1000 lines 2.45 s to cost 0.058327 in 29
+        steps (``"diagonal"`` 50.7 s and 200 steps to 0.058568; dense 19.3 s to
+        0.058330), m = 60 at 1200 lines 34.9 s against 211 s, m = 100 at 2000 lines
+        522 s, converged in 146 steps to 0.22328, against 776 s and 200 steps (the cap)
+        to 0.23281.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
@@ -399,8 +401,8 @@ def refine(
     threads = _check_threads(threads)
     if solver not in ("auto", "dense", "matrix-free"):
         raise ValueError(f"solver must be 'auto', 'dense' or 'matrix-free', got {solver!r}")
-    if metric not in ("diagonal", "modal"):
-        raise ValueError(f"metric must be 'diagonal' or 'modal', got {metric!r}")
+    if metric not in ("auto", "diagonal", "modal"):
+        raise ValueError(f"metric must be 'auto', 'diagonal' or 'modal', got {metric!r}")
     if metric == "modal":
         if solver == "dense":
             raise ValueError("metric='modal' is the matrix-free step's: give solver='auto' "
@@ -459,7 +461,7 @@ def refine(
             Uc, Fc, targets.omega, p, (M1, C1, K1), **weight_kw,
             max_iter=int(max_iter), ftol=ftol, log_diagonal=bool(log_diagonal),
             progress=callback, threads=threads, solver=solver, curvature=bool(curvature),
-            modal_metric=metric == "modal",
+            modal_metric=metric != "diagonal",  # used only by a matrix-free step
         )
     finally:
         if bar is not None:
@@ -495,7 +497,9 @@ def refine(
         "timings": dict(out["timings"]),
         "scaling": tuple(out["scaling"]),
         "solver": str(out["solver"]),
-        "metric": metric if str(out["solver"]) == "matrix-free" else "dense",
+        "metric": ("diagonal" if metric == "diagonal" else "modal")
+        if str(out["solver"]) == "matrix-free"
+        else "dense",
         "solver_stats": dict(out["solver_stats"]),
     }
     if out["stop"] == "max_iter reached":
