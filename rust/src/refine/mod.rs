@@ -285,7 +285,10 @@ impl StepKind {
 /// where one step costs the same either way (1.2–1.3 s) but the matrix-free CG steps
 /// are inexact and LM needs about 3× as many. The dense step grows as ~m⁶ per step
 /// (0.21 s at m = 30, 1.26 s at m = 40), the matrix-free one as ~m²·(CG products);
-/// above m = 40 the matrix-free step is chosen, with O(s·m²) memory.
+/// above m = 40 the matrix-free step is chosen, with O(s·m²) memory. With the modal
+/// metric (Python's default for a matrix-free step) the chain's crossover moved to
+/// between m = 10 and 20 (m = 30: 1.18 s against 5.25 s), but on the measured beam (m ≤ 30, with
+/// curvature) that step fitted worse and slower, so the rule stays (README).
 pub const AUTO_DENSE_MAX_M: usize = 40;
 
 /// Most CG iterations of one matrix-free step.
