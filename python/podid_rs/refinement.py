@@ -343,9 +343,8 @@ def refine(
         (``benches/bench_refine.py --parts metric`` and ``--parts large``, chain with
         0.1 % noise, whole calls): m = 40 at 1000 lines 2.45 s to cost 0.058327 in 29
         steps (``"diagonal"`` 50.7 s and 200 steps to 0.058568; dense 19.3 s to
-        0.058330), m = 60 at 1200 lines 34.9 s against 211 s, m = 100 at 2000 lines
-        522 s, converged in 146 steps to 0.22328, against 776 s and 200 steps (the cap)
-        to 0.23281.
+        0.058330), m = 60 at 1200 lines 31.7 s against 211 s, m = 100 at 2000 lines
+        216 s, converged in 153 steps to 0.223275, against 776 s and 200 steps (the cap) to 0.23281.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
