@@ -123,8 +123,8 @@ def physical_start(
     floor): a direction the estimator got with the wrong sign keeps its size, where
     the nearest one puts it on the cone's edge, whose Cholesky factor has a pivot
     near 0 and a gradient near 0 that the refinement then climbs away from for
-    hundreds of steps (chain m = 100, 2000 lines, ``metric="modal"``: cost 0.225
-    after 25 steps from |d|, 0.33 from the floor; ``benches/bench_refine.py``).
+    hundreds of steps (chain m = 100, 2000 lines, ``metric="modal"`` with 8 inner
+    iterations: cost 0.225 after 25 steps from |d|, 0.320 after 27 from the floor).
 
     M or K with every eigenvalue at least ``START_KEEP`` of its largest is kept as it
     is (a refined model given back); C with none negative likewise.
@@ -344,7 +344,8 @@ def refine(
         0.1 % noise, whole calls): m = 40 at 1000 lines 2.45 s to cost 0.058327 in 29
         steps (``"diagonal"`` 50.7 s and 200 steps to 0.058568; dense 19.3 s to
         0.058330), m = 60 at 1200 lines 31.7 s against 211 s, m = 100 at 2000 lines
-        216 s, converged in 153 steps to 0.223275, against 776 s and 200 steps (the cap) to 0.23281.
+        216 s, converged in 153 steps to 0.223275, against 776 s and 200 steps (the
+        cap) to 0.23281.
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
