@@ -123,3 +123,39 @@ mod tests {
         }
     }
 }
+
+/// `n` complex zeros as a `Vec<c64>` from a zeroed allocation (calloc: the OS hands
+/// out zero pages, touched lazily by whichever thread fills them), not a serial
+/// memset of the whole buffer on the calling thread as `vec![c64::new(0.0, 0.0); n]`
+/// does — measured at m = 100, 2000 lines: the 320 MB per evaluation cost ≈ 10 % of
+/// the refinement's wall time on one thread while the others waited.
+pub fn zeroed_c64(n: usize) -> Vec<faer::c64> {
+    let mut v = std::mem::ManuallyDrop::new(vec![0.0f64; 2 * n]);
+    let (ptr, len, cap) = (v.as_mut_ptr(), v.len(), v.capacity());
+    debug_assert!(len == 2 * n);
+    if cap != len {
+        // not an exact allocation: fall back to the plain way (never seen)
+        unsafe { drop(Vec::from_raw_parts(ptr, len, cap)) };
+        return vec![faer::c64::new(0.0, 0.0); n];
+    }
+    // SAFETY: c64 is #[repr(C)] { re: f64, im: f64 } — size 16, align 8 — so 2n zeroed
+    // f64 with capacity exactly 2n are n zeroed c64 with capacity n, and the layout
+    // the Vec<c64> frees with (16n bytes, align 8) is the one allocated.
+    unsafe { Vec::from_raw_parts(ptr as *mut faer::c64, n, n) }
+}
+
+#[cfg(test)]
+mod zeroed_tests {
+    use super::zeroed_c64;
+
+    #[test]
+    fn zeroed_c64_is_zeros_and_usable() {
+        for n in [0usize, 1, 7, 1 << 16] {
+            let mut v = zeroed_c64(n);
+            assert_eq!(v.len(), n);
+            assert!(v.iter().all(|z| z.re == 0.0 && z.im == 0.0));
+            v.push(faer::c64::new(1.0, -1.0));
+            assert_eq!(v[n], faer::c64::new(1.0, -1.0));
+        }
+    }
+}

@@ -636,7 +636,7 @@ impl Problem<'_> {
     /// LU of every line, the model responses and the cost (scaled units).
     fn evaluate(&self, mck: &[Mat<f64>; 3]) -> Result<Evaluation, PodidError> {
         let (s, p, m) = (self.data.s(), self.data.p, self.data.m);
-        let mut lu = vec![c64::new(0.0, 0.0); s * m * m];
+        let mut lu = crate::buffer::zeroed_c64(s * m * m);
         let mut perm = vec![0usize; s * m];
         let mut x = self.f.clone();
         let costs: Vec<Option<f64>> = lu
