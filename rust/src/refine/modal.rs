@@ -33,6 +33,7 @@ use super::{n_per_block, tri, Params};
 use faer::linalg::matmul::matmul;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{c64, Accum, Mat, MatRef, Par, Side};
+use rayon::prelude::*;
 
 /// The modal metric at one point.
 pub(crate) struct ModalMetric {
@@ -147,6 +148,7 @@ impl ModalMetric {
         let (m, nb) = (self.m, n_per_block(self.m));
         // δY_b = Tᵀ (δL Lᵀ + L δLᵀ) T
         let dy: Vec<Mat<f64>> = (0..3)
+            .into_par_iter()
             .map(|b| {
                 let dl = self.lower_of(b, v, |x, s| x * s);
                 let x = mul(dl.as_ref(), self.l[b].transpose());
@@ -166,17 +168,17 @@ impl ModalMetric {
                 gy[2][(j, k)] = c * ym + d * yk;
             }
         }
-        for b in 0..3 {
+        out.par_chunks_mut(nb).enumerate().for_each(|(b, ob)| {
             // G_X = T G_Y Tᵀ; (B_θ v)_jk = ((G_X + G_Xᵀ) L)_jk s_jk
             let gx = congruence(self.t.as_ref(), gy[b].as_ref());
             let sym = Mat::from_fn(m, m, |i, j| gx[(i, j)] + gx[(j, i)]);
             let r = mul(sym.as_ref(), self.l[b].as_ref());
             for j in 0..m {
                 for k in 0..=j {
-                    out[b * nb + tri(j, k)] = r[(j, k)] * self.scale(b, j, k);
+                    ob[tri(j, k)] = r[(j, k)] * self.scale(b, j, k);
                 }
             }
-        }
+        });
         out
     }
 
@@ -185,6 +187,7 @@ impl ModalMetric {
         let m = self.m;
         // dual in Y: c_jk = H_jk + H_kj (j > k), H_jj; H = T⁻¹ L⁻ᵀ Φ*(Lᵀ R) L⁻¹ T⁻ᵀ
         let c: Vec<Mat<f64>> = (0..3)
+            .into_par_iter()
             .map(|b| {
                 let rr = self.lower_of(b, r, |x, s| x / s);
                 let a = mul(self.l[b].transpose(), rr.as_ref());
@@ -224,26 +227,27 @@ impl ModalMetric {
 
     /// δθ = P̃⁻¹ (T⁻ᵀ δY_b T⁻¹) for each block.
     fn theta_of(&self, dy: &[Mat<f64>; 3]) -> Vec<f64> {
-        self.theta_of_x(
-            &dy.each_ref()
-                .map(|d| congruence(self.ti.transpose(), d.as_ref())),
-        )
+        let dx: Vec<Mat<f64>> = dy
+            .par_iter()
+            .map(|d| congruence(self.ti.transpose(), d.as_ref()))
+            .collect();
+        self.theta_of_x(&[dx[0].clone(), dx[1].clone(), dx[2].clone()])
     }
 
     /// δθ = P̃⁻¹ δX_b for each block (δX symmetric).
     pub(crate) fn theta_of_x(&self, dxs: &[Mat<f64>; 3]) -> Vec<f64> {
         let (m, nb) = (self.m, n_per_block(self.m));
         let mut out = vec![0.0; 3 * nb];
-        for (b, dx) in dxs.iter().enumerate() {
+        out.par_chunks_mut(nb).enumerate().for_each(|(b, ob)| {
             // W = L⁻¹ δX L⁻ᵀ; δL = L Φ(W)
-            let w = congruence(self.li[b].as_ref(), dx.as_ref());
+            let w = congruence(self.li[b].as_ref(), dxs[b].as_ref());
             let dl = mul(self.l[b].as_ref(), half_lower(&w).as_ref());
             for j in 0..m {
                 for k in 0..=j {
-                    out[b * nb + tri(j, k)] = dl[(j, k)] / self.scale(b, j, k);
+                    ob[tri(j, k)] = dl[(j, k)] / self.scale(b, j, k);
                 }
             }
-        }
+        });
         out
     }
 
