@@ -117,6 +117,10 @@ pub(crate) struct MatrixFree {
     x_products: usize,
     /// per block (M, C, K): how often X + δX was not positive definite
     out_of_cone: [usize; 3],
+    /// steps still to go straight to the factors ([`X_STEP_WAIT`])
+    x_wait: usize,
+    /// steps in X in a row that left the cone
+    x_failures: usize,
 }
 
 impl MatrixFree {
@@ -158,6 +162,8 @@ impl MatrixFree {
             factor_steps: 0,
             x_products: 0,
             out_of_cone: [0; 3],
+            x_wait: 0,
+            x_failures: 0,
         }
     }
 
@@ -378,6 +384,28 @@ impl MatrixFree {
         } else {
             Err(3)
         }
+    }
+
+    /// The step in the factors, with their curvature.
+    fn factor_step(
+        &mut self,
+        g: &[f64],
+        mu: f64,
+        par: Par,
+        cancelled: &mut dyn FnMut() -> bool,
+        asked: bool,
+    ) -> Option<Vec<f64>> {
+        // where the step in X leaves the cone (or left it lately): the step in the
+        // factors, with their curvature (without
+        // it the model overestimates every decrease there and LM crawls: measured, gain
+        // ratio ≈ 0.68 at a damping of 50; cutting the step in X back to the cone
+        // instead, direction by direction or as a whole, stalled, and so did projecting
+        // X + δX onto the cone: m = 100, cost 0.494 after 25 steps against 0.225)
+        self.factor_steps += 1;
+        self.use_curv = self.curv.is_some();
+        let x = self.solve_step(g, mu, par, cancelled);
+        self.use_curv = asked;
+        x
     }
 
     /// Keep the modal metric of this point for the next step from it.
@@ -738,6 +766,15 @@ enum Metric {
     Diagonal((Vec<f64>, Vec<[f64; 6]>)),
 }
 
+/// Most steps that go straight to the factors after steps in X left the cone, before
+/// the next is tried (after the k-th failure in a row: 2^(k−1) − 1, at most this).
+/// Where the optimum sits on the cone's edge nearly every step in X leaves it (chain,
+/// m = 100, 2000 lines: 1 of 144 taken) and its CG solve — half the products of the
+/// whole refinement — is thrown away; where a step in X fails now and then (the
+/// 5-DOF chain from 2 % off: 2 of 17) the next step tries again (waiting 10 steps
+/// after each failure took that case from 14–22 steps to 33–37).
+const X_STEP_WAIT: usize = 10;
+
 /// Inner iterations of the preconditioner with the curvature. Measured (chain,
 /// m = 100, 2000 lines, whole refine): 3 / 8 / 16 / 32 / 64 → 934 s (max_iter) / 522 /
 /// 293 / 215 / 241 s; the outer CG then never hits its cap (2 213 products at 32
@@ -932,6 +969,11 @@ impl StepSolver for MatrixFree {
         // the Gauss–Newton step in X (the modal metric is B_X pulled back, and so is
         // the damping), taken in X: X + δX, where that stays positive definite
         let asked = self.use_curv;
+        if self.x_wait > 0 {
+            // the last step in X left the cone: straight to the step in the factors
+            self.x_wait -= 1;
+            return self.factor_step(g, mu, par, cancelled, asked);
+        }
         self.use_curv = false;
         let before = self.products;
         let x = self.solve_step(g, mu, par, cancelled);
@@ -943,21 +985,16 @@ impl StepSolver for MatrixFree {
                 let predicted = -2.0 * dot(g, x) - self.last.as_ref()?.1;
                 self.retracted = Some((step.clone(), predicted));
                 self.x_steps += 1;
+                self.x_failures = 0;
                 return Some(step);
             }
             Err(b) if b < 3 => self.out_of_cone[b] += 1,
             Err(_) => {}
         }
-        // it leaves the cone: the step in the factors, with their curvature (without
-        // it the model overestimates every decrease there and LM crawls: measured, gain
-        // ratio ≈ 0.68 at a damping of 50; cutting the step in X back to the cone
-        // instead, direction by direction or as a whole, stalled, and so did projecting
-        // X + δX onto the cone: m = 100, cost 0.494 after 25 steps against 0.225)
-        self.factor_steps += 1;
-        self.use_curv = self.curv.is_some();
-        let x = self.solve_step(g, mu, par, cancelled);
-        self.use_curv = asked;
-        x
+        // after the k-th failure in a row wait 2^(k−1) − 1 steps (at most X_STEP_WAIT)
+        self.x_failures += 1;
+        self.x_wait = ((1usize << (self.x_failures - 1).min(16)) - 1).min(X_STEP_WAIT);
+        self.factor_step(g, mu, par, cancelled, asked)
     }
 
     fn set_curvature(&mut self, on: bool) {
