@@ -235,16 +235,26 @@ impl MatrixFree {
         let precondition = |r: &[f64]| -> Vec<f64> {
             match &metric {
                 Metric::Modal(b) => match &curv {
-                    Some(cv) => inner_solve(
-                        r,
-                        |v| {
-                            let mut out: Vec<f64> =
-                                b.apply(v).iter().map(|x| (1.0 + mu) * x).collect();
-                            cv.apply_add(v, &mut out);
-                            out
-                        },
-                        |v| b.solve(v, mu),
-                    ),
+                    // in the modal coordinates y (δθ = R y): Rᵀ((1 + μ)B_θ + H)R =
+                    // (1 + μ)B_Y + RᵀHR, B_Y block diagonal — the same iterates as in θ
+                    // with B_θ⁻¹, for 11 instead of 17 m×m products per block and iteration
+                    Some(cv) => {
+                        let y = inner_solve(
+                            &b.dual_y(r),
+                            |v| {
+                                let th = b.theta_of_y(v);
+                                let mut h = vec![0.0; th.len()];
+                                cv.apply_add(&th, &mut h);
+                                let mut out = b.dual_y(&h);
+                                for (o, a) in out.iter_mut().zip(b.block_apply(v)) {
+                                    *o += (1.0 + mu) * a;
+                                }
+                                out
+                            },
+                            |v| b.block_solve(v, mu),
+                        );
+                        b.theta_of_y(&y)
+                    }
                     None => b.solve(r, mu),
                 },
                 Metric::Diagonal((_, pre)) => {

@@ -1602,6 +1602,20 @@ mod tests {
                 .sqrt();
             assert!(err <= 1e-8 * vn, "m {m}: ‖B⁻¹Bv − v‖ = {err:e}");
         }
+        // the modal coordinates of the inner solve (δθ = R y): Rᵀ B_θ R = B_Y, and
+        // the block solve inverts B_Y with the 1/(1 + μ) of the damping
+        for _ in 0..3 {
+            let y: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let (got, want) = (b.dual_y(&b.apply(&b.theta_of_y(&y))), b.block_apply(&y));
+            let top = want.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            for (g, w) in got.iter().zip(&want) {
+                assert!((g - w).abs() <= 1e-9 * top, "m {m}: RᵀBR y {g} vs B_Y y {w}");
+            }
+            let back = b.block_solve(&b.block_apply(&y), 3.0);
+            for (g, w) in back.iter().zip(&y) {
+                assert!((4.0 * g - w).abs() <= 1e-9 * w.abs().max(1.0), "m {m}: B_Y⁻¹");
+            }
+        }
     }
 
     #[test]

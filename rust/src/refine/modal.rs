@@ -184,8 +184,14 @@ impl ModalMetric {
 
     /// B_θ⁻¹ r / (1 + shift): the preconditioner of N + μB_θ (shift = μ).
     pub(crate) fn solve(&self, r: &[f64], shift: f64) -> Vec<f64> {
-        let m = self.m;
-        // dual in Y: c_jk = H_jk + H_kj (j > k), H_jj; H = T⁻¹ L⁻ᵀ Φ*(Lᵀ R) L⁻¹ T⁻ᵀ
+        self.theta_of_y(&self.block_solve(&self.dual_y(r), shift))
+    }
+
+    /// Rᵀ r: a θ-dual r as the dual in the modal coordinates Y (R: δY ↦ δθ, so that
+    /// B_θ = R⁻ᵀ B_Y R⁻¹), flat, pair t of block b at b·nb + t: c_jk = H_jk + H_kj
+    /// (j > k), H_jj, with H = T⁻¹ L⁻ᵀ Φ*(Lᵀ R) L⁻¹ T⁻ᵀ.
+    pub(crate) fn dual_y(&self, r: &[f64]) -> Vec<f64> {
+        let (m, nb) = (self.m, n_per_block(self.m));
         let c: Vec<Mat<f64>> = (0..3)
             .into_par_iter()
             .map(|b| {
@@ -195,33 +201,61 @@ impl ModalMetric {
                 congruence(self.ti.as_ref(), gx.as_ref())
             })
             .collect();
-        let mut dy = [0, 1, 2].map(|_| Mat::<f64>::zeros(m, m));
-        let f = 1.0 / (1.0 + shift);
-        for j in 0..m {
-            for k in 0..=j {
-                let t = tri(j, k);
-                let dual = |b: usize| {
-                    if j == k {
-                        c[b][(j, j)]
+        let mut out = vec![0.0; 3 * nb];
+        for (b, cb) in c.iter().enumerate() {
+            for j in 0..m {
+                for k in 0..=j {
+                    out[b * nb + tri(j, k)] = if j == k {
+                        cb[(j, j)]
                     } else {
-                        c[b][(j, k)] + c[b][(k, j)]
-                    }
-                };
-                let ([a, cc, d], e) = self.block(t);
-                let det = a * d - cc * cc;
-                let (cm, ck) = (dual(0), dual(2));
-                let (ym, yk) = if det > 1e-14 * (a * d).abs() && det.is_finite() {
-                    ((d * cm - cc * ck) / det, (a * ck - cc * cm) / det)
-                } else {
-                    (safe_div(cm, a), safe_div(ck, d))
-                };
-                let yc = safe_div(dual(1), e);
-                for (b, y) in [ym, yc, yk].into_iter().enumerate() {
-                    dy[b][(j, k)] = f * y;
-                    dy[b][(k, j)] = f * y;
+                        cb[(j, k)] + cb[(k, j)]
+                    };
                 }
             }
         }
+        out
+    }
+
+    /// B_Y y on flat modal vectors (the 3×3 block of each pair).
+    pub(crate) fn block_apply(&self, y: &[f64]) -> Vec<f64> {
+        let nb = n_per_block(self.m);
+        let mut out = vec![0.0; 3 * nb];
+        for t in 0..nb {
+            let ([a, c, d], e) = self.block(t);
+            let (ym, yc, yk) = (y[t], y[nb + t], y[2 * nb + t]);
+            out[t] = a * ym + c * yk;
+            out[nb + t] = e * yc;
+            out[2 * nb + t] = c * ym + d * yk;
+        }
+        out
+    }
+
+    /// B_Y⁻¹ c / (1 + shift) on flat modal vectors (a pair whose M–K block is
+    /// numerically singular by its diagonal, a zero entry by 0).
+    pub(crate) fn block_solve(&self, c: &[f64], shift: f64) -> Vec<f64> {
+        let nb = n_per_block(self.m);
+        let f = 1.0 / (1.0 + shift);
+        let mut out = vec![0.0; 3 * nb];
+        for t in 0..nb {
+            let ([a, cc, d], e) = self.block(t);
+            let det = a * d - cc * cc;
+            let (cm, ck) = (c[t], c[2 * nb + t]);
+            let (ym, yk) = if det > 1e-14 * (a * d).abs() && det.is_finite() {
+                ((d * cm - cc * ck) / det, (a * ck - cc * cm) / det)
+            } else {
+                (safe_div(cm, a), safe_div(ck, d))
+            };
+            out[t] = f * ym;
+            out[nb + t] = f * safe_div(c[nb + t], e);
+            out[2 * nb + t] = f * yk;
+        }
+        out
+    }
+
+    /// R y: flat modal coordinates to θ.
+    pub(crate) fn theta_of_y(&self, y: &[f64]) -> Vec<f64> {
+        let (m, nb) = (self.m, n_per_block(self.m));
+        let dy = [0, 1, 2].map(|b| Mat::from_fn(m, m, |i, j| y[b * nb + tri(i.max(j), i.min(j))]));
         self.theta_of(&dy)
     }
 
