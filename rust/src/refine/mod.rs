@@ -1609,11 +1609,17 @@ mod tests {
             let (got, want) = (b.dual_y(&b.apply(&b.theta_of_y(&y))), b.block_apply(&y));
             let top = want.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             for (g, w) in got.iter().zip(&want) {
-                assert!((g - w).abs() <= 1e-9 * top, "m {m}: RᵀBR y {g} vs B_Y y {w}");
+                assert!(
+                    (g - w).abs() <= 1e-9 * top,
+                    "m {m}: RᵀBR y {g} vs B_Y y {w}"
+                );
             }
             let back = b.block_solve(&b.block_apply(&y), 3.0);
             for (g, w) in back.iter().zip(&y) {
-                assert!((4.0 * g - w).abs() <= 1e-9 * w.abs().max(1.0), "m {m}: B_Y⁻¹");
+                assert!(
+                    (4.0 * g - w).abs() <= 1e-9 * w.abs().max(1.0),
+                    "m {m}: B_Y⁻¹"
+                );
             }
         }
     }
