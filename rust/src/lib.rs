@@ -53,11 +53,7 @@ pub fn with_threads<T: Send>(
     static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
 
     if threads == 0 {
-        // on a worker of the global pool, not the calling thread: a parallel section
-        // from inside the pool is a cheap push to its own deque, from outside it is an
-        // injection and a blocking wait (the refinement's O(m³) block work side by side:
-        // m = 60, 1200 lines, 39.7 s from outside, 34.8 s from inside)
-        return Ok(rayon::scope(|_| f()));
+        return Ok(f());
     }
     if threads > MAX_THREADS {
         return Err(PodidError::Invalid(format!(
