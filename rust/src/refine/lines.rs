@@ -4,6 +4,7 @@
 
 use super::{inverse_of, n_per_block, tri, Evaluation, Params, Problem, Weights, CONDITION_FLOOR};
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::BlockStructure;
 use faer::traits::Conjugate;
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
 
@@ -40,7 +41,7 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
     match pb.data.weights {
         Weights::Scalar(w) => {
             let gm = MatMut::from_row_major_slice_mut(&mut g[..mm], m, m);
-            mul_into(gm, dm.adjoint(), dm);
+            gram_into(gm, dm);
             for j in 0..p {
                 let col = i * p + j;
                 let w2 = w[col] * w[col];
@@ -64,7 +65,7 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
                 // A = T D⁻¹, G = Aᴴ A
                 mul_into(am.as_mut(), tm.as_ref(), dm);
                 let gm = MatMut::from_row_major_slice_mut(&mut g[j * mm..(j + 1) * mm], m, m);
-                mul_into(gm, am.adjoint(), am.as_ref());
+                gram_into(gm, am.as_ref());
                 let (x, u) = (&ev.x[col * m..(col + 1) * m], &pb.u[col * m..(col + 1) * m]);
                 // r = T (x − u), a = Aᴴ r
                 let r: Vec<c64> = (0..m)
@@ -99,6 +100,28 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
 }
 
 /// out = a b (one thread: the callers run per line in parallel).
+/// out = aᴴ a (Hermitian): the lower triangle by one triangular product (half the
+/// flops of a full one), the upper filled by conjugation.
+fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
+    faer::linalg::matmul::triangular::matmul(
+        out.as_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        a.adjoint(),
+        BlockStructure::Rectangular,
+        a,
+        BlockStructure::Rectangular,
+        c64::new(1.0, 0.0),
+        Par::Seq,
+    );
+    let m = out.nrows();
+    for j in 0..m {
+        for i in 0..j {
+            out[(i, j)] = out[(j, i)].conj();
+        }
+    }
+}
+
 fn mul_into<A, B>(out: MatMut<c64>, a: MatRef<A>, b: MatRef<B>)
 where
     A: Conjugate<Canonical = c64>,

@@ -31,6 +31,7 @@
 use super::lines::theta_scale;
 use super::{n_per_block, tri, Params};
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::BlockStructure;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{c64, Accum, Mat, MatRef, Par, Side};
 use rayon::prelude::*;
@@ -336,8 +337,25 @@ pub(crate) fn add_line_sums(
         }
     });
     let left = mul(ti, gri.as_ref());
-    let gyr = mul(left.as_ref().subcols(0, m), ti.transpose());
-    let gyi = mul(left.as_ref().subcols(m, m), ti.transpose());
+    // G_Y is Hermitian (Re symmetric, Im antisymmetric) and the sums read only its lower
+    // triangle: the second products by half
+    let lower = |half: MatRef<f64>| {
+        let mut out = Mat::<f64>::zeros(m, m);
+        faer::linalg::matmul::triangular::matmul(
+            out.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            half,
+            BlockStructure::Rectangular,
+            ti.transpose(),
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
+        out
+    };
+    let gyr = lower(left.as_ref().subcols(0, m));
+    let gyi = lower(left.as_ref().subcols(m, m));
     let (w2, w4) = (om * om, om * om * om * om);
     for &(x, wt) in cols {
         // y = T⁻¹ x
