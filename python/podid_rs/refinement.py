@@ -341,11 +341,11 @@ def refine(
         wherever the step is matrix-free (the dense step, m ≤ 40 with
         ``solver="auto"``, damps by μ·diag(N) either way). Measured
         (``benches/bench_refine.py --parts metric`` and ``--parts large``, chain with
-        0.1 % noise, whole calls): m = 40 at 1000 lines 2.45 s to cost 0.058327 in 29
-        steps (``"diagonal"`` 50.7 s and 200 steps to 0.058568; dense 19.3 s to
-        0.058330), m = 60 at 1200 lines 31.7 s against 211 s, m = 100 at 2000 lines
-        216 s, converged in 153 steps to 0.223275, against 776 s and 200 steps (the
-        cap) to 0.23281.
+        0.1 % noise, whole calls): m = 40 at 1000 lines 2.25 s to cost 0.058327 in 31
+        steps (``"diagonal"`` 37.9 s and 200 steps to 0.058587; dense 15.0 s to
+        0.058330), m = 60 at 1200 lines 20.8 s against 187 s, m = 100 at 2000 lines
+        135 s, converged in 156 steps to 0.22329, against the diagonal metric's 776 s
+        and 200 steps (the cap) to 0.23281 (seventh session).
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
