@@ -99,7 +99,6 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
     }
 }
 
-/// out = a b (one thread: the callers run per line in parallel).
 /// out = aᴴ a (Hermitian): the lower triangle by one triangular product (half the
 /// flops of a full one), the upper filled by conjugation.
 fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
@@ -122,6 +121,7 @@ fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
     }
 }
 
+/// out = a b (one thread: the callers run per line in parallel).
 fn mul_into<A, B>(out: MatMut<c64>, a: MatRef<A>, b: MatRef<B>)
 where
     A: Conjugate<Canonical = c64>,

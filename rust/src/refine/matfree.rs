@@ -406,11 +406,11 @@ impl MatrixFree {
         asked: bool,
     ) -> Option<Vec<f64>> {
         // where the step in X leaves the cone (or left it lately): the step in the
-        // factors, with their curvature (without
-        // it the model overestimates every decrease there and LM crawls: measured, gain
-        // ratio ≈ 0.68 at a damping of 50; cutting the step in X back to the cone
-        // instead, direction by direction or as a whole, stalled, and so did projecting
-        // X + δX onto the cone: m = 100, cost 0.494 after 25 steps against 0.225)
+        // factors, with their curvature (without it the model overestimates every
+        // decrease there and LM crawls: measured, gain ratio ≈ 0.68 at a damping of 50;
+        // cutting the step in X back to the cone instead, direction by direction or as a
+        // whole, stalled, and so did projecting X + δX onto the cone: m = 100, cost
+        // 0.494 after 25 steps against 0.225)
         self.factor_steps += 1;
         self.use_curv = self.curv.is_some();
         let x = self.solve_step(g, mu, par, cancelled);
@@ -781,8 +781,8 @@ enum Metric {
 /// Where the optimum sits on the cone's edge nearly every step in X leaves it (chain,
 /// m = 100, 2000 lines: 1 of 144 taken) and its CG solve — half the products of the
 /// whole refinement — is thrown away; where a step in X fails now and then (the
-/// 5-DOF chain from 2 % off: 2 of 17) the next step tries again (waiting 10 steps
-/// after each failure took that case from 14–22 steps to 33–37).
+/// 5-DOF chain from 2 % off: 4 of 23 steps) the next step tries again (waiting 10
+/// steps after each failure took that case from 23 steps to 33–37).
 const X_STEP_WAIT: usize = 10;
 
 /// Inner iterations of the preconditioner with the curvature. Measured (chain,

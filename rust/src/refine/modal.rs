@@ -266,11 +266,11 @@ impl ModalMetric {
             .par_iter()
             .map(|d| congruence(self.ti.transpose(), d.as_ref()))
             .collect();
-        self.theta_of_x(&[dx[0].clone(), dx[1].clone(), dx[2].clone()])
+        self.theta_of_x(&dx)
     }
 
     /// δθ = P̃⁻¹ δX_b for each block (δX symmetric).
-    pub(crate) fn theta_of_x(&self, dxs: &[Mat<f64>; 3]) -> Vec<f64> {
+    pub(crate) fn theta_of_x(&self, dxs: &[Mat<f64>]) -> Vec<f64> {
         let (m, nb) = (self.m, n_per_block(self.m));
         let mut out = vec![0.0; 3 * nb];
         out.par_chunks_mut(nb).enumerate().for_each(|(b, ob)| {
