@@ -344,7 +344,7 @@ def refine(
         0.1 % noise, whole calls): m = 40 at 1000 lines 2.25 s to cost 0.058327 in 31
         steps (``"diagonal"`` 37.9 s and 200 steps to 0.058587; dense 15.0 s to
         0.058330), m = 60 at 1200 lines 20.8 s against 187 s, m = 100 at 2000 lines
-        135 s, converged in 156 steps to 0.22329, against the diagonal metric's 776 s
+        115 s, converged in 152 steps to 0.22328, against the diagonal metric's 776 s
         and 200 steps (the cap) to 0.23281 (seventh session).
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
