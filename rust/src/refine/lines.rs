@@ -101,7 +101,7 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
 
 /// out = aᴴ a (Hermitian): the lower triangle by one triangular product (half the
 /// flops of a full one), the upper filled by conjugation.
-fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
+pub(crate) fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
     faer::linalg::matmul::triangular::matmul(
         out.as_mut(),
         BlockStructure::TriangularLower,

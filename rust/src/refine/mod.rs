@@ -1593,6 +1593,8 @@ mod tests {
             let mut mm = matfree::MatrixFree::new(MAX_CG_ITER).with_modal_metric(true);
             mm.prepare(&pb, &params, &lf, &ev, Par::Seq);
             assert_modal_metric(&mm, &nth, &params, &lf, &mut rng);
+            // and its products (with scalar weights in the modal coordinates, G_Y)
+            assert_products_match(&mut mm, &nth, scale, &mut rng);
             // with the parametrisation's curvature both steps use the same N + H
             let mut dn = DenseNormal::with_curvature(true);
             dn.prepare(&pb, &params, &lf, &ev, Par::Seq);

@@ -106,6 +106,11 @@ impl ModalMetric {
         })
     }
 
+    /// T (the products in the modal coordinates).
+    pub(crate) fn t(&self) -> MatRef<'_, f64> {
+        self.t.as_ref()
+    }
+
     /// T⁻¹ (for the per-line sums).
     pub(crate) fn ti(&self) -> MatRef<'_, f64> {
         self.ti.as_ref()
@@ -356,6 +361,19 @@ pub(crate) fn add_line_sums(
     };
     let gyr = lower(left.as_ref().subcols(0, m));
     let gyi = lower(left.as_ref().subcols(m, m));
+    add_sums_y(ti, |j, k| c64::new(gyr[(j, k)], gyi[(j, k)]), cols, om, out);
+}
+
+/// The sums of one line from its G_Y (entries (j, k), j ≥ k, by `gy`) and the columns'
+/// x (y = T⁻¹ x).
+pub(crate) fn add_sums_y(
+    ti: MatRef<f64>,
+    gy: impl Fn(usize, usize) -> c64,
+    cols: &[(&[c64], f64)],
+    om: f64,
+    out: &mut [f64],
+) {
+    let m = ti.nrows();
     let (w2, w4) = (om * om, om * om * om * om);
     for &(x, wt) in cols {
         // y = T⁻¹ x
@@ -364,14 +382,13 @@ pub(crate) fn add_line_sums(
             .collect();
         for j in 0..m {
             let yj = y[j];
-            let (yj2, gjj) = (yj.norm_sqr(), gyr[(j, j)]);
+            let (yj2, gjj) = (yj.norm_sqr(), gy(j, j).re);
             for k in 0..=j {
                 let beta = if j == k {
                     yj2 * gjj
                 } else {
                     let yk = y[k];
-                    let gjk = c64::new(gyr[(j, k)], gyi[(j, k)]);
-                    yk.norm_sqr() * gjj + yj2 * gyr[(k, k)] + 2.0 * (yk.conj() * yj * gjk).re
+                    yk.norm_sqr() * gjj + yj2 * gy(k, k).re + 2.0 * (yk.conj() * yj * gy(j, k)).re
                 } * wt;
                 let o = &mut out[3 * tri(j, k)..3 * tri(j, k) + 3];
                 o[0] += beta;
