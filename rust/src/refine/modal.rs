@@ -40,12 +40,13 @@ use rayon::prelude::*;
 pub(crate) struct ModalMetric {
     m: usize,
     log_diagonal: bool,
-    /// the factors L_b and their inverses
+    /// the factors L_b
     l: [Mat<f64>; 3],
-    li: [Mat<f64>; 3],
     /// T (modes, columns) and T⁻¹ = Tᵀ M
     t: Mat<f64>,
     ti: Mat<f64>,
+    /// A_b = L_b⁻¹ T⁻ᵀ: δY ↦ L⁻¹ δX L⁻ᵀ = A δY Aᵀ in one congruence
+    a: [Mat<f64>; 3],
     /// Σβ, Σω²β, Σω⁴β per modal pair (j, k), index tri(j, k)
     sums: Vec<[f64; 3]>,
 }
@@ -74,6 +75,25 @@ fn congruence(a: MatRef<f64>, b: MatRef<f64>) -> Mat<f64> {
     mul(mul(a, b).as_ref(), a.transpose())
 }
 
+/// The lower triangle of a b aᵀ (b symmetric; the strict upper triangle left 0): the
+/// second product by half.
+fn lower_congruence(a: MatRef<f64>, b: MatRef<f64>) -> Mat<f64> {
+    let ab = mul(a, b);
+    let mut out = Mat::<f64>::zeros(a.nrows(), a.nrows());
+    faer::linalg::matmul::triangular::matmul(
+        out.as_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        ab.as_ref(),
+        BlockStructure::Rectangular,
+        a.transpose(),
+        BlockStructure::Rectangular,
+        1.0,
+        Par::Seq,
+    );
+    out
+}
+
 impl ModalMetric {
     /// The modes of the current model and the factors' inverses; None when a factor
     /// is numerically singular (the caller then uses the diagonal of N instead).
@@ -95,13 +115,14 @@ impl ModalMetric {
         if !finite(&t) || !finite(&ti) {
             return None;
         }
+        let a = [0, 1, 2].map(|b| mul(li[b].as_ref(), ti.transpose()));
         Some(ModalMetric {
             m,
             log_diagonal: params.log_diagonal,
             l: l.clone(),
-            li,
             t,
             ti,
+            a,
             sums: vec![[0.0; 3]; n_per_block(m)],
         })
     }
@@ -201,21 +222,20 @@ impl ModalMetric {
         let c: Vec<Mat<f64>> = (0..3)
             .into_par_iter()
             .map(|b| {
+                // H = Φ*(Lᵀ R); c_jk + c_kj of c = Aᵀ H A is the lower triangle of
+                // Aᵀ (H + Hᵀ) A (c_jj half its diagonal)
                 let rr = self.lower_of(b, r, |x, s| x / s);
-                let a = mul(self.l[b].transpose(), rr.as_ref());
-                let gx = congruence(self.li[b].transpose(), half_lower(&a).as_ref());
-                congruence(self.ti.as_ref(), gx.as_ref())
+                let lr = mul(self.l[b].transpose(), rr.as_ref());
+                let h = half_lower(&lr);
+                let sym = Mat::from_fn(m, m, |i, j| h[(i, j)] + h[(j, i)]);
+                lower_congruence(self.a[b].transpose(), sym.as_ref())
             })
             .collect();
         let mut out = vec![0.0; 3 * nb];
         for (b, cb) in c.iter().enumerate() {
             for j in 0..m {
                 for k in 0..=j {
-                    out[b * nb + tri(j, k)] = if j == k {
-                        cb[(j, j)]
-                    } else {
-                        cb[(j, k)] + cb[(k, j)]
-                    };
+                    out[b * nb + tri(j, k)] = if j == k { 0.5 * cb[(j, j)] } else { cb[(j, k)] };
                 }
             }
         }
@@ -265,22 +285,13 @@ impl ModalMetric {
         self.theta_of(&dy)
     }
 
-    /// δθ = P̃⁻¹ (T⁻ᵀ δY_b T⁻¹) for each block.
+    /// δθ = P̃⁻¹ (T⁻ᵀ δY_b T⁻¹) for each block: W = L⁻¹ δX L⁻ᵀ = A δY Aᵀ (its lower
+    /// triangle: Φ reads no more), δL = L Φ(W).
     fn theta_of(&self, dy: &[Mat<f64>; 3]) -> Vec<f64> {
-        let dx: Vec<Mat<f64>> = dy
-            .par_iter()
-            .map(|d| congruence(self.ti.transpose(), d.as_ref()))
-            .collect();
-        self.theta_of_x(&dx)
-    }
-
-    /// δθ = P̃⁻¹ δX_b for each block (δX symmetric).
-    pub(crate) fn theta_of_x(&self, dxs: &[Mat<f64>]) -> Vec<f64> {
         let (m, nb) = (self.m, n_per_block(self.m));
         let mut out = vec![0.0; 3 * nb];
         out.par_chunks_mut(nb).enumerate().for_each(|(b, ob)| {
-            // W = L⁻¹ δX L⁻ᵀ; δL = L Φ(W)
-            let w = congruence(self.li[b].as_ref(), dxs[b].as_ref());
+            let w = lower_congruence(self.a[b].as_ref(), dy[b].as_ref());
             let dl = mul(self.l[b].as_ref(), half_lower(&w).as_ref());
             for j in 0..m {
                 for k in 0..=j {
