@@ -99,9 +99,12 @@ pub(crate) fn line_pieces(pb: &Problem, ev: &Evaluation, i: usize, g: &mut [c64]
     }
 }
 
-/// out = aᴴ a (Hermitian): the lower triangle by one triangular product (half the
-/// flops of a full one), the upper filled by conjugation.
-pub(crate) fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
+/// out = aᴴ a (Hermitian; double or single precision): the lower triangle by one
+/// triangular product (half the flops of a full one), the upper filled by conjugation.
+pub(crate) fn gram_into<T: faer::traits::ComplexField<Canonical = T> + Copy>(
+    mut out: MatMut<T>,
+    a: MatRef<T>,
+) {
     faer::linalg::matmul::triangular::matmul(
         out.as_mut(),
         BlockStructure::TriangularLower,
@@ -110,13 +113,13 @@ pub(crate) fn gram_into(mut out: MatMut<c64>, a: MatRef<c64>) {
         BlockStructure::Rectangular,
         a,
         BlockStructure::Rectangular,
-        c64::new(1.0, 0.0),
+        T::one_impl(),
         Par::Seq,
     );
     let m = out.nrows();
     for j in 0..m {
         for i in 0..j {
-            out[(i, j)] = out[(j, i)].conj();
+            out[(i, j)] = T::conj_impl(&out[(j, i)]);
         }
     }
 }
