@@ -341,11 +341,12 @@ def refine(
         wherever the step is matrix-free (the dense step, m ≤ 40 with
         ``solver="auto"``, damps by μ·diag(N) either way). Measured
         (``benches/bench_refine.py --parts metric`` and ``--parts large``, chain with
-        0.1 % noise, whole calls): m = 40 at 1000 lines 2.25 s to cost 0.058327 in 31
-        steps (``"diagonal"`` 37.9 s and 200 steps to 0.058587; dense 15.0 s to
-        0.058330), m = 60 at 1200 lines 20.8 s against 187 s, m = 100 at 2000 lines
-        115 s, converged in 152 steps to 0.22328, against the diagonal metric's 776 s
-        and 200 steps (the cap) to 0.23281 (seventh session).
+        0.1 % noise, whole calls; ninth session): m = 40 at 1000 lines 1.94 s in 33
+        steps (``"diagonal"`` 41.3 s and 200 steps; dense 16.9 s), m = 60 at 1200
+        lines 10.2 s against 176 s, m = 100 at 2000 lines 52–54 s, converged in
+        105–110 steps to 0.22324, against the diagonal metric's 776 s and 200 steps
+        (the cap) to 0.23281 (seventh session). The modal step works in the damping
+        modes of the start (an orthonormal basis: the same cost, better-placed factors).
 
     Returns an :class:`IdentificationResult` with ``method="output-error"``,
     ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
