@@ -458,7 +458,7 @@ impl MatrixFree {
             }
         });
         // with G_Y (modal coordinates): Tᵀ δX_b, so that y' = Tᵀ y and z = T G_Y y'
-        let gram_t = self.gram_t.as_ref().filter(|_| self.use_gram);
+        let gram_t = self.gram_t.as_ref();
         let mut stacked = Mat::<f64>::zeros(3 * m, m);
         for (b, d) in dx.iter().enumerate() {
             let mut dst = stacked.as_mut().submatrix_mut(b * m, 0, m, m);
