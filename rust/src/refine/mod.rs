@@ -739,15 +739,17 @@ impl Problem<'_> {
 }
 
 /// Solve D x_j = f_j in place for the p columns of one line (x holds f on entry).
-pub(crate) fn solve_lines(lu: MatRef<c64>, perm: &[usize], x: &mut [c64], m: usize, p: usize) {
+pub(crate) fn solve_lines<T: faer::traits::ComplexField>(
+    lu: MatRef<T>,
+    perm: &[usize],
+    x: &mut [T],
+    m: usize,
+    p: usize,
+) {
     let pinv = inverse_perm(perm);
     let permref = faer::perm::PermRef::new_checked(perm, &pinv, m);
     let rhs = MatMut::from_column_major_slice_mut(x, m, p);
-    let mut mem = MemBuffer::new(lu_solve::solve_in_place_scratch::<usize, c64>(
-        m,
-        p,
-        Par::Seq,
-    ));
+    let mut mem = MemBuffer::new(lu_solve::solve_in_place_scratch::<usize, T>(m, p, Par::Seq));
     lu_solve::solve_in_place(lu, lu, permref, rhs, Par::Seq, MemStack::new(&mut mem));
 }
 
@@ -764,22 +766,7 @@ pub(crate) fn solve_lines_single(
         let z = lu[(i, j)];
         faer::c32::new(z.re as f32, z.im as f32)
     });
-    let pinv = inverse_perm(perm);
-    let permref = faer::perm::PermRef::new_checked(perm, &pinv, m);
-    let rhs = MatMut::from_column_major_slice_mut(x, m, p);
-    let mut mem = MemBuffer::new(lu_solve::solve_in_place_scratch::<usize, faer::c32>(
-        m,
-        p,
-        Par::Seq,
-    ));
-    lu_solve::solve_in_place(
-        lu32.as_ref(),
-        lu32.as_ref(),
-        permref,
-        rhs,
-        Par::Seq,
-        MemStack::new(&mut mem),
-    );
+    solve_lines(lu32.as_ref(), perm, x, m, p);
 }
 
 /// Solve D(ω)ᴴ z = x in place for the p columns of x (m×p, column-major), from
