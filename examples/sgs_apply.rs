@@ -5,6 +5,10 @@
 //! checksum shows whether a change altered the arithmetic.
 //!
 //! cargo run --release --example sgs_apply -- [m=1000] [threads=1] [repeats=5]
+//!
+//! The environment variables SGS_FORK, SGS_SPLIT_FLOPS and SGS_SPLIT_DEPTH
+//! override the solves' task knobs ([`Sgs::fork`], [`Sgs::split_flops`],
+//! [`Sgs::split_depth`]).
 
 use faer::{Mat, Par};
 use podid_rs::pairs::Layout;
@@ -19,6 +23,11 @@ fn main() {
             .map_or(default, |s| s.parse().expect("an integer"))
     };
     let (m, threads, repeats) = (arg(1, 1000), arg(2, 1), arg(3, 5));
+    let knob = |name: &str| {
+        std::env::var(name)
+            .ok()
+            .map(|s| s.parse::<f64>().expect("a number"))
+    };
     let a = Mat::from_fn(3 * m, 3 * m, |i, j| {
         let v = (((i * 13 + j * 7) % 17) as f64 - 8.0) / 17.0 / (m as f64).sqrt();
         v + if i == j { 1.5 } else { 0.0 }
@@ -28,7 +37,17 @@ fn main() {
         let lay = Layout::new(m, symmetric);
         let n = lay.len();
         let pre = PairPrecond::new(h.as_ref(), lay, pen);
-        let sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
+        let mut sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
+        // the task knobs, for tuning them (benches/bench_sgs_tasks.py)
+        if let Some(v) = knob("SGS_FORK") {
+            sgs.fork = v as usize;
+        }
+        if let Some(v) = knob("SGS_SPLIT_FLOPS") {
+            sgs.split_flops = v;
+        }
+        if let Some(v) = knob("SGS_SPLIT_DEPTH") {
+            sgs.split_depth = v as u32;
+        }
         let v: Vec<f64> = (0..n)
             .map(|i| ((i * 31 % 23) as f64 - 11.0) / 7.0)
             .collect();
@@ -54,7 +73,7 @@ fn main() {
         let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
         let load = load.split_whitespace().next().unwrap_or("?");
         println!(
-            "m = {m}, {}, {threads} thread(s): best of {repeats} {best:.4} s per apply \
+            "m = {m}, {}, {threads} thread(s): best of {repeats} {best:.6} s per apply \
              (checksum {checksum:.12e}, load {load})",
             if symmetric { "exact-sym" } else { "penalty" }
         );

@@ -50,11 +50,16 @@ pub const LEAF: usize = crate::pairs::TILE;
 /// parallel product synchronises its threads at every block: at m = 1000 its
 /// threads spent a third of the CPU time of the solves waiting at barriers, and
 /// tasks took 25–40 % less CPU time for the same work (2 threads, loaded host).
-const SPLIT_FLOPS: f64 = 8e6;
+/// With [`SPLIT_DEPTH`] and [`FORK`] tuned together by `benches/bench_sgs_tasks.py`
+/// (one apply, 2 threads, round-robin minima): 8e6 flops, 8 pieces and quarters
+/// forked from 32 modes took 7.3 / 66 ms at m = 400 / 1000 (exact-symmetric);
+/// 2e6 flops, 2 pieces and forks from 12 modes 5.4 / 58 ms.
+const SPLIT_FLOPS: f64 = 2e6;
 
-/// At most 2^SPLIT_DEPTH pieces per product: enough to balance two threads,
-/// while smaller pieces would run faer's narrower kernels.
-const SPLIT_DEPTH: u32 = 3;
+/// At most 2^SPLIT_DEPTH pieces per product: one per thread. More pieces were
+/// slower (4: +2–4 %, 8: +8–10 % at m = 400–1000), their tasks competing with
+/// the forked Sylvester quarters for the same two threads.
+const SPLIT_DEPTH: u32 = 1;
 
 /// H̃ in mode-major order, single precision, for the triangular solves.
 pub struct Sgs {
@@ -69,6 +74,8 @@ pub struct Sgs {
     par: Par,
     /// products of at least this many flops are cut in halves run as rayon tasks
     pub split_flops: f64,
+    /// at most 2^split_depth pieces per product
+    pub split_depth: u32,
     /// the leaves may run their AVX2 build where the CPU has it (tests turn this
     /// off to compare the two builds)
     pub simd: bool,
@@ -167,6 +174,7 @@ impl Sgs {
             tiles,
             par,
             split_flops: SPLIT_FLOPS,
+            split_depth: SPLIT_DEPTH,
             simd: true,
             next: Default::default(),
         }
@@ -323,8 +331,10 @@ struct Solve<'a> {
 }
 
 /// Both ranges of a Sylvester block at least this long: its two independent
-/// quarters run in parallel.
-const FORK: usize = 32;
+/// quarters run in parallel (12 modes, three leaves: 32 left a thread idle
+/// through the long sequential runs of small leaves, 8 paid more for the tasks
+/// than it gained).
+const FORK: usize = 12;
 
 impl Solve<'_> {
     /// The two halves of `r` in solve order, split at a tile boundary.
@@ -352,7 +362,7 @@ impl Solve<'_> {
             return;
         }
         let flops = 2.0 * d as f64 * s as f64 * n as f64;
-        let split = flops >= self.sgs.split_flops && depth < SPLIT_DEPTH;
+        let split = flops >= self.sgs.split_flops && depth < self.sgs.split_depth;
         if split && !matches!(self.sgs.par, Par::Seq) {
             // halve the longer side: the halves share (read twice) the operand
             // of the other, H̃[dst, src] (3|dst|·3|src|) or Y[src, rows] (3|src|·n)
