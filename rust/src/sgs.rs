@@ -52,13 +52,14 @@ pub const LEAF: usize = crate::pairs::TILE;
 /// tasks took 25–40 % less CPU time for the same work (2 threads, loaded host).
 /// With [`SPLIT_DEPTH`] and [`FORK`] tuned together by `benches/bench_sgs_tasks.py`
 /// (one apply, 2 threads, round-robin minima): 8e6 flops, 8 pieces and quarters
-/// forked from 32 modes took 7.3 / 66 ms at m = 400 / 1000 (exact-symmetric);
-/// 2e6 flops, 2 pieces and forks from 12 modes 5.4 / 58 ms.
+/// forked from 32 modes took 7.0 / 66 ms at m = 400 / 1000 (exact-symmetric);
+/// 2e6 flops, 2 pieces and forks from 12 modes 5.6 / 59 ms (most of the gain is
+/// the fork: 2 pieces from 2e6 flops but forks from 32 modes took 6.6 / 61 ms).
 const SPLIT_FLOPS: f64 = 2e6;
 
-/// At most 2^SPLIT_DEPTH pieces per product: one per thread. More pieces were
-/// slower (4: +2–4 %, 8: +8–10 % at m = 400–1000), their tasks competing with
-/// the forked Sylvester quarters for the same two threads.
+/// At most 2^SPLIT_DEPTH pieces per product: one per thread. With forks from
+/// 12 modes, 4 pieces took the same time within 2 %, 8 pieces (forks from 16)
+/// 7–8 % longer: their tasks compete with the forked quarters for two threads.
 const SPLIT_DEPTH: u32 = 1;
 
 /// H̃ in mode-major order, single precision, for the triangular solves.
