@@ -17,6 +17,7 @@
 use crate::data::Columns;
 use crate::direct::Method;
 use crate::error::PodidError;
+use crate::gram::symmetrize;
 use crate::identify::{check_lam, scaled_gram, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
@@ -446,13 +447,7 @@ fn identify_cg_here(
     let mut z = from_basis(zt.as_ref(), q.as_ref(), par);
     if symmetric {
         for b in 0..3 {
-            for j in 0..m {
-                for i in j + 1..m {
-                    let v = 0.5 * (z[(i, b * m + j)] + z[(j, b * m + i)]);
-                    z[(i, b * m + j)] = v;
-                    z[(j, b * m + i)] = v;
-                }
-            }
+            symmetrize(z.as_mut().submatrix_mut(0, b * m, m, m));
         }
     }
     let t = Instant::now();

@@ -21,6 +21,7 @@
 //! their coupling is the part always left out. The solver works in the Q basis
 //! throughout, so each preconditioner application costs O(m²), not O(m³).
 
+use crate::gram::{mirror_lower, par_fill};
 use crate::joint;
 use crate::pairs::{Layout, TILE};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -102,14 +103,7 @@ fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
         1.0,
         par,
     );
-    for j in 0..m {
-        if sign < 0.0 {
-            out[(j, j)] = 0.0;
-        }
-        for i in 0..j {
-            out[(i, j)] = sign * out[(j, i)];
-        }
-    }
+    mirror_lower(out.as_mut(), sign);
     out
 }
 
@@ -201,7 +195,8 @@ pub fn to_basis(
         [(&t3, 1.0), (&s2, 1.0), (&t1, -1.0)],
         [(&s2, -1.0), (&t1, 1.0), (&s0, 1.0)],
     ];
-    let ht = Mat::from_fn(3 * m, 3 * m, |i, j| {
+    let mut ht = Mat::zeros(3 * m, 3 * m);
+    par_fill(ht.as_mut(), |i, j| {
         let (x, sign) = blocks[i / m][j / m];
         sign * x[(i % m, j % m)]
     });
