@@ -31,66 +31,63 @@ struct SendPtr(*mut f64);
 unsafe impl Send for SendPtr {}
 unsafe impl Sync for SendPtr {}
 
-/// Upper triangle := `sign` × the lower triangle transposed (with `sign` < 0,
-/// an antisymmetric matrix: the diagonal is zeroed), in tiles run in parallel.
-/// The column-by-column loop this replaces read the lower triangle with a
-/// stride of a whole column, one cache miss per entry, on one thread.
-pub(crate) fn mirror_lower(a: MatMut<f64>, sign: f64) {
+/// For every entry (r, c) below the diagonal of a square view, `pair(lower,
+/// upper)` with lower = A[r, c] and upper = A[c, r], and `diag(A[c, c])`: in
+/// square tiles (a tile and its mirror fit in L1) run in parallel, one task per
+/// tile column of c. The column-by-column loops this replaces read one of the
+/// two triangles a whole column apart, one cache miss per entry, on one thread.
+fn par_transposed_pairs(
+    a: MatMut<f64>,
+    pair: impl Fn(&mut f64, &mut f64) + Sync,
+    diag: impl Fn(&mut f64) + Sync,
+) {
     let n = a.nrows();
     assert!(a.ncols() == n && a.row_stride() == 1);
     let ld = a.col_stride() as usize;
     let ptr = SendPtr(a.as_ptr_mut());
-    (0..n.div_ceil(MIRROR_TILE))
-        .into_par_iter()
-        .for_each(move |tj| {
-            let p = ptr;
-            let (j0, j1) = (tj * MIRROR_TILE, ((tj + 1) * MIRROR_TILE).min(n));
-            for ti in 0..=tj {
-                let i0 = ti * MIRROR_TILE;
-                for j in j0..j1 {
-                    for i in i0..(i0 + MIRROR_TILE).min(j) {
-                        // SAFETY: (i, j) with i < j lies in the upper triangle
-                        // of column tile tj, written by this task alone; (j, i)
-                        // lies in the lower triangle, which no task writes.
-                        unsafe { *p.0.add(i + j * ld) = sign * *p.0.add(j + i * ld) };
-                    }
+    (0..n.div_ceil(MIRROR_TILE)).into_par_iter().for_each(|tc| {
+        let p = ptr;
+        let (c0, c1) = (tc * MIRROR_TILE, ((tc + 1) * MIRROR_TILE).min(n));
+        for r0 in (c0..n).step_by(MIRROR_TILE) {
+            for c in c0..c1 {
+                for r in r0.max(c + 1)..(r0 + MIRROR_TILE).min(n) {
+                    // SAFETY: (r, c) and (c, r), r > c, are distinct entries
+                    // of the view, touched only by the task of c's tile
+                    unsafe { pair(&mut *p.0.add(r + c * ld), &mut *p.0.add(c + r * ld)) };
                 }
             }
-            if sign < 0.0 {
-                for j in j0..j1 {
-                    // SAFETY: the diagonal of this task's columns
-                    unsafe { *p.0.add(j + j * ld) = 0.0 };
-                }
-            }
-        });
+        }
+        for c in c0..c1 {
+            // SAFETY: the diagonal entry of a column of this task's tile
+            diag(unsafe { &mut *p.0.add(c + c * ld) });
+        }
+    });
 }
 
-/// A := (A + Aᵀ)/2 for a square view, in tiles run in parallel (each pair
-/// (i, j), i > j, is averaged and written by the task of column j's tile).
-pub(crate) fn symmetrize(a: MatMut<f64>) {
-    let n = a.nrows();
-    assert!(a.ncols() == n && a.row_stride() == 1);
-    let ld = a.col_stride() as usize;
-    let ptr = SendPtr(a.as_ptr_mut());
-    (0..n.div_ceil(MIRROR_TILE))
-        .into_par_iter()
-        .for_each(move |tj| {
-            let p = ptr;
-            let (j0, j1) = (tj * MIRROR_TILE, ((tj + 1) * MIRROR_TILE).min(n));
-            for i0 in (j0..n).step_by(MIRROR_TILE) {
-                for j in j0..j1 {
-                    for i in i0.max(j + 1)..(i0 + MIRROR_TILE).min(n) {
-                        // SAFETY: (i, j) and (j, i), i > j, are touched only by
-                        // the task of column j's tile
-                        unsafe {
-                            let v = 0.5 * (*p.0.add(i + j * ld) + *p.0.add(j + i * ld));
-                            *p.0.add(i + j * ld) = v;
-                            *p.0.add(j + i * ld) = v;
-                        }
-                    }
-                }
+/// Upper triangle := `sign` × the lower triangle transposed (with `sign` < 0,
+/// an antisymmetric matrix: the diagonal is zeroed).
+pub(crate) fn mirror_lower(a: MatMut<f64>, sign: f64) {
+    par_transposed_pairs(
+        a,
+        |lower, upper| *upper = sign * *lower,
+        |d| {
+            if sign < 0.0 {
+                *d = 0.0
             }
-        });
+        },
+    );
+}
+
+/// A := (A + Aᵀ)/2 for a square view.
+pub(crate) fn symmetrize(a: MatMut<f64>) {
+    par_transposed_pairs(
+        a,
+        |lower, upper| {
+            let v = 0.5 * (*lower + *upper);
+            (*lower, *upper) = (v, v);
+        },
+        |_| {},
+    );
 }
 
 /// out[(r, c)] = f(r, c), column chunks in parallel (the element-wise passes
