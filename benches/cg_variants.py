@@ -13,6 +13,12 @@ of DESIGN §2–4, the exact-symmetric operator G in pair coordinates, dense CG 
 - ``--part dilu``: SGS with the pair blocks replaced by DILU's
   D'_p = D_p − Σ_{q<p} G_pq D'_q⁻¹ G_qp (or relaxed, D − ω(D − D')), which keeps
   the cost of an iteration; reports whether D' stays positive definite.
+- ``--part split``: the coordinates of each pair changed to (M, C, P = K − M) — in the
+  scaled units (ω0 = 1) W = P + iC is the dynamic stiffness at the band's centre, whose
+  block of G is nearly complex-linear, so a complex basis would diagonalise it and its
+  skew couplings with it — and the whole {C, P} block solved *exactly* against the M
+  block: block Jacobi and block SGS over these two (or three) big blocks, an upper bound
+  for any preconditioner built on that idea.
 - ``--part rows``: the exact inverse of the row operator Z ↦ Z H̃ (one Cholesky of
   H̃, X ↦ X H̃⁻¹) as the preconditioner of the penalty mode (λ = 100 on every block)
   and, symmetrised, of the exact-symmetric mode; prints κ(H̃) and the scaled
@@ -115,6 +121,34 @@ def part_dilu(H, m):
         print(f"ω = {om}: {cg_iterations(0.5 * (Gh + Gh.T), b)} it", flush=True)
 
 
+def part_split(H, m):
+    _, Q = np.linalg.eigh(sum(H[b * m : (b + 1) * m, b * m : (b + 1) * m] for b in range(3)))
+    Q3 = np.kron(np.eye(3), Q)
+    G, pairs = pair_operator(Q3.T @ H @ Q3, m)
+    n, P = G.shape[0], len(pairs)
+    b = np.random.default_rng(0).standard_normal(n)
+    print(f"pair-block SGS (the solver's): {cg_iterations(block_sgs(G, [3] * P)[0], b)} it")
+    S = np.kron(np.eye(P), np.array([[1.0, 0, 0], [0, 1, 0], [1, 0, 1]]))  # (M, C, P) → (M, C, K)
+    Gy = S.T @ G @ S
+    iM = 3 * np.arange(P)
+    iC, iP = iM + 1, iM + 2
+    iCP = np.sort(np.r_[iC, iP])
+
+    def jacobi(groups):
+        L = np.zeros_like(Gy)
+        for g in groups:
+            L[np.ix_(g, g)] = np.linalg.cholesky(Gy[np.ix_(g, g)])
+        Gh = sl.solve_triangular(L, sl.solve_triangular(L, Gy, lower=True).T, lower=True)
+        return cg_iterations(0.5 * (Gh + Gh.T), b)
+
+    print(f"block Jacobi, exact {{C, P}} and {{M}}: {jacobi([iCP, iM])} it")
+    print(f"block Jacobi, exact {{C}}, {{P}}, {{M}}: {jacobi([iC, iP, iM])} it")
+    for first, second, name in ((iCP, iM, "{C, P} then {M}"), (iM, iCP, "{M} then {C, P}")):
+        order = np.r_[first, second]
+        Gs = block_sgs(Gy[np.ix_(order, order)], [len(first), len(second)])[0]
+        print(f"block SGS, exact {name}: {cg_iterations(Gs, b[order])} it", flush=True)
+
+
 def pcg(op, prec, B, tol=1e-11, max_iter=3000):
     X, R = np.zeros_like(B), B.copy()
     Z = prec(R)
@@ -162,7 +196,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--m", type=int, default=30)
     ap.add_argument("--band", default="narrow", choices=sorted(BANDS))
-    ap.add_argument("--part", default="basis", choices=["basis", "dilu", "rows"])
+    ap.add_argument("--part", default="basis", choices=["basis", "dilu", "split", "rows"])
     args = ap.parse_args()
     _, U, F, omega = chain_problem(args.m, BANDS[args.band], 2 * args.m)
     H, B, scales = scaled(U, F, omega)
@@ -171,6 +205,8 @@ def main() -> None:
         part_basis(H, args.m)
     elif args.part == "dilu":
         part_dilu(H, args.m)
+    elif args.part == "split":
+        part_split(H, args.m)
     else:
         part_rows(H, B, args.m, scales)
 
