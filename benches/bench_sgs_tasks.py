@@ -83,7 +83,7 @@ def main() -> None:
             sym, pen = b["exact-sym"], b["penalty"]
             rows.append(
                 [
-                    m,
+                    str(m),
                     s,
                     f"{1e3 * sym:.2f}",
                     f"{1e3 * pen:.2f}",
