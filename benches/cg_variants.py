@@ -66,6 +66,15 @@ def sgs_iterations(H, Q, m, tiles=(1,)):
     return out
 
 
+def solver_operator(H, m):
+    """G in the solver's pair coordinates (Q: eigenvectors of the summed diagonal
+    blocks) and the random right-hand side every part uses."""
+    _, Q = np.linalg.eigh(sum(H[b * m : (b + 1) * m, b * m : (b + 1) * m] for b in range(3)))
+    Q3 = np.kron(np.eye(3), Q)
+    G, _ = pair_operator(Q3.T @ H @ Q3, m)
+    return G, np.random.default_rng(0).standard_normal(G.shape[0])
+
+
 def part_basis(H, m):
     blk = [H[b * m : (b + 1) * m, b * m : (b + 1) * m] for b in range(3)]
     T3, T1 = H[m : 2 * m, :m], H[2 * m :, m : 2 * m]
@@ -88,11 +97,8 @@ def part_basis(H, m):
 
 
 def part_dilu(H, m):
-    _, Q = np.linalg.eigh(sum(H[b * m : (b + 1) * m, b * m : (b + 1) * m] for b in range(3)))
-    Q3 = np.kron(np.eye(3), Q)
-    G, pairs = pair_operator(Q3.T @ H @ Q3, m)
-    n, P = G.shape[0], len(pairs)
-    b = np.random.default_rng(0).standard_normal(n)
+    G, b = solver_operator(H, m)
+    n, P = G.shape[0], G.shape[0] // 3
     low = np.tril(G, -1)
     for p in range(P):
         low[3 * p : 3 * p + 3, 3 * p : 3 * p + 3] = 0.0
@@ -122,11 +128,8 @@ def part_dilu(H, m):
 
 
 def part_split(H, m):
-    _, Q = np.linalg.eigh(sum(H[b * m : (b + 1) * m, b * m : (b + 1) * m] for b in range(3)))
-    Q3 = np.kron(np.eye(3), Q)
-    G, pairs = pair_operator(Q3.T @ H @ Q3, m)
-    n, P = G.shape[0], len(pairs)
-    b = np.random.default_rng(0).standard_normal(n)
+    G, b = solver_operator(H, m)
+    P = G.shape[0] // 3
     print(f"pair-block SGS (the solver's): {cg_iterations(block_sgs(G, [3] * P)[0], b)} it")
     S = np.kron(np.eye(P), np.array([[1.0, 0, 0], [0, 1, 0], [1, 0, 1]]))  # (M, C, P) → (M, C, K)
     Gy = S.T @ G @ S
