@@ -333,8 +333,8 @@ struct Solve<'a> {
 
 /// Both ranges of a Sylvester block at least this long: its two independent
 /// quarters run in parallel (12 modes, three leaves: 32 left a thread idle
-/// through the long sequential runs of small leaves, 8 paid more for the tasks
-/// than it gained).
+/// through the long sequential runs of small leaves; 8 and 16 took from 2 %
+/// less to 6 % more, `benches/bench_sgs_tasks.py`).
 const FORK: usize = 12;
 
 impl Solve<'_> {
