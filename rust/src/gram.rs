@@ -21,11 +21,11 @@ use rayon::prelude::*;
 /// Columns per parallel task of the element-wise passes below.
 const COLS_PER_TASK: usize = 16;
 
-/// Square tiles of [`mirror_lower`]: a tile and its mirror both fit in L1.
+/// Square tiles of [`par_transposed_pairs`]: a tile and its mirror both fit in L1.
 const MIRROR_TILE: usize = 32;
 
-/// A raw pointer that may cross threads (the tasks of [`mirror_lower`] write
-/// disjoint entries).
+/// A raw pointer that may cross threads (the tasks of [`par_transposed_pairs`]
+/// write disjoint entries).
 #[derive(Clone, Copy)]
 struct SendPtr(*mut f64);
 unsafe impl Send for SendPtr {}
@@ -105,6 +105,25 @@ pub(crate) fn par_fill(out: MatMut<f64>, f: impl Fn(usize, usize) -> f64 + Sync)
         });
 }
 
+/// H (3m×3m) from its five distinct blocks S0, S2, S4 (symmetric) and T1, T3
+/// (antisymmetric), laid out as in the module documentation; the change of
+/// basis assembles H̃ from the transformed blocks the same way.
+pub(crate) fn assemble_h(s: [&Mat<f64>; 3], t: [&Mat<f64>; 2]) -> Mat<f64> {
+    let ([s0, s2, s4], [t1, t3]) = (s, t);
+    let m = s0.nrows();
+    let blocks: [[(&Mat<f64>, f64); 3]; 3] = [
+        [(s4, 1.0), (t3, -1.0), (s2, -1.0)],
+        [(t3, 1.0), (s2, 1.0), (t1, -1.0)],
+        [(s2, -1.0), (t1, 1.0), (s0, 1.0)],
+    ];
+    let mut h = Mat::zeros(3 * m, 3 * m);
+    par_fill(h.as_mut(), |i, j| {
+        let (blk, sign) = blocks[i / m][j / m];
+        sign * blk[(i % m, j % m)]
+    });
+    h
+}
+
 /// H (3m×3m, symmetric positive semidefinite) and B (m×3m).
 pub struct Gram {
     pub h: Mat<f64>,
@@ -169,16 +188,7 @@ pub fn gram(data: &Stacked, par: Par) -> Gram {
     let mut t3 = Mat::zeros(m, m);
     par_fill(t3.as_mut(), |i, j| p3[(i, j)] - p3[(j, i)]);
 
-    let mut h = Mat::zeros(3 * m, 3 * m);
-    let blocks: [[(&Mat<f64>, f64); 3]; 3] = [
-        [(&s4, 1.0), (&t3, -1.0), (&s2, -1.0)],
-        [(&t3, 1.0), (&s2, 1.0), (&t1, -1.0)],
-        [(&s2, -1.0), (&t1, 1.0), (&s0, 1.0)],
-    ];
-    par_fill(h.as_mut(), |i, j| {
-        let (blk, sign) = blocks[i / m][j / m];
-        sign * blk[(i % m, j % m)]
-    });
+    let h = assemble_h([&s0, &s2, &s4], [&t1, &t3]);
 
     let g0 = data.g.as_ref();
     let (gre, gim) = (g0.subrows(0, n), g0.subrows(n, n));

@@ -21,7 +21,7 @@
 //! their coupling is the part always left out. The solver works in the Q basis
 //! throughout, so each preconditioner application costs O(m²), not O(m³).
 
-use crate::gram::{mirror_lower, par_fill};
+use crate::gram::{assemble_h, mirror_lower};
 use crate::joint;
 use crate::pairs::{Layout, TILE};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -190,16 +190,7 @@ pub fn to_basis(
         congruence(blk(1, 0), q, -1.0, par),
         congruence(blk(2, 1), q, -1.0, par),
     );
-    let blocks: [[(&Mat<f64>, f64); 3]; 3] = [
-        [(&s4, 1.0), (&t3, -1.0), (&s2, -1.0)],
-        [(&t3, 1.0), (&s2, 1.0), (&t1, -1.0)],
-        [(&s2, -1.0), (&t1, 1.0), (&s0, 1.0)],
-    ];
-    let mut ht = Mat::zeros(3 * m, 3 * m);
-    par_fill(ht.as_mut(), |i, j| {
-        let (x, sign) = blocks[i / m][j / m];
-        sign * x[(i % m, j % m)]
-    });
+    let ht = assemble_h([&s0, &s2, &s4], [&t1, &t3]);
     let mut qb = Mat::zeros(m, 3 * m);
     matmul(qb.as_mut(), Accum::Replace, q.transpose(), b, 1.0, par);
     (ht, right_blocks(qb.as_ref(), q, false, par))
