@@ -18,6 +18,7 @@ The ratios issue 13 asks for, each against a reference measured in the same run:
 
     python benches/bench_cg.py                      # m = 400, 1000 (≈ 10 min unloaded)
     python benches/bench_cg.py --sizes 100,200 --modes sym --ref-sizes 100
+    python benches/bench_cg.py --sizes 400 --bands narrow --pairs 5   # medians of 5 pairs
     python benches/bench_cg.py --auto               # direct vs CG, m = 4 … 30: auto's crossover
     python benches/bench_cg.py --stall              # tol 1e-300: where CG stops
 """
@@ -226,6 +227,11 @@ def reference_case(case: dict) -> dict:
 # ---------------------------------------------------------------------------
 
 
+def spread(mid: float, values: list[float]) -> str:
+    """``mid``, and the range of ``values`` if there are several: "7.1 (6.2–8.0)"."""
+    return f"{mid:.3g}" + (f" ({values[0]:.3g}–{values[-1]:.3g})" if len(values) > 1 else "")
+
+
 def main_cg(args: argparse.Namespace, me: str) -> str:
     rows, notes, loads, checks = [], [], [], []
     ref_sizes = {int(x) for x in args.ref_sizes.split(",") if x}
@@ -233,48 +239,74 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         for mode in args.modes.split(","):
             for m in [int(x) for x in args.sizes.split(",")]:
                 case = {"kind": "solve", "solver": "cg", "m": m, "band": band, "mode": mode}
-                r = run_worker(me, case)
-                if "error" in r:
-                    notes.append(f"{band} {mode} m={m}: {r['error']}")
+                runs, refs = [], []
+                for _ in range(args.pairs):
+                    runs.append(run_worker(me, case))
+                    if "error" in runs[-1]:
+                        break
+                    if m in ref_sizes:
+                        refs.append(run_worker(me, {**case, "kind": "reference"}))
+                        if "error" in refs[-1]:
+                            notes.append(
+                                f"NumPy reference {band} {mode} m={m}: {refs[-1]['error']}"
+                            )
+                            refs = []
+                            break
+                if "error" in runs[-1]:
+                    notes.append(f"{band} {mode} m={m}: {runs[-1]['error']}")
                     print(notes[-1], flush=True)
                     continue
-                ref = None
-                if m in ref_sizes:
-                    ref = run_worker(me, {**case, "kind": "reference"})
-                    if "error" in ref:
-                        notes.append(f"NumPy reference {band} {mode} m={m}: {ref['error']}")
-                        ref = None
+                # the run of median time stands for the case; the ratios are each
+                # pair's own (CG and its reference run back to back), median and range
+                r = sorted(runs, key=lambda x: x["seconds"])[(len(runs) - 1) // 2]
+                ref = (
+                    sorted(refs, key=lambda x: x["seconds"])[(len(refs) - 1) // 2] if refs else None
+                )
                 it, t_it = r["iterations"], r["t_iterate"]
-                x_gemm = r["seconds"] / r["gemm_s"]
-                loads += [x for x in r["load"] + (ref["load"] if ref else []) if x is not None]
-                speedup = ref["seconds"] / r["seconds"] if ref else None
+                x_gemms = sorted(x["seconds"] / x["gemm_s"] for x in runs)
+                x_gemm = float(np.median(x_gemms))
+                for x in runs + refs:
+                    loads += [v for v in x["load"] if v is not None]
+                ratios = sorted(
+                    a["seconds"] / b["seconds"] for a, b in zip(refs, runs, strict=True)
+                )
+                speedup = float(np.median(ratios)) if ratios else None
                 rows.append([
                     band, mode, m, r["n"], r["seconds"], r["cpu_s"], it, max(r["errs"]),
                     r["peak_gb"],
-                    r["gemm_s"], x_gemm, t_it / it if it else None, r["t_gram"], r["t_setup"],
-                    r.get("t_solves"), r.get("t_residual"),
+                    r["gemm_s"], spread(x_gemm, x_gemms), t_it / it if it else None,
+                    r["t_gram"], r["t_setup"], r.get("t_solves"), r.get("t_residual"),
                     val(ref, "seconds"), val(ref, "iterations"),
-                    max(ref["errs"]) if ref else None, speedup,
-                    "–".join(f"{x:.1f}" for x in r["load"] if x is not None),
+                    max(ref["errs"]) if ref else None,
+                    spread(speedup, ratios) if ratios else None,
+                    f"{min(x for x in loads[-2 * (len(runs) + len(refs)):]):.1f}–"
+                    f"{max(x for x in loads[-2 * (len(runs) + len(refs)):]):.1f}",
                 ])  # fmt: skip
                 print(
                     f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s (CPU {r['cpu_s']:.1f}s)  "
                     f"{it:4d} it  "
-                    f"err {max(r['errs']):.1e}  {r['peak_gb']:.2f} GB  {x_gemm:.1f}× GEMM"
-                    + (f"  ref {ref['seconds']:.2f}s ({speedup:.1f}×)" if ref else "")
+                    f"err {max(r['errs']):.1e}  {r['peak_gb']:.2f} GB  "
+                    f"{spread(x_gemm, x_gemms)}× GEMM"
+                    + (f"  ref {ref['seconds']:.2f}s ({spread(speedup, ratios)}×)" if ref else "")
                     + f"  load {r['load']}",
                     flush=True,
                 )
-                err = max(r["errs"])
+                err = max(x for run in runs for x in run["errs"])
+                of = f" (median of {len(runs)} runs; range {x_gemms[0]:.1f}–{x_gemms[-1]:.1f})"
                 if band == "narrow" and m == 1000:
                     checks.append(
-                        f"m = 1000, 20 % band, {mode}: {x_gemm:.1f}× one GEMM (target ≤ 45), "
-                        f"error {err:.1e} (target ≤ 1e-8)"
+                        f"m = 1000, 20 % band, {mode}: {x_gemm:.1f}× one GEMM"
+                        + (of if len(runs) > 1 else "")
+                        + f" (target ≤ 45), error {err:.1e} (target ≤ 1e-8)"
                     )
                 if speedup is not None and m == 400:
+                    pairs = (
+                        f" (median of {len(ratios)} pairs; range {ratios[0]:.1f}–{ratios[-1]:.1f})"
+                    )
                     checks.append(
-                        f"m = 400, {band}, {mode}: {speedup:.1f}× the NumPy PCG reference "
-                        "(target ≥ 8)"
+                        f"m = 400, {band}, {mode}: {speedup:.1f}× the NumPy PCG reference"
+                        + (pairs if len(ratios) > 1 else "")
+                        + " (target ≥ 8)"
                     )
                 if band == "wide" and 400 <= m <= 1000:
                     checks.append(f"50–150 Hz, {mode}, m = {m}: {it} iterations (target ≤ 150)")
@@ -302,7 +334,10 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         "preconditioner's triangular solves (most of the iterations), residual = ‖Ax − y‖ "
         "after the solve; NumPy PCG = the plain "
         "NumPy reference (diagonal pair preconditioner, same tol) in its own process; "
-        "ref / CG = its time over identify()'s.\n"
+        "ref / CG = its time over identify()'s. "
+        f"Each case ran {args.pairs} time(s), each run followed by its reference run: the "
+        "row is the run of median time; × GEMM and ref / CG are the median over the runs "
+        "(each run's own GEMM, each pair's own ratio) and, in brackets, their range.\n"
         + load_note
         + "\n\n"
         + markdown_table(header, rows)
@@ -456,6 +491,12 @@ def main() -> None:
     ap.add_argument("--bands", default="narrow,wide")
     ap.add_argument("--modes", default="sym,pen")
     ap.add_argument("--ref-sizes", default="400", help="sizes that also run the NumPy PCG")
+    ap.add_argument(
+        "--pairs",
+        type=int,
+        default=1,
+        help="runs of each case, alternating with its reference: medians and ranges",
+    )
     ap.add_argument("--auto", action="store_true", help="time direct against CG instead")
     ap.add_argument("--auto-sizes", default="4,6,8,10,12,14,16,18,20,22,25,30")
     ap.add_argument("--auto-repeat", type=int, default=15, help="calls of each solver")
@@ -464,6 +505,8 @@ def main() -> None:
     ap.add_argument("--stall-max-iter", type=int, default=20_000)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args()
+    if args.pairs < 1:
+        ap.error("--pairs must be at least 1")
     me = str(Path(__file__).resolve())
     args.numpy_gemm = gemm_gflops()
     print(f"NumPy GEMM rate (n = 4000): {args.numpy_gemm:.1f} GFLOP/s", flush=True)
