@@ -267,9 +267,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                 x_gemm = float(np.median(x_gemms))
                 for x in runs + refs:
                     loads += [v for v in x["load"] if v is not None]
-                ratios = sorted(
-                    a["seconds"] / b["seconds"] for a, b in zip(refs, runs, strict=True)
-                )
+                pairs = zip(refs, runs, strict=True) if refs else []
+                ratios = sorted(a["seconds"] / b["seconds"] for a, b in pairs)
                 speedup = float(np.median(ratios)) if ratios else None
                 rows.append([
                     band, mode, m, r["n"], r["seconds"], r["cpu_s"], it, max(r["errs"]),
