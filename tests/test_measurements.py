@@ -132,7 +132,12 @@ def test_uff_full_order_identification_needs_symmetry_with_two_inputs(tmp_path, 
     for kwargs in ({"symmetric": True}, {"lam": 100.0}):
         result, R = data.identify(m=6, **kwargs)
         assert result.well_posed
-        assert max(matrix_errors(result, R, system)) < 1e-7
+        # data-limited, not solver-limited: with 2 of 6 DOFs driven, relative
+        # perturbations of 1e-15 (a few ulps) in exact FRFs already move the largest
+        # matrix error between 1.2e-7 and 2.4e-7 (pivot ratio 1.5e-7), and this file
+        # gives 3.3e-7 on one of our hosts, under 1e-7 on another. The undetermined
+        # directions, had symmetry not fixed them, would be O(1).
+        assert max(matrix_errors(result, R, system)) < 1e-6
     # the identified model reproduces every measured FRF
     assert rel(data.predict(result.system(), R), data.U) < 1e-8
 
