@@ -232,6 +232,11 @@ def spread(mid: float, values: list[float]) -> str:
     return f"{mid:.3g}" + (f" ({values[0]:.3g}–{values[-1]:.3g})" if len(values) > 1 else "")
 
 
+def median_run(runs: list[dict]) -> dict | None:
+    """The run of median time (the lower of the middle two for an even count)."""
+    return sorted(runs, key=lambda x: x["seconds"])[(len(runs) - 1) // 2] if runs else None
+
+
 def main_cg(args: argparse.Namespace, me: str) -> str:
     rows, notes, loads, checks = [], [], [], []
     ref_sizes = {int(x) for x in args.ref_sizes.split(",") if x}
@@ -258,15 +263,12 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                     continue
                 # the run of median time stands for the case; the ratios are each
                 # pair's own (CG and its reference run back to back), median and range
-                r = sorted(runs, key=lambda x: x["seconds"])[(len(runs) - 1) // 2]
-                ref = (
-                    sorted(refs, key=lambda x: x["seconds"])[(len(refs) - 1) // 2] if refs else None
-                )
+                r, ref = median_run(runs), median_run(refs)
                 it, t_it = r["iterations"], r["t_iterate"]
                 x_gemms = sorted(x["seconds"] / x["gemm_s"] for x in runs)
                 x_gemm = float(np.median(x_gemms))
-                for x in runs + refs:
-                    loads += [v for v in x["load"] if v is not None]
+                case_loads = [v for x in runs + refs for v in x["load"] if v is not None]
+                loads += case_loads
                 pairs = zip(refs, runs, strict=True) if refs else []
                 ratios = sorted(a["seconds"] / b["seconds"] for a, b in pairs)
                 speedup = float(np.median(ratios)) if ratios else None
@@ -278,8 +280,7 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                     val(ref, "seconds"), val(ref, "iterations"),
                     max(ref["errs"]) if ref else None,
                     spread(speedup, ratios) if ratios else None,
-                    f"{min(x for x in loads[-2 * (len(runs) + len(refs)):]):.1f}–"
-                    f"{max(x for x in loads[-2 * (len(runs) + len(refs)):]):.1f}",
+                    f"{min(case_loads):.1f}–{max(case_loads):.1f}" if case_loads else None,
                 ])  # fmt: skip
                 print(
                     f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s (CPU {r['cpu_s']:.1f}s)  "
@@ -291,21 +292,16 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                     flush=True,
                 )
                 err = max(x for run in runs for x in run["errs"])
-                of = f" (median of {len(runs)} runs; range {x_gemms[0]:.1f}–{x_gemms[-1]:.1f})"
+                over = f" (median and range of {len(runs)} runs)" if len(runs) > 1 else ""
                 if band == "narrow" and m == 1000:
                     checks.append(
-                        f"m = 1000, 20 % band, {mode}: {x_gemm:.1f}× one GEMM"
-                        + (of if len(runs) > 1 else "")
-                        + f" (target ≤ 45), error {err:.1e} (target ≤ 1e-8)"
+                        f"m = 1000, 20 % band, {mode}: {spread(x_gemm, x_gemms)}× one GEMM{over} "
+                        f"(target ≤ 45), error {err:.1e} (target ≤ 1e-8)"
                     )
                 if speedup is not None and m == 400:
-                    pairs = (
-                        f" (median of {len(ratios)} pairs; range {ratios[0]:.1f}–{ratios[-1]:.1f})"
-                    )
                     checks.append(
-                        f"m = 400, {band}, {mode}: {speedup:.1f}× the NumPy PCG reference"
-                        + (pairs if len(ratios) > 1 else "")
-                        + " (target ≥ 8)"
+                        f"m = 400, {band}, {mode}: {spread(speedup, ratios)}× the NumPy PCG "
+                        f"reference{over} (target ≥ 8)"
                     )
                 if band == "wide" and 400 <= m <= 1000:
                     checks.append(f"50–150 Hz, {mode}, m = {m}: {it} iterations (target ≤ 150)")
