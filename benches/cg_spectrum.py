@@ -89,9 +89,12 @@ def cg_iterations(A, b, tol=1e-11, max_iter=5000, apply_m=None):
     return max_iter
 
 
-def block_sgs(G: np.ndarray, blocks: list[int]) -> tuple[np.ndarray, np.ndarray]:
+def block_sgs(
+    G: np.ndarray, blocks: list[int], omega: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Ĝ = C⁻¹ G C⁻ᵀ of block SGS over consecutive diagonal blocks of the given sizes,
-    C = (D + L) R_D⁻ᵀ (C Cᵀ = M = (D + L) D⁻¹ (D + Lᵀ)); returns (Ĝ, C)."""
+    C = (D + L) R_D⁻ᵀ (C Cᵀ = M = (D + L) D⁻¹ (D + Lᵀ)); returns (Ĝ, C). With
+    ``omega`` ≠ 1 block SSOR: D/ω in place of D, C = (D/ω + L) R_D⁻ᵀ √ω."""
     n = G.shape[0]
     Dm = np.zeros_like(G)
     s = 0
@@ -99,7 +102,11 @@ def block_sgs(G: np.ndarray, blocks: list[int]) -> tuple[np.ndarray, np.ndarray]
         Dm[s : s + size, s : s + size] = G[s : s + size, s : s + size]
         s += size
     Rd = np.linalg.cholesky(Dm)
-    C = (Dm + np.tril(G) - np.tril(Dm)) @ scipy.linalg.solve_triangular(Rd, np.eye(n), lower=True).T
+    C = (Dm / omega + np.tril(G) - np.tril(Dm)) @ scipy.linalg.solve_triangular(
+        Rd, np.eye(n), lower=True
+    ).T
+    if omega != 1.0:
+        C *= np.sqrt(omega)
     X = scipy.linalg.solve_triangular(C, G, lower=True)
     Gh = scipy.linalg.solve_triangular(C, X.T, lower=True)
     return 0.5 * (Gh + Gh.T), C
