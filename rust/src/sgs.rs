@@ -88,8 +88,9 @@ pub struct Sgs {
 
 const NO_LEAF: u32 = u32::MAX;
 
-/// The LEAF×LEAF blocks H̃(l, c) (3×3, [b'][b]) of one tile.
-type TileBlocks = [[[[f32; 3]; 3]; LEAF]; LEAF];
+/// The LEAF×LEAF blocks H̃(l, c) (3×3, [b'][b]) of one tile, each row padded
+/// with a zero to four lanes, so that a leaf's coupling is 128-bit vector work.
+type TileBlocks = [[[[f32; 4]; 3]; LEAF]; LEAF];
 
 /// Scratch of one solve: the entries Y and their accumulated lower terms W,
 /// both 3m×m column-major (column i = row i of the entry matrix, mode-major).
@@ -153,13 +154,13 @@ impl Sgs {
         });
         let tiles = (0..layout.m.div_ceil(LEAF))
             .map(|t| {
-                let mut blocks = [[[[0.0f32; 3]; 3]; LEAF]; LEAF];
+                let mut blocks = [[[[0.0f32; 4]; 3]; LEAF]; LEAF];
                 let lo = t * LEAF;
                 let len = LEAF.min(layout.m - lo);
                 for (u, row) in blocks.iter_mut().enumerate().take(len) {
                     for (v, blk) in row.iter_mut().enumerate().take(len) {
                         for (bp, r) in blk.iter_mut().enumerate() {
-                            for (b, x) in r.iter_mut().enumerate() {
+                            for (b, x) in r.iter_mut().enumerate().take(3) {
                                 *x = hm[(3 * (lo + v) + b) * n + 3 * (lo + u) + bp];
                             }
                         }
@@ -615,12 +616,17 @@ impl Solve<'_> {
             y: &dyn Fn(usize) -> [f32; 3],
         ) {
             let c = at(k);
+            // four lanes (the fourth is zero), the same sums in the same order
+            let mut a4 = [acc[0], acc[1], acc[2], 0.0];
             for l in 0..k {
                 let (h, v) = (&tile[at(l)][c], y(l));
-                for (b, out) in acc.iter_mut().enumerate() {
-                    *out += h[0][b] * v[0] + h[1][b] * v[1] + h[2][b] * v[2];
+                let s: [f32; 4] =
+                    std::array::from_fn(|b| h[0][b] * v[0] + h[1][b] * v[1] + h[2][b] * v[2]);
+                for (out, s) in a4.iter_mut().zip(s) {
+                    *out += s;
                 }
             }
+            *acc = [a4[0], a4[1], a4[2]];
         }
         let m = self.sgs.layout.m;
         let symmetric = self.sgs.layout.symmetric;
