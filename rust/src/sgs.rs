@@ -429,9 +429,46 @@ impl Solve<'_> {
         let (a, b) = self.split(r);
         self.lyap(a);
         self.update(b, a, a);
-        self.sylv(a, b);
-        self.update(b, a, b);
-        self.lyap(b);
+        if a.len().min(b.len()) < self.sgs.fork {
+            self.sylv(a, b);
+            self.update(b, a, b);
+            return self.lyap(b);
+        }
+        // sylv(a, b) written out, so that lyap(b₁) can run beside its last
+        // quarter: b₁'s diagonal block needs the entries (a, b₁) only
+        let (a1, a2) = self.split(a);
+        let (b1, b2) = self.split(b);
+        self.sylv(a1, b1);
+        self.update(b2, b1, a1);
+        self.update(a2, a1, b1);
+        self.both(|| self.sylv(a1, b2), || self.sylv(a2, b1));
+        self.update(b2, b1, a2);
+        self.update(a2, a1, b2);
+        self.both(
+            || self.sylv(a2, b2),
+            || {
+                self.update(b1, a, b1);
+                self.lyap(b1);
+            },
+        );
+        // the rest of update(b, a, b), then lyap(b) after its first block
+        self.update(b2, a, b1);
+        self.update(b1, a, b2);
+        self.update(b2, a, b2);
+        self.update(b2, b1, b1);
+        self.sylv(b1, b2);
+        self.update(b2, b1, b2);
+        self.lyap(b2);
+    }
+
+    /// Run two independent parts, in parallel unless only recording the order.
+    fn both(&self, x: impl FnOnce() + Send, y: impl FnOnce() + Send) {
+        if self.ptr.order.is_null() {
+            rayon::join(x, y);
+        } else {
+            x();
+            y();
+        }
     }
 
     /// Entries (i, c) and (c, i), i in `ri`, c in `rc`, `ri` wholly before `rc`.
