@@ -429,21 +429,15 @@ impl Solve<'_> {
         let (a, b) = self.split(r);
         self.lyap(a);
         self.update(b, a, a);
-        if a.len().min(b.len()) < self.sgs.fork {
+        let short = a.len().min(b.len());
+        if short <= LEAF || short < self.sgs.fork {
             self.sylv(a, b);
             self.update(b, a, b);
             return self.lyap(b);
         }
-        // sylv(a, b) written out, so that lyap(b₁) can run beside its last
-        // quarter: b₁'s diagonal block needs the entries (a, b₁) only
-        let (a1, a2) = self.split(a);
-        let (b1, b2) = self.split(b);
-        self.sylv(a1, b1);
-        self.update(b2, b1, a1);
-        self.update(a2, a1, b1);
-        self.both(|| self.sylv(a1, b2), || self.sylv(a2, b1));
-        self.update(b2, b1, a2);
-        self.update(a2, a1, b2);
+        // sylv(a, b) up to its last quarter, which lyap(b₁) can run beside:
+        // b₁'s diagonal block needs the entries (a, b₁) only
+        let [_, a2, b1, b2] = self.sylv_head(a, b, true);
         self.both(
             || self.sylv(a2, b2),
             || {
@@ -471,6 +465,26 @@ impl Solve<'_> {
         }
     }
 
+    /// [`Solve::sylv`] of two ranges longer than a leaf, all but its last quarter
+    /// (i₂, c₂), whose lower terms it completes; the middle two quarters run in
+    /// parallel if `fork`. Returns the halves [i₁, i₂, c₁, c₂].
+    fn sylv_head(&self, ri: Modes, rc: Modes, fork: bool) -> [Modes; 4] {
+        let (i1, i2) = self.split(ri);
+        let (c1, c2) = self.split(rc);
+        self.sylv(i1, c1);
+        self.update(c2, c1, i1);
+        self.update(i2, i1, c1);
+        if fork {
+            self.both(|| self.sylv(i1, c2), || self.sylv(i2, c1));
+        } else {
+            self.sylv(i1, c2);
+            self.sylv(i2, c1);
+        }
+        self.update(c2, c1, i2);
+        self.update(i2, i1, c2);
+        [i1, i2, c1, c2]
+    }
+
     /// Entries (i, c) and (c, i), i in `ri`, c in `rc`, `ri` wholly before `rc`.
     /// (i, c) depends on (i, l) for l before c, its mirror (c, i) on (c, l) for l
     /// before i: of the four quarters, (ri₂, rc₁) and (ri₁, rc₂) are independent.
@@ -480,19 +494,7 @@ impl Solve<'_> {
             return self.leaf(ri, rc);
         }
         if li > LEAF && lc > LEAF {
-            let (i1, i2) = self.split(ri);
-            let (c1, c2) = self.split(rc);
-            self.sylv(i1, c1);
-            self.update(c2, c1, i1);
-            self.update(i2, i1, c1);
-            if li.min(lc) >= self.sgs.fork && self.ptr.order.is_null() {
-                rayon::join(|| self.sylv(i1, c2), || self.sylv(i2, c1));
-            } else {
-                self.sylv(i1, c2);
-                self.sylv(i2, c1);
-            }
-            self.update(c2, c1, i2);
-            self.update(i2, i1, c2);
+            let [_, i2, _, c2] = self.sylv_head(ri, rc, li.min(lc) >= self.sgs.fork);
             self.sylv(i2, c2);
         } else if lc > LEAF {
             let (a, b) = self.split(rc);
