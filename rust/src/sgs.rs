@@ -428,6 +428,11 @@ impl Solve<'_> {
         }
         let (a, b) = self.split(r);
         self.lyap(a);
+        self.lyap_after(a, b);
+    }
+
+    /// The rest of the diagonal block a|b once its first block a×a is solved.
+    fn lyap_after(&self, a: Modes, b: Modes) {
         self.update(b, a, a);
         let short = a.len().min(b.len());
         if short <= LEAF || short < self.sgs.fork {
@@ -449,10 +454,7 @@ impl Solve<'_> {
         self.update(b2, a, b1);
         self.update(b1, a, b2);
         self.update(b2, a, b2);
-        self.update(b2, b1, b1);
-        self.sylv(b1, b2);
-        self.update(b2, b1, b2);
-        self.lyap(b2);
+        self.lyap_after(b1, b2);
     }
 
     /// Run two independent parts, in parallel unless only recording the order.
