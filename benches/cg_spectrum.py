@@ -102,11 +102,11 @@ def block_sgs(
         Dm[s : s + size, s : s + size] = G[s : s + size, s : s + size]
         s += size
     Rd = np.linalg.cholesky(Dm)
-    C = (Dm / omega + np.tril(G) - np.tril(Dm)) @ scipy.linalg.solve_triangular(
-        Rd, np.eye(n), lower=True
-    ).T
-    if omega != 1.0:
-        C *= np.sqrt(omega)
+    C = (
+        (Dm / omega + np.tril(G) - np.tril(Dm))
+        @ scipy.linalg.solve_triangular(Rd, np.eye(n), lower=True).T
+        * np.sqrt(omega)
+    )
     X = scipy.linalg.solve_triangular(C, G, lower=True)
     Gh = scipy.linalg.solve_triangular(C, X.T, lower=True)
     return 0.5 * (Gh + Gh.T), C
