@@ -74,6 +74,36 @@ def gemm_gflops(n: int = 4000, repeat: int = 3) -> float:
     return 2 * n**3 / best / 1e9
 
 
+def blas_kernel() -> str:
+    """NumPy's BLAS, its version and the kernel family it chose for this CPU."""
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:
+        return "BLAS unknown"
+    for info in threadpool_info():
+        if info.get("user_api") == "blas":
+            return (
+                f"{info.get('internal_api')} {info.get('version')}, "
+                f"{info.get('architecture')} kernels, {info.get('num_threads')} threads"
+            )
+    return "BLAS unknown"
+
+
+def first_touch_us_per_page(mib: int = 256) -> float:
+    """Cost of the first write to fresh memory, µs per 4 KiB page, beyond a rewrite.
+
+    Every solve allocates its working set anew, so this cost is in every timing. On
+    the project's VM it was 7–13 µs per page, 50–100× the 0.1–0.2 µs of pages the
+    kernel had freed moments before: the guest hands freed memory back to the host
+    (virtio-balloon free page reporting), which maps it again on the next first touch.
+    """
+    n = mib * 2**20 // 8
+    a = np.empty(n)
+    first = timed(lambda: a.fill(1.0))[1]
+    again = timed(lambda: a.fill(2.0))[1]
+    return max(first - again, 0.0) * 1e6 / (n * 8 / 4096)
+
+
 def load_average() -> float | None:
     """One-minute load average (other processes share the cores), or None."""
     try:

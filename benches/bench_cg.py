@@ -36,7 +36,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import (  # noqa: E402
+    blas_kernel,
     chain_problem,
+    first_touch_us_per_page,
     gemm_gflops,
     load_average,
     markdown_table,
@@ -79,6 +81,11 @@ def solve_case(case: dict) -> dict:
         out["iterations"] = res.iterations
         out["residual"] = res.relative_residual
         out["gemm_s"] = operator_gemm_seconds(m)
+        # the same product by faer (the library's own f64 GEMM), which on some hosts
+        # runs twice NumPy's rate (OpenBLAS picks an AVX2 kernel on AMD family 26)
+        from podid_rs import _core
+
+        out["faer_gemm_s"] = 18.0 * m**3 / (_core.operator_gemm_gflops(m, 3) * 1e9)
     out["load"] = [load, load_average()]
     return out
 
@@ -267,6 +274,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                 it, t_it = r["iterations"], r["t_iterate"]
                 x_gemms = sorted(x["seconds"] / x["gemm_s"] for x in runs)
                 x_gemm = float(np.median(x_gemms))
+                x_faers = sorted(x["seconds"] / x["faer_gemm_s"] for x in runs)
+                x_faer = float(np.median(x_faers))
                 case_loads = [v for x in runs + refs for v in x["load"] if v is not None]
                 loads += case_loads
                 pairs = zip(refs, runs, strict=True) if refs else []
@@ -275,7 +284,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                 rows.append([
                     band, mode, m, r["n"], r["seconds"], r["cpu_s"], it, max(r["errs"]),
                     r["peak_gb"],
-                    r["gemm_s"], spread(x_gemm, x_gemms), t_it / it if it else None,
+                    r["gemm_s"], spread(x_gemm, x_gemms), spread(x_faer, x_faers),
+                    t_it / it if it else None,
                     r["t_gram"], r["t_setup"], r.get("t_solves"), r.get("t_residual"),
                     val(ref, "seconds"), val(ref, "iterations"),
                     max(ref["errs"]) if ref else None,
@@ -286,7 +296,7 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                     f"{band:6s} {mode} m={m:5d}: {r['seconds']:7.2f}s (CPU {r['cpu_s']:.1f}s)  "
                     f"{it:4d} it  "
                     f"err {max(r['errs']):.1e}  {r['peak_gb']:.2f} GB  "
-                    f"{spread(x_gemm, x_gemms)}× GEMM"
+                    f"{spread(x_gemm, x_gemms)}× GEMM ({spread(x_faer, x_faers)}× faer's)"
                     + (f"  ref {ref['seconds']:.2f}s ({spread(speedup, ratios)}×)" if ref else "")
                     + f"  load {r['load']}",
                     flush=True,
@@ -296,7 +306,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
                 if band == "narrow" and m == 1000:
                     checks.append(
                         f"m = 1000, 20 % band, {mode}: {spread(x_gemm, x_gemms)}× one GEMM{over} "
-                        f"(target ≤ 45), error {err:.1e} (target ≤ 1e-8)"
+                        f"(target ≤ 45; {spread(x_faer, x_faers)}× faer's f64 GEMM), error "
+                        f"{err:.1e} (target ≤ 1e-8)"
                     )
                 if speedup is not None and m == 400:
                     checks.append(
@@ -308,7 +319,8 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
     header = [
         "band", "mode", "m", "unknowns", "time s", "CPU s", "iterations", "max rel. error",
         "peak GB",
-        "NumPy GEMM s", "× GEMM", "s/iteration", "gram s", "setup s", "solves s", "residual s",
+        "NumPy GEMM s", "× GEMM", "× faer GEMM", "s/iteration", "gram s", "setup s",
+        "solves s", "residual s",
         "NumPy PCG s",
         "NumPy PCG it", "NumPy PCG error", "ref / CG", "load",
     ]  # fmt: skip
@@ -322,10 +334,15 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         "CG path (issue 13): full-order chain, noise-free, s = 2m lines, random forces on "
         "every DOF; bands narrow = 102.8–122.8 Hz, wide = 50–150 Hz; modes sym = "
         f"exact-symmetric, pen = penalty λ = 100; tol {TOL:g}. "
-        f"NumPy GEMM (n = 4000) {args.numpy_gemm:.1f} GFLOP/s.\n"
+        f"NumPy GEMM (n = 4000) {args.numpy_gemm:.1f} GFLOP/s ({args.blas}). First write to "
+        f"fresh memory {args.first_touch:.2f} µs per 4 KiB page beyond a rewrite (256 MiB "
+        "probe; 0.1–0.2 for pages the kernel freed moments before, 7–13 on a VM that hands "
+        "freed memory back to its host).\n"
         "time = the whole identify() call (CPU s: its CPU time, all threads); × GEMM = "
         "time over one NumPy float64 GEMM of the operator's shape (m×3m by 3m×3m) timed "
-        "in the same process; solves = the "
+        "in the same process (the issue's reference), × faer GEMM the same over faer's "
+        "float64 GEMM of that shape (the library's own; the machine's f64 rate where "
+        "NumPy's BLAS falls short of it); solves = the "
         "preconditioner's triangular solves (most of the iterations), residual = ‖Ax − y‖ "
         "after the solve; NumPy PCG = the plain "
         "NumPy reference (diagonal pair preconditioner, same tol) in its own process; "
@@ -503,7 +520,10 @@ def main() -> None:
     if args.pairs < 1:
         ap.error("--pairs must be at least 1")
     me = str(Path(__file__).resolve())
+    args.first_touch = first_touch_us_per_page()
+    print(f"first touch of fresh memory: {args.first_touch:.2f} µs per page", flush=True)
     args.numpy_gemm = gemm_gflops()
+    args.blas = blas_kernel()
     print(f"NumPy GEMM rate (n = 4000): {args.numpy_gemm:.1f} GFLOP/s", flush=True)
     if args.stall:
         text, name = main_stall(args, me), "cg_stall.md"
