@@ -14,11 +14,11 @@
 //! direct path's normal matrix (the penalty is 4λ̃² on skew coordinates), so the
 //! two paths solve the same equations. Memory is O(m²).
 
-use crate::data::Columns;
+use crate::data::{Columns, Scaling, Stacked};
 use crate::direct::Method;
 use crate::error::PodidError;
-use crate::gram::symmetrize;
-use crate::identify::{check_lam, scaled_gram, unscale, Identified};
+use crate::gram::{gram_blocks, symmetrize};
+use crate::identify::{check_lam, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
 use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
@@ -371,8 +371,8 @@ pub fn pcg(
     Ok((x, report))
 }
 
-/// Bytes of the solver's O(m²) working set, an upper bound: H with the two
-/// 3m×3m matrices of its change of basis (27m²; afterwards H̃ alone, 9m²),
+/// Bytes of the solver's O(m²) working set, an upper bound: H's five blocks
+/// and their transforms with H̃ (at most 27m²; afterwards H̃ alone, 9m²),
 /// Z and Z·H̃ (6m²), nine CG vectors (one the best iterate), the pair factors
 /// and the single-precision H̃ and scratch of the Gauss–Seidel solves.
 pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
@@ -421,14 +421,15 @@ fn identify_cg_here(
     }
     let start = Instant::now();
     let m = cols.m;
-    let (scaling, gm) = scaled_gram(cols, par);
+    let scaling = Scaling::of(cols);
+    let (hb, b) = gram_blocks(&Stacked::new(cols, &scaling), par);
     let gram_seconds = start.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let (q, diag) = basis_of(gm.h.as_ref(), par).map_err(PodidError::Invalid)?;
+    let (q, diag) = basis_of(&hb, par).map_err(PodidError::Invalid)?;
     let basis_seconds = t.elapsed().as_secs_f64();
-    let (ht, bt) = to_basis(gm.h.as_ref(), gm.b.as_ref(), q.as_ref(), diag, par);
-    drop(gm);
+    let (ht, bt) = to_basis(&hb, b.as_ref(), q.as_ref(), diag, par);
+    drop((hb, b));
     let layout = Layout::new(m, symmetric);
     let pen = scaling.scaled_lam(lam).map(|l| 4.0 * l * l);
     let pre = PairPrecond::new(ht.as_ref(), layout, pen);

@@ -130,6 +130,28 @@ pub struct Gram {
     pub b: Mat<f64>,
 }
 
+/// The five distinct blocks of H: S0, S2, S4 (symmetric) and T1, T3
+/// (antisymmetric), each m×m, laid out in H as [`assemble_h`] does.
+pub struct HBlocks {
+    pub s0: Mat<f64>,
+    pub s2: Mat<f64>,
+    pub s4: Mat<f64>,
+    pub t1: Mat<f64>,
+    pub t3: Mat<f64>,
+}
+
+impl HBlocks {
+    /// H's diagonal blocks in the order of Z's blocks M, C, K: S4, S2, S0.
+    pub fn diagonal(&self) -> [MatRef<'_, f64>; 3] {
+        [self.s4.as_ref(), self.s2.as_ref(), self.s0.as_ref()]
+    }
+
+    /// H itself, 3m×3m.
+    pub fn assemble(&self) -> Mat<f64> {
+        assemble_h([&self.s0, &self.s2, &self.s4], [&self.t1, &self.t3])
+    }
+}
+
 /// aᵀ·b, parallel.
 fn atb(a: MatRef<f64>, b: MatRef<f64>, par: Par) -> Mat<f64> {
     let mut out = Mat::zeros(a.ncols(), b.ncols());
@@ -168,6 +190,14 @@ fn weighted(y: MatRef<f64>, w: &[f64], k: i32) -> Mat<f64> {
 
 /// Gram products of the (scaled) stacked data.
 pub fn gram(data: &Stacked, par: Par) -> Gram {
+    let (h, b) = gram_blocks(data, par);
+    Gram { h: h.assemble(), b }
+}
+
+/// H by its five distinct blocks, and B: what the matrix-free path needs (it
+/// transforms the blocks one by one, so H itself, 72 MB at m = 1000, is never
+/// written).
+pub fn gram_blocks(data: &Stacked, par: Par) -> (HBlocks, Mat<f64>) {
     let n = data.w.len();
     let m = data.y.ncols();
     let y0 = data.y.as_ref();
@@ -188,8 +218,6 @@ pub fn gram(data: &Stacked, par: Par) -> Gram {
     let mut t3 = Mat::zeros(m, m);
     par_fill(t3.as_mut(), |i, j| p3[(i, j)] - p3[(j, i)]);
 
-    let h = assemble_h([&s0, &s2, &s4], [&t1, &t3]);
-
     let g0 = data.g.as_ref();
     let (gre, gim) = (g0.subrows(0, n), g0.subrows(n, n));
     let bm = atb(g0, y2.as_ref(), par);
@@ -204,7 +232,7 @@ pub fn gram(data: &Stacked, par: Par) -> Gram {
             b[(i, 2 * m + j)] = bk[(i, j)];
         }
     }
-    Gram { h, b }
+    (HBlocks { s0, s2, s4, t1, t3 }, b)
 }
 
 #[cfg(test)]

@@ -21,7 +21,7 @@
 //! their coupling is the part always left out. The solver works in the Q basis
 //! throughout, so each preconditioner application costs O(m²), not O(m³).
 
-use crate::gram::{assemble_h, mirror_lower};
+use crate::gram::{assemble_h, mirror_lower, HBlocks};
 use crate::joint;
 use crate::pairs::{Layout, TILE};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -115,9 +115,10 @@ fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
 /// not refined afterwards: [`to_basis`] needs them too (they are 3 of its 5
 /// transforms, about 0.6 of an operator GEMM at m = 1000).
 #[allow(clippy::type_complexity)]
-pub fn basis_of(h: MatRef<f64>, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]>), String> {
-    let m = h.nrows() / 3;
-    let block = |b: usize| h.submatrix(b * m, b * m, m, m);
+pub fn basis_of(h: &HBlocks, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]>), String> {
+    let m = h.s0.nrows();
+    let diagonal = h.diagonal();
+    let block = |b: usize| diagonal[b];
     let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block(b)[(i, j)]).sum::<f64>());
     let mut q = eigenvectors(sum.as_ref(), par)?;
     let diag = [0, 1, 2].map(|b| congruence(block(b), q.as_ref(), 1.0, par));
@@ -173,22 +174,17 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
 /// (anti)symmetric ([`congruence`]), so H̃ is exactly symmetric; `diag`, if
 /// given, are the three diagonal ones already formed by [`basis_of`] (then 6m³).
 pub fn to_basis(
-    h: MatRef<f64>,
+    h: &HBlocks,
     b: MatRef<f64>,
     q: MatRef<f64>,
     diag: Option<[Mat<f64>; 3]>,
     par: Par,
 ) -> (Mat<f64>, Mat<f64>) {
     let m = q.nrows();
-    let blk = |i: usize, j: usize| h.submatrix(i * m, j * m, m, m);
-    debug_assert!((0..m).all(|i| (0..m).all(|j| {
-        blk(0, 2)[(i, j)] == -blk(1, 1)[(i, j)] && blk(0, 1)[(i, j)] == -blk(1, 0)[(i, j)]
-    })));
-    let [s4, s2, s0] =
-        diag.unwrap_or_else(|| [0, 1, 2].map(|b| congruence(blk(b, b), q, 1.0, par)));
+    let [s4, s2, s0] = diag.unwrap_or_else(|| h.diagonal().map(|blk| congruence(blk, q, 1.0, par)));
     let (t3, t1) = (
-        congruence(blk(1, 0), q, -1.0, par),
-        congruence(blk(2, 1), q, -1.0, par),
+        congruence(h.t3.as_ref(), q, -1.0, par),
+        congruence(h.t1.as_ref(), q, -1.0, par),
     );
     let ht = assemble_h([&s0, &s2, &s4], [&t1, &t3]);
     let mut qb = Mat::zeros(m, 3 * m);
