@@ -80,12 +80,13 @@ def solve_case(case: dict) -> dict:
     if case["solver"] == "cg":
         out["iterations"] = res.iterations
         out["residual"] = res.relative_residual
-        out["gemm_s"] = operator_gemm_seconds(m)
         # the same product by faer (the library's own f64 GEMM), which on some hosts
-        # runs twice NumPy's rate (OpenBLAS picks an AVX2 kernel on AMD family 26)
+        # runs twice NumPy's rate (OpenBLAS picks an AVX2 kernel on AMD family 26);
+        # first, since OpenBLAS's threads busy-wait ~0.1 s after NumPy's GEMM
         from podid_rs import _core
 
         out["faer_gemm_s"] = 18.0 * m**3 / (_core.operator_gemm_gflops(m, 3) * 1e9)
+        out["gemm_s"] = operator_gemm_seconds(m)
     out["load"] = [load, load_average()]
     return out
 
