@@ -144,6 +144,16 @@ def test_backends_agree_at_larger_order():
         assert max_rel(a, b) < 1e-9
 
 
+@pytest.mark.parametrize("lam, symmetric", [(0.0, False), (2.0, False), (0.0, True)])
+def test_penalty_norms_are_the_skew_parts_of_the_answer(lam, symmetric):
+    """‖X − Xᵀ‖_F of each returned block (NumPy's loops, not BLAS, compute them)."""
+    _, U, F, omega = random_system_data(12, 40, 2, 3, 0.05)
+    res = identify(U, F, omega, lam, symmetric)
+    want = [np.linalg.norm(X - X.T) for X in (res.M, res.C, res.K)]
+    assert res.penalty_norms == pytest.approx(want, rel=1e-12, abs=0.0)
+    assert (max(want) == 0.0) == symmetric
+
+
 def test_symmetric_mode_is_the_large_lambda_limit():
     _, U, F, omega = chain_data(6, s=50, noise=0.05, seed=2)
     sym = identify(U, F, omega, symmetric=True)
