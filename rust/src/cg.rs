@@ -14,11 +14,11 @@
 //! direct path's normal matrix (the penalty is 4λ̃² on skew coordinates), so the
 //! two paths solve the same equations. Memory is O(m²).
 
-use crate::data::{Columns, Scaling, Stacked};
+use crate::data::Columns;
 use crate::direct::Method;
 use crate::error::PodidError;
 use crate::gram::{gram_blocks, symmetrize};
-use crate::identify::{check_lam, unscale, Identified};
+use crate::identify::{check_lam, scaled, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
 use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
@@ -421,8 +421,7 @@ fn identify_cg_here(
     }
     let start = Instant::now();
     let m = cols.m;
-    let scaling = Scaling::of(cols);
-    let (hb, b) = gram_blocks(&Stacked::new(cols, &scaling), par);
+    let (scaling, (hb, b)) = scaled(cols, |data| gram_blocks(data, par));
     let gram_seconds = start.elapsed().as_secs_f64();
 
     let t = Instant::now();

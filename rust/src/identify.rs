@@ -44,11 +44,12 @@ pub(crate) fn check_lam(lam: [f64; 3]) -> Result<(), PodidError> {
     }
 }
 
-/// Scale the columns (DESIGN §3) and form the Gram products H, B of the scaled data.
-pub(crate) fn scaled_gram(cols: &Columns, par: Par) -> (Scaling, Gram) {
+/// Scale the columns (DESIGN §3) and apply `products` (the Gram products:
+/// [`gram`], or [`crate::gram::gram_blocks`]) to the scaled, stacked data.
+pub(crate) fn scaled<T>(cols: &Columns, products: impl FnOnce(&Stacked) -> T) -> (Scaling, T) {
     let scaling = Scaling::of(cols);
-    let gm = gram(&Stacked::new(cols, &scaling), par);
-    (scaling, gm)
+    let out = products(&Stacked::new(cols, &scaling));
+    (scaling, out)
 }
 
 /// M, C, K in the caller's units from the scaled Z = [X_M X_C X_K] (m×3m).
@@ -149,7 +150,7 @@ pub fn identify(
     check_lam(lam)?;
     let start = Instant::now();
     let m = cols.m;
-    let (scaling, gm) = scaled_gram(cols, par);
+    let (scaling, gm) = scaled(cols, |data| gram(data, par));
     let gram_seconds = start.elapsed().as_secs_f64();
     let (z, sol, form_seconds) = if unregularised(lam, symmetric) {
         solve_rows(&gm, m, par)?

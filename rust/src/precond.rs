@@ -117,11 +117,10 @@ fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
 #[allow(clippy::type_complexity)]
 pub fn basis_of(h: &HBlocks, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]>), String> {
     let m = h.s0.nrows();
-    let diagonal = h.diagonal();
-    let block = |b: usize| diagonal[b];
-    let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block(b)[(i, j)]).sum::<f64>());
+    let block = h.diagonal();
+    let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block[b][(i, j)]).sum::<f64>());
     let mut q = eigenvectors(sum.as_ref(), par)?;
-    let diag = [0, 1, 2].map(|b| congruence(block(b), q.as_ref(), 1.0, par));
+    let diag = block.map(|blk| congruence(blk, q.as_ref(), 1.0, par));
     if diag
         .iter()
         .all(|a| off_fraction(a.as_ref()) <= JOINT_MIN_OFF)
@@ -132,7 +131,7 @@ pub fn basis_of(h: &HBlocks, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]
         .into_iter()
         .enumerate()
         .map(|(b, a)| {
-            let trace: f64 = (0..m).map(|i| block(b)[(i, i)]).sum();
+            let trace: f64 = (0..m).map(|i| block[b][(i, i)]).sum();
             let scale = if trace > 0.0 { 1.0 / trace } else { 1.0 };
             a * faer::Scale(scale)
         })
