@@ -152,6 +152,8 @@ def test_penalty_norms_are_the_skew_parts_of_the_answer(lam, symmetric):
     want = [np.linalg.norm(X - X.T) for X in (res.M, res.C, res.K)]
     assert res.penalty_norms == pytest.approx(want, rel=1e-12, abs=0.0)
     assert (max(want) == 0.0) == symmetric
+    rel = [w / np.linalg.norm(X) for w, X in zip(want, (res.M, res.C, res.K), strict=True)]
+    assert res.symmetry_defect() == pytest.approx(rel, rel=1e-12, abs=0.0)
 
 
 def test_symmetric_mode_is_the_large_lambda_limit():

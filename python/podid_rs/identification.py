@@ -107,8 +107,8 @@ class IdentificationResult:
         """‖X − Xᵀ‖_F / ‖X‖_F for X = M, C, K (0 for exactly symmetric matrices)."""
         out = []
         for X in (self.M, self.C, self.K):
-            nx = np.linalg.norm(X)
-            out.append(float(np.linalg.norm(X - X.T) / nx) if nx > 0 else 0.0)
+            nx = _frobenius(X)
+            out.append(_skew_norm(X) / nx if nx > 0 else 0.0)
         return (out[0], out[1], out[2])
 
     def system(self):
@@ -341,13 +341,17 @@ class _ProgressBar:
         self.bar.close()
 
 
+def _frobenius(A: np.ndarray) -> float:
+    """‖A‖_F by NumPy's own loops, not BLAS: ``np.linalg.norm`` of an m×m array
+    is an OpenBLAS ddot, whose threads then busy-wait for about 0.1 s on the
+    cores that the next solve wants (m = 400, back-to-back CG calls: median
+    0.607 s against 0.578 s; pen 0.674 against 0.617 s)."""
+    return math.sqrt(float(np.einsum("ij,ij->", A, A)))
+
+
 def _skew_norm(X: np.ndarray) -> float:
-    """‖X − Xᵀ‖_F by NumPy's own loops, not BLAS: ``np.linalg.norm`` of an
-    m×m array is an OpenBLAS ddot, whose threads then busy-wait for about 0.1 s
-    on the cores that the next solve wants (m = 400, back-to-back CG calls:
-    median 0.607 s against 0.578 s; pen 0.674 against 0.617 s)."""
-    D = X - X.T
-    return math.sqrt(float(np.einsum("ij,ij->", D, D)))
+    """‖X − Xᵀ‖_F (:func:`_frobenius`)."""
+    return _frobenius(X - X.T)
 
 
 def _identify_cg(
