@@ -179,13 +179,27 @@ fn ata(a: MatRef<f64>, par: Par) -> Mat<f64> {
     out
 }
 
-/// Rows of `y` scaled by w^k (the weight list repeats for the real and imaginary halves).
-fn weighted(y: MatRef<f64>, w: &[f64], k: i32) -> Mat<f64> {
+/// Rows `rows` of `out` := the same rows of `y` scaled by w^k (the weight list
+/// repeats for the real and imaginary halves).
+fn weight_rows(out: MatMut<f64>, y: MatRef<f64>, w: &[f64], k: i32, rows: std::ops::Range<usize>) {
     let n = w.len();
-    let wk: Vec<f64> = (0..y.nrows()).map(|r| w[r % n].powi(k)).collect();
-    let mut out = Mat::zeros(y.nrows(), y.ncols());
-    par_fill(out.as_mut(), |r, c| y[(r, c)] * wk[r]);
-    out
+    let wk: Vec<f64> = rows.clone().map(|r| w[r % n].powi(k)).collect();
+    let lo = rows.start;
+    par_fill(out.subrows_mut(lo, rows.len()), |r, c| {
+        y[(lo + r, c)] * wk[r]
+    });
+}
+
+/// A := A − Aᵀ in place (T_k from P_k without a second m×m matrix).
+fn minus_transpose(a: MatMut<f64>) {
+    par_transposed_pairs(
+        a,
+        |lower, upper| {
+            let (l, u) = (*lower, *upper);
+            (*lower, *upper) = (l - u, u - l);
+        },
+        |d| *d = 0.0,
+    );
 }
 
 /// Gram products of the (scaled) stacked data.
@@ -201,37 +215,47 @@ pub fn gram_blocks(data: &Stacked, par: Par) -> (HBlocks, Mat<f64>) {
     let n = data.w.len();
     let m = data.y.ncols();
     let y0 = data.y.as_ref();
-    let y1 = weighted(y0, &data.w, 1);
-    let y2 = weighted(y0, &data.w, 2);
     let im0 = y0.subrows(n, n);
-    let (re1, im1) = (y1.as_ref().subrows(0, n), y1.as_ref().subrows(n, n));
-    let im2 = y2.as_ref().subrows(n, n);
-
-    let s0 = ata(y0, par);
-    let s2 = ata(y1.as_ref(), par);
-    let s4 = ata(y2.as_ref(), par);
-    // T_k = P_k − P_kᵀ with P_k = Σ ω^k Im(u) Re(u)ᵀ
-    let p1 = atb(im0, re1, par);
-    let p3 = atb(im2, re1, par);
-    let mut t1 = Mat::zeros(m, m);
-    par_fill(t1.as_mut(), |i, j| p1[(i, j)] - p1[(j, i)]);
-    let mut t3 = Mat::zeros(m, m);
-    par_fill(t3.as_mut(), |i, j| p3[(i, j)] - p3[(j, i)]);
-
     let g0 = data.g.as_ref();
     let (gre, gim) = (g0.subrows(0, n), g0.subrows(n, n));
-    let bm = atb(g0, y2.as_ref(), par);
-    let bc_a = atb(gim, re1, par);
-    let bc_b = atb(gre, im1, par);
-    let bk = atb(g0, y0, par);
+    let s0 = ata(y0, par);
     let mut b = Mat::zeros(m, 3 * m);
-    for j in 0..m {
-        for i in 0..m {
-            b[(i, j)] = -bm[(i, j)];
-            b[(i, m + j)] = bc_a[(i, j)] - bc_b[(i, j)];
-            b[(i, 2 * m + j)] = bk[(i, j)];
-        }
-    }
+    matmul(
+        b.as_mut().subcols_mut(2 * m, m),
+        Accum::Replace,
+        g0.transpose(),
+        y0,
+        1.0,
+        par,
+    );
+
+    // one buffer holds the data weighted by ω (y1), then by ω² (y2): its
+    // imaginary half first, while the products T3 and B_C still read Re y1
+    let mut yw = Mat::zeros(2 * n, m);
+    weight_rows(yw.as_mut(), y0, &data.w, 1, 0..2 * n);
+    let s2 = ata(yw.as_ref(), par);
+    // T_k = P_k − P_kᵀ with P_k = Σ ω^k Im(u) Re(u)ᵀ, formed in place
+    let re1 = yw.as_ref().subrows(0, n);
+    let mut t1 = atb(im0, re1, par);
+    minus_transpose(t1.as_mut());
+    let mut bc = b.as_mut().subcols_mut(m, m);
+    matmul(bc.as_mut(), Accum::Replace, gim.transpose(), re1, 1.0, par);
+    let im1 = yw.as_ref().subrows(n, n);
+    matmul(bc.as_mut(), Accum::Add, gre.transpose(), im1, -1.0, par);
+    weight_rows(yw.as_mut(), y0, &data.w, 2, n..2 * n);
+    let (re1, im2) = (yw.as_ref().subrows(0, n), yw.as_ref().subrows(n, n));
+    let mut t3 = atb(im2, re1, par);
+    minus_transpose(t3.as_mut());
+    weight_rows(yw.as_mut(), y0, &data.w, 2, 0..n);
+    let s4 = ata(yw.as_ref(), par);
+    matmul(
+        b.as_mut().subcols_mut(0, m),
+        Accum::Replace,
+        g0.transpose(),
+        yw.as_ref(),
+        -1.0,
+        par,
+    );
     (HBlocks { s0, s2, s4, t1, t3 }, b)
 }
 
