@@ -1,7 +1,7 @@
 //! Time one application of the CG preconditioner at order m: the two triangular
 //! solves of the Gauss–Seidel split with the per-pair factor products, as
 //! `cg::pcg` runs them each iteration, in both modes (exact-symmetric, and the
-//! penalty mode with a penalty 10⁶ above the data). Synthetic SPD H̃; the
+//! penalty mode with a penalty 10⁶ above the data). H̃ of random data; the
 //! checksum shows whether a change altered the arithmetic.
 //!
 //! cargo run --release --example sgs_apply -- [m=1000] [threads=1] [repeats=5]
@@ -10,7 +10,8 @@
 //! override the solves' task knobs ([`Sgs::fork`], [`Sgs::split_flops`],
 //! [`Sgs::split_depth`]).
 
-use faer::{Mat, Par};
+use faer::Par;
+use podid_rs::gram::random_blocks;
 use podid_rs::pairs::Layout;
 use podid_rs::precond::PairPrecond;
 use podid_rs::sgs::{Ends, Sgs, SgsWork};
@@ -28,16 +29,12 @@ fn main() {
             .ok()
             .map(|s| s.parse::<f64>().expect("a number"))
     };
-    let a = Mat::from_fn(3 * m, 3 * m, |i, j| {
-        let v = (((i * 13 + j * 7) % 17) as f64 - 8.0) / 17.0 / (m as f64).sqrt();
-        v + if i == j { 1.5 } else { 0.0 }
-    });
-    let h = &a * a.transpose();
+    let h = random_blocks(m, 1);
     for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
         let lay = Layout::new(m, symmetric);
         let n = lay.len();
-        let pre = PairPrecond::new(h.as_ref(), lay, pen);
-        let mut sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
+        let pre = PairPrecond::new(&h, lay, pen);
+        let mut sgs = Sgs::new(&h, lay, Par::rayon(0));
         // the task knobs, for tuning them (benches/bench_sgs_tasks.py)
         if let Some(v) = knob("SGS_FORK") {
             sgs.fork = v as usize;

@@ -146,6 +146,35 @@ impl HBlocks {
         [self.s4.as_ref(), self.s2.as_ref(), self.s0.as_ref()]
     }
 
+    /// Block (b, c) of H (b, c ∈ {0, 1, 2} for M, C, K) as (stored block, sign).
+    pub fn block(&self, b: usize, c: usize) -> (MatRef<'_, f64>, f64) {
+        let (blk, sign) = match (b, c) {
+            (0, 0) => (&self.s4, 1.0),
+            (0, 1) => (&self.t3, -1.0),
+            (0, 2) => (&self.s2, -1.0),
+            (1, 0) => (&self.t3, 1.0),
+            (1, 1) => (&self.s2, 1.0),
+            (1, 2) => (&self.t1, -1.0),
+            (2, 0) => (&self.s2, -1.0),
+            (2, 1) => (&self.t1, 1.0),
+            _ => (&self.s0, 1.0),
+        };
+        (blk.as_ref(), sign)
+    }
+
+    /// Entry (i, j) of H (3m×3m).
+    #[inline]
+    pub fn entry(&self, i: usize, j: usize) -> f64 {
+        let m = self.s0.nrows();
+        let (blk, sign) = self.block(i / m, j / m);
+        sign * blk[(i % m, j % m)]
+    }
+
+    /// Order m of each block.
+    pub fn m(&self) -> usize {
+        self.s0.nrows()
+    }
+
     /// H itself, 3m×3m.
     pub fn assemble(&self) -> Mat<f64> {
         assemble_h([&self.s0, &self.s2, &self.s4], [&self.t1, &self.t3])
@@ -257,6 +286,27 @@ pub fn gram_blocks(data: &Stacked, par: Par) -> (HBlocks, Mat<f64>) {
         par,
     );
     (HBlocks { s0, s2, s4, t1, t3 }, b)
+}
+
+/// H's blocks for random data (for tests and examples): 2m + 2 lines of
+/// pseudo-random responses at frequencies spread over [0.5, 1.5] (scaled units),
+/// so H is of the structure above and, generically, positive definite; the
+/// same `seed` gives the same blocks.
+pub fn random_blocks(m: usize, seed: u64) -> HBlocks {
+    let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut next = move || {
+        // xorshift64*, uniform in [−1, 1)
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        let v = state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
+        v as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    let n = 2 * m + 2;
+    let y = Mat::from_fn(2 * n, m, |_, _| next());
+    let g = Mat::from_fn(2 * n, m, |_, _| next());
+    let w = (0..n).map(|i| 0.5 + (i as f64 + 0.5) / n as f64).collect();
+    gram_blocks(&Stacked { y, g, w }, Par::Seq).0
 }
 
 #[cfg(test)]

@@ -21,7 +21,7 @@
 //! their coupling is the part always left out. The solver works in the Q basis
 //! throughout, so each preconditioner application costs O(m²), not O(m³).
 
-use crate::gram::{assemble_h, mirror_lower, HBlocks};
+use crate::gram::{mirror_lower, HBlocks};
 use crate::joint;
 use crate::pairs::{Layout, TILE};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -168,7 +168,9 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
 
 /// (H̃, B̃) = ((I⊗Q)ᵀ H (I⊗Q), Qᵀ B (I⊗Q)) for H of the structure of
 /// [`crate::gram`]: blocks S4, −T3, −S2 / T3, S2, −T1 / −S2, T1, S0 with S_k
-/// symmetric and T_k antisymmetric. Only the five distinct blocks are
+/// symmetric and T_k antisymmetric. H̃ has the same structure and is returned
+/// as its five distinct blocks, never assembled (9m² doubles, 72 MB at
+/// m = 1000, of fresh memory the CG path does not need). Only those five are
 /// transformed (15m³ flops, not 36m³ for all nine), each exactly
 /// (anti)symmetric ([`congruence`]), so H̃ is exactly symmetric; `diag`, if
 /// given, are the three diagonal ones already formed by [`basis_of`] (then 6m³).
@@ -178,16 +180,16 @@ pub fn to_basis(
     q: MatRef<f64>,
     diag: Option<[Mat<f64>; 3]>,
     par: Par,
-) -> (Mat<f64>, Mat<f64>) {
+) -> (HBlocks, Mat<f64>) {
     let m = q.nrows();
     let [s4, s2, s0] = diag.unwrap_or_else(|| h.diagonal().map(|blk| congruence(blk, q, 1.0, par)));
     let (t3, t1) = (
         congruence(h.t3.as_ref(), q, -1.0, par),
         congruence(h.t1.as_ref(), q, -1.0, par),
     );
-    let ht = assemble_h([&s0, &s2, &s4], [&t1, &t3]);
     let mut qb = Mat::zeros(m, 3 * m);
     matmul(qb.as_mut(), Accum::Replace, q.transpose(), b, 1.0, par);
+    let ht = HBlocks { s0, s2, s4, t1, t3 };
     (ht, right_blocks(qb.as_ref(), q, false, par))
 }
 
@@ -400,8 +402,8 @@ fn packed(n: usize, f: &dyn Fn(usize, usize) -> f64) -> Packed {
 }
 
 impl PairPrecond {
-    /// From H̃ (3m×3m, in the Q basis) and the squared penalty weights Λ_b = 4λ̃_b².
-    pub fn new(ht: MatRef<f64>, layout: Layout, pen: [f64; 3]) -> PairPrecond {
+    /// From H̃ (by its blocks, in the Q basis) and the squared penalty weights Λ_b = 4λ̃_b².
+    pub fn new(ht: &HBlocks, layout: Layout, pen: [f64; 3]) -> PairPrecond {
         let m = layout.m;
         let n_pairs = layout.n_pairs();
         let d: Vec<[[f64; 3]; 3]> = (0..m)
@@ -409,7 +411,7 @@ impl PairPrecond {
                 let mut dk = [[0.0; 3]; 3];
                 for (b, row) in dk.iter_mut().enumerate() {
                     for (c, v) in row.iter_mut().enumerate() {
-                        *v = ht[(b * m + k, c * m + k)];
+                        *v = ht.entry(b * m + k, c * m + k);
                     }
                 }
                 dk

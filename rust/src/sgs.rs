@@ -34,6 +34,7 @@
 //! mode-major order (Y_il[b] at row 3l + b), so that both the GEMMs and the
 //! dot products of the leaves read contiguous memory.
 
+use crate::gram::HBlocks;
 use crate::pairs::Layout;
 use crate::precond::{inv_mul, PairPrecond};
 use faer::linalg::matmul::matmul;
@@ -142,14 +143,18 @@ impl Modes {
 }
 
 impl Sgs {
-    /// From H̃ (3m×3m, block layout: row b·m + l) in the Q basis.
-    pub fn new(ht: MatRef<f64>, layout: Layout, par: Par) -> Sgs {
+    /// From H̃ (by its blocks, block layout: row b·m + l) in the Q basis.
+    pub fn new(ht: &HBlocks, layout: Layout, par: Par) -> Sgs {
         let n = 3 * layout.m;
         let mut hm = vec![0.0f32; n * n];
         hm.par_chunks_mut(n).enumerate().for_each(|(c, col)| {
-            let (m, cc) = (layout.m, (c % 3) * layout.m + c / 3);
-            for (r, v) in col.iter_mut().enumerate() {
-                *v = ht[((r % 3) * m + r / 3, cc)] as f32;
+            // column c = 3·mode + b of hm: column `mode` of the blocks (b', b)
+            let (mode, b) = (c / 3, c % 3);
+            let blocks = [0, 1, 2].map(|bp| ht.block(bp, b));
+            for (l, v3) in col.chunks_exact_mut(3).enumerate() {
+                for (v, (blk, sign)) in v3.iter_mut().zip(&blocks) {
+                    *v = (sign * blk[(l, mode)]) as f32;
+                }
             }
         });
         let tiles = (0..layout.m.div_ceil(LEAF))
@@ -849,15 +854,8 @@ fn block_solve<const N: usize, T: Copy + Into<f64>>(
 mod tests {
     use super::*;
     use crate::cg::Operator;
+    use crate::gram::random_blocks;
     use faer::Mat;
-
-    /// A symmetric positive definite 3m×3m matrix with every kind of coupling.
-    fn spd(m: usize) -> Mat<f64> {
-        let a = Mat::from_fn(3 * m, 3 * m, |i, j| {
-            (((i * 13 + j * 7) % 17) as f64 - 8.0) / 17.0 + if i == j { 1.5 } else { 0.0 }
-        });
-        &a * a.transpose()
-    }
 
     /// Columns f(e_q) of a linear map on packed vectors.
     fn matrix(n: usize, mut f: impl FnMut(&[f64], &mut [f64])) -> Mat<f64> {
@@ -882,14 +880,14 @@ mod tests {
     #[test]
     fn triangular_solves_split_the_operator() {
         for m in [1, 2, 5, LEAF + 3, 2 * LEAF + 3, 4 * LEAF + 1] {
-            let h = spd(m);
+            let h = random_blocks(m, 7);
             for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
                 let lay = Layout::new(m, symmetric);
                 let n = lay.len();
-                let pre = PairPrecond::new(h.as_ref(), lay, pen);
-                let mut sgs = Sgs::new(h.as_ref(), lay, Par::Seq);
+                let pre = PairPrecond::new(&h, lay, pen);
+                let mut sgs = Sgs::new(&h, lay, Par::Seq);
                 sgs.fork = LEAF + 1; // exercise the parallel branches
-                let mut op = Operator::new(h.as_ref(), lay, pen, Par::Seq);
+                let mut op = Operator::new(&h, lay, pen, Par::Seq);
                 let mut work = SgsWork::new(m);
                 let mut lower = vec![0.0; n];
                 let mut worst = 0.0f64;
@@ -935,11 +933,11 @@ mod tests {
     #[test]
     fn solves_do_not_depend_on_the_thread_count() {
         let m = 9 * LEAF + 5;
-        let h = spd(m);
+        let h = random_blocks(m, 7);
         for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
             let lay = Layout::new(m, symmetric);
-            let pre = PairPrecond::new(h.as_ref(), lay, pen);
-            let mut sgs = Sgs::new(h.as_ref(), lay, Par::rayon(0));
+            let pre = PairPrecond::new(&h, lay, pen);
+            let mut sgs = Sgs::new(&h, lay, Par::rayon(0));
             sgs.fork = 2 * LEAF;
             sgs.split_flops = 1e3; // exercise the products cut into tasks
             let r = vector(lay.len(), 3);
@@ -965,12 +963,12 @@ mod tests {
     #[test]
     fn fused_factor_products_match_separate_ones() {
         let m = 2 * LEAF + 3;
-        let h = spd(m);
+        let h = random_blocks(m, 7);
         for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
             let lay = Layout::new(m, symmetric);
             let n = lay.len();
-            let pre = PairPrecond::new(h.as_ref(), lay, pen);
-            let sgs = Sgs::new(h.as_ref(), lay, Par::Seq);
+            let pre = PairPrecond::new(&h, lay, pen);
+            let sgs = Sgs::new(&h, lay, Par::Seq);
             let mut work = SgsWork::new(m);
             let (r, t) = (vector(n, 1), vector(n, 2));
             let close = |a: &[f64], b: &[f64]| {
