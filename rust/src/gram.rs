@@ -105,25 +105,6 @@ pub(crate) fn par_fill(out: MatMut<f64>, f: impl Fn(usize, usize) -> f64 + Sync)
         });
 }
 
-/// H (3m×3m) from its five distinct blocks S0, S2, S4 (symmetric) and T1, T3
-/// (antisymmetric), laid out as in the module documentation; the change of
-/// basis assembles H̃ from the transformed blocks the same way.
-pub(crate) fn assemble_h(s: [&Mat<f64>; 3], t: [&Mat<f64>; 2]) -> Mat<f64> {
-    let ([s0, s2, s4], [t1, t3]) = (s, t);
-    let m = s0.nrows();
-    let blocks: [[(&Mat<f64>, f64); 3]; 3] = [
-        [(s4, 1.0), (t3, -1.0), (s2, -1.0)],
-        [(t3, 1.0), (s2, 1.0), (t1, -1.0)],
-        [(s2, -1.0), (t1, 1.0), (s0, 1.0)],
-    ];
-    let mut h = Mat::zeros(3 * m, 3 * m);
-    par_fill(h.as_mut(), |i, j| {
-        let (blk, sign) = blocks[i / m][j / m];
-        sign * blk[(i % m, j % m)]
-    });
-    h
-}
-
 /// H (3m×3m, symmetric positive semidefinite) and B (m×3m).
 pub struct Gram {
     pub h: Mat<f64>,
@@ -131,7 +112,8 @@ pub struct Gram {
 }
 
 /// The five distinct blocks of H: S0, S2, S4 (symmetric) and T1, T3
-/// (antisymmetric), each m×m, laid out in H as [`assemble_h`] does.
+/// (antisymmetric), each m×m, laid out in H as in the module documentation
+/// ([`HBlocks::block`]); the change of basis keeps H̃ the same way.
 pub struct HBlocks {
     pub s0: Mat<f64>,
     pub s2: Mat<f64>,
@@ -177,7 +159,10 @@ impl HBlocks {
 
     /// H itself, 3m×3m.
     pub fn assemble(&self) -> Mat<f64> {
-        assemble_h([&self.s0, &self.s2, &self.s4], [&self.t1, &self.t3])
+        let m = self.m();
+        let mut h = Mat::zeros(3 * m, 3 * m);
+        par_fill(h.as_mut(), |i, j| self.entry(i, j));
+        h
     }
 }
 
