@@ -13,6 +13,7 @@
 //! Every sum is one real GEMM on the stacked data [Re U; Im U].
 
 use crate::data::Stacked;
+use crate::random::Lcg;
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::{Accum, Mat, MatMut, MatRef, Par};
@@ -147,7 +148,7 @@ impl HBlocks {
     /// Entry (i, j) of H (3m×3m).
     #[inline]
     pub fn entry(&self, i: usize, j: usize) -> f64 {
-        let m = self.s0.nrows();
+        let m = self.m();
         let (blk, sign) = self.block(i / m, j / m);
         sign * blk[(i % m, j % m)]
     }
@@ -278,18 +279,10 @@ pub fn gram_blocks(data: &Stacked, par: Par) -> (HBlocks, Mat<f64>) {
 /// so H is of the structure above and, generically, positive definite; the
 /// same `seed` gives the same blocks.
 pub fn random_blocks(m: usize, seed: u64) -> HBlocks {
-    let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut next = move || {
-        // xorshift64*, uniform in [−1, 1)
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        let v = state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-        v as f64 / (1u64 << 52) as f64 - 1.0
-    };
+    let mut rng = Lcg(seed);
     let n = 2 * m + 2;
-    let y = Mat::from_fn(2 * n, m, |_, _| next());
-    let g = Mat::from_fn(2 * n, m, |_, _| next());
+    let y = Mat::from_fn(2 * n, m, |_, _| rng.uniform());
+    let g = Mat::from_fn(2 * n, m, |_, _| rng.uniform());
     let w = (0..n).map(|i| 0.5 + (i as f64 + 0.5) / n as f64).collect();
     gram_blocks(&Stacked { y, g, w }, Par::Seq).0
 }

@@ -26,6 +26,7 @@ pub mod joint;
 pub mod normal;
 pub mod pairs;
 pub mod precond;
+pub mod random;
 pub mod refine;
 pub mod residual;
 pub mod sgs;

@@ -521,6 +521,7 @@ impl Sweep {
 mod tests {
     use super::*;
     use crate::identify::identify;
+    use crate::random::Lcg;
     use faer::c64;
     use faer::prelude::Solve;
 
@@ -545,19 +546,6 @@ mod tests {
         }
     }
 
-    /// Deterministic pseudo-random numbers in [−1, 1).
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-    }
-
     /// A non-symmetric system, two load cases per line, responses with 5 % noise;
     /// frequencies 0.5…15 rad/s times `band` (C, K scaled to keep the resonances in
     /// it), so that the blocks' weights differ by about (9·band)⁴.
@@ -567,7 +555,7 @@ mod tests {
             Mat::from_fn(
                 m,
                 m,
-                |i, j| if i == j { diag } else { 0.0 } + off * rng.next(),
+                |i, j| if i == j { diag } else { 0.0 } + off * rng.uniform(),
             )
         };
         let (mm, cc, kk) = (
@@ -583,11 +571,11 @@ mod tests {
             });
             let lu = d.partial_piv_lu();
             for _ in 0..2 {
-                let rhs = Mat::from_fn(m, 1, |_, _| c64::new(rng.next(), rng.next()));
+                let rhs = Mat::from_fn(m, 1, |_, _| c64::new(rng.uniform(), rng.uniform()));
                 let x = lu.solve(&rhs);
                 let scale = x.norm_l2() / (m as f64).sqrt();
                 for i in 0..m {
-                    let noise = c64::new(rng.next(), rng.next()) * (0.05 * scale);
+                    let noise = c64::new(rng.uniform(), rng.uniform()) * (0.05 * scale);
                     u.push(x[(i, 0)] + noise);
                     f.push(rhs[(i, 0)]);
                 }
@@ -733,12 +721,12 @@ mod tests {
     fn tridiagonal_spectrum_matches_dense_eigendecomposition() {
         let mut rng = Lcg(5);
         for n in [1, 2, 7, 40] {
-            let diag: Vec<f64> = (0..n).map(|_| 2.0 + rng.next()).collect();
+            let diag: Vec<f64> = (0..n).map(|_| 2.0 + rng.uniform()).collect();
             // a zero coupling splits the matrix; repeated values test deflation
             let sub: Vec<f64> = (1..n)
-                .map(|i| if i == 3 { 0.0 } else { rng.next() })
+                .map(|i| if i == 3 { 0.0 } else { rng.uniform() })
                 .collect();
-            let v: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let v: Vec<f64> = (0..n).map(|_| rng.uniform()).collect();
             let (vals, d) = tridiagonal_spectrum(&diag, &sub, &v).unwrap();
             let t = Mat::from_fn(n, n, |i, j| {
                 if i == j {

@@ -443,6 +443,7 @@ impl Tridiagonal {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::random::Lcg;
 
     fn buf(a: &[f64]) -> DenseBuf {
         let mut b = DenseBuf::zeroed(a.len(), "test matrix").unwrap();
@@ -451,14 +452,8 @@ mod tests {
     }
 
     fn symmetric(n: usize, seed: u64) -> Mat<f64> {
-        let mut s = seed;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        };
-        let g = Mat::from_fn(n, n, |_, _| next());
+        let mut rng = Lcg(seed);
+        let g = Mat::from_fn(n, n, |_, _| rng.uniform());
         &g + g.transpose()
     }
 
