@@ -116,7 +116,7 @@ fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
 /// transforms, about 0.6 of an operator GEMM at m = 1000).
 #[allow(clippy::type_complexity)]
 pub fn basis_of(h: &HBlocks, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]>), String> {
-    let m = h.s0.nrows();
+    let m = h.m();
     let block = h.diagonal();
     let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block[b][(i, j)]).sum::<f64>());
     let mut q = eigenvectors(sum.as_ref(), par)?;
