@@ -591,13 +591,42 @@ impl Solve<'_> {
             // SAFETY: the CPU supports AVX2 (checked above)
             return unsafe { self.leaf_avx2(ri, rc) };
         }
-        self.leaf_body(ri, rc)
+        self.leaf_kind(ri, rc)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn leaf_avx2(&self, ri: Modes, rc: Modes) {
-        self.leaf_body(ri, rc)
+        self.leaf_kind(ri, rc)
+    }
+
+    /// [`Solve::leaf_body`] compiled for the ends, the direction and the mode,
+    /// and for a whole off-diagonal tile (the common leaf) with its loop bounds
+    /// and pair numbers known: the same arithmetic in fewer instructions (one
+    /// m = 400 application 6 % faster, exact-symmetric, one thread).
+    #[inline(always)]
+    fn leaf_kind(&self, ri: Modes, rc: Modes) {
+        match self.ends {
+            Ends::Plain => self.leaf_shape::<0>(ri, rc),
+            Ends::FactorIn => self.leaf_shape::<1>(ri, rc),
+            Ends::FactorOut(_) => self.leaf_shape::<2>(ri, rc),
+        }
+    }
+
+    /// (`E`: 0, 1, 2 for [`Ends::Plain`], [`Ends::FactorIn`], [`Ends::FactorOut`].)
+    #[inline(always)]
+    fn leaf_shape<const E: u8>(&self, ri: Modes, rc: Modes) {
+        let full = ri.lo != rc.lo && ri.len() == LEAF && rc.len() == LEAF;
+        match (full, self.backward, self.sgs.layout.symmetric) {
+            (true, false, true) => self.leaf_body::<E, true, false, true>(ri, rc),
+            (true, false, false) => self.leaf_body::<E, true, false, false>(ri, rc),
+            (true, true, true) => self.leaf_body::<E, true, true, true>(ri, rc),
+            (true, true, false) => self.leaf_body::<E, true, true, false>(ri, rc),
+            (false, false, true) => self.leaf_body::<E, false, false, true>(ri, rc),
+            (false, false, false) => self.leaf_body::<E, false, false, false>(ri, rc),
+            (false, true, true) => self.leaf_body::<E, false, true, true>(ri, rc),
+            (false, true, false) => self.leaf_body::<E, false, true, false>(ri, rc),
+        }
     }
 
     /// Entry by entry: the pairs (i, c), i in `ri`, c in `rc`, `ri` wholly
@@ -605,7 +634,11 @@ impl Solve<'_> {
     /// the diagonal entries. Both ranges are tiles. Local indices count in solve
     /// order; what the leaf touches of Y and W is copied into small arrays.
     #[inline(always)]
-    fn leaf_body(&self, ri: Modes, rc: Modes) {
+    fn leaf_body<const E: u8, const FULL: bool, const BACK: bool, const SYM: bool>(
+        &self,
+        ri: Modes,
+        rc: Modes,
+    ) {
         if !self.ptr.order.is_null() {
             // SAFETY: only [`Sgs::leaf_order`] sets it, sequentially, to its own vector
             unsafe { (*self.ptr.order).push(((ri.lo / LEAF) as u32, (rc.lo / LEAF) as u32)) };
@@ -625,9 +658,13 @@ impl Solve<'_> {
             self.prefetch_leaf(tile(nx >> 16), tile(nx & 0xffff));
         }
         self.prefetch_leaf(ri, rc);
-        let diagonal = ri.lo == rc.lo;
-        let (ni, nc) = (ri.len(), rc.len());
-        let back = self.backward;
+        let diagonal = !FULL && ri.lo == rc.lo;
+        let (ni, nc) = if FULL {
+            (LEAF, LEAF)
+        } else {
+            (ri.len(), rc.len())
+        };
+        let back = BACK;
         // the mode of local index k of range r, and its index within its tile
         let mode = |r: Modes, k: usize| if back { r.hi - 1 - k } else { r.lo + k };
         let tile_i = &self.sgs.tiles[ri.lo / LEAF];
@@ -675,7 +712,7 @@ impl Solve<'_> {
             *acc = [a4[0], a4[1], a4[2]];
         }
         let m = self.sgs.layout.m;
-        let symmetric = self.sgs.layout.symmetric;
+        let symmetric = SYM;
         // SAFETY (both): the packed coordinates of this leaf's pairs belong to it
         let out = |at: usize, v: &[f64]| unsafe {
             std::ptr::copy_nonoverlapping(v.as_ptr(), self.ptr.out.add(at), v.len())
@@ -694,13 +731,25 @@ impl Solve<'_> {
             }
         };
         // the right-hand side and s (Ends::FactorOut) at coordinate `at`
-        let rhs = |at: usize| [self.r[at], self.r[at + 1], self.r[at + 2]];
-        let t3 = |at: usize| match self.ends {
-            Ends::FactorOut(Some(t)) => Some([t[at], t[at + 1], t[at + 2]]),
+        let three = |v: &[f64], at: usize| -> [f64; 3] { *v[at..].first_chunk().unwrap() };
+        let rhs = |at: usize| three(self.r, at);
+        let s_vec = match self.ends {
+            Ends::FactorOut(Some(t)) if E == 2 => Some(t),
             _ => None,
         };
+        let t3 = |at: usize| s_vec.map(|t| three(t, at));
         let cat = |a: [f64; 3], b: [f64; 3]| [a[0], a[1], a[2], b[0], b[1], b[2]];
-        let ends = self.ends;
+        let ends = match E {
+            0 => Ends::Plain,
+            1 => Ends::FactorIn,
+            _ => self.ends,
+        };
+        let p_tile = if FULL {
+            let (j, k) = if BACK { (rc.lo, ri.lo) } else { (ri.lo, rc.lo) };
+            self.sgs.layout.pair(j, k)
+        } else {
+            0
+        };
         // the entries in solve order: (a, k), or in a diagonal leaf with a = k the
         // diagonal entry (c, c)
         let mut order = [(0u8, 0u8); LEAF * LEAF + LEAF];
@@ -763,7 +812,17 @@ impl Solve<'_> {
             }
             let (j, kk) = (i.min(c), i.max(c));
             let (wu, wl) = if i < c { (ax, az) } else { (az, ax) };
-            let p = self.sgs.layout.pair(j, kk);
+            let p = if FULL {
+                // a whole tile's pairs are contiguous, column by column
+                let (row, col) = if BACK {
+                    (LEAF - 1 - k, LEAF - 1 - a)
+                } else {
+                    (a, k)
+                };
+                p_tile + col * LEAF + row
+            } else {
+                self.sgs.layout.pair(j, kk)
+            };
             let s0 = 3 * m + 3 * p;
             let t0 = 3 * m + 3 * self.n_pairs + 3 * p;
             // the small arrays are built by from_fn or by hand, not `[_; 3].map`: LLVM
@@ -876,10 +935,11 @@ mod tests {
     /// and G = (D + L) + (D + Lᵀ) − D for the operator G (checked as
     /// S_b + S_f − S_b D S_f = S_b G S_f), which is what Eisenstat's trick needs;
     /// the returned lower terms are r − D y. Sizes across several leaves and
-    /// odd splits, both modes, a penalty 10⁶ above the data.
+    /// odd splits (and whole tiles only, 3·LEAF), both modes, a penalty 10⁶ above
+    /// the data.
     #[test]
     fn triangular_solves_split_the_operator() {
-        for m in [1, 2, 5, LEAF + 3, 2 * LEAF + 3, 4 * LEAF + 1] {
+        for m in [1, 2, 5, LEAF + 3, 3 * LEAF, 2 * LEAF + 3, 4 * LEAF + 1] {
             let h = random_blocks(m, 7);
             for (symmetric, pen) in [(true, [0.0; 3]), (false, [0.3, 2.0, 1e6])] {
                 let lay = Layout::new(m, symmetric);
