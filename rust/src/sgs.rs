@@ -1000,15 +1000,22 @@ mod tests {
             let mut sgs = Sgs::new(&h, lay, Par::rayon(0));
             sgs.fork = 2 * LEAF;
             sgs.split_flops = 1e3; // exercise the products cut into tasks
-            let r = vector(lay.len(), 3);
+            let (r, t) = (vector(lay.len(), 3), vector(lay.len(), 4));
+            // each direction with each kind of ends (the leaves are compiled per kind)
             let run = |sgs: &Sgs, threads: usize| {
                 crate::with_threads(threads, || {
                     let mut work = SgsWork::new(m);
-                    [false, true].map(|backward| {
-                        let (mut y, mut l) = (vec![0.0; lay.len()], vec![0.0; lay.len()]);
-                        sgs.solve(&pre, &r, &mut y, Some(&mut l), backward, &mut work);
-                        (y, l)
-                    })
+                    let mut out = Vec::new();
+                    for backward in [false, true] {
+                        for ends in [Ends::Plain, Ends::FactorIn, Ends::FactorOut(Some(&t))] {
+                            let n = lay.len();
+                            let (mut y, mut l, mut rt) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+                            let (lo, rto) = (Some(&mut l[..]), Some(&mut rt[..]));
+                            sgs.solve_with(&pre, &r, &mut y, lo, rto, backward, ends, &mut work);
+                            out.push((y, l, rt));
+                        }
+                    }
+                    out
                 })
             };
             let two = run(&sgs, 2);
