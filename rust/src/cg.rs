@@ -89,16 +89,28 @@ pub struct Operator<'a> {
 impl<'a> Operator<'a> {
     pub fn new(ht: &'a HBlocks, layout: Layout, pen: [f64; 3], par: Par) -> Self {
         let m = layout.m;
+        Self::with_z(ht, layout, pen, par, Mat::zeros(m, 3 * m))
+    }
+
+    /// [`Operator::new`] with `z` (m×3m, any values) as its scratch for Z.
+    pub fn with_z(ht: &'a HBlocks, layout: Layout, pen: [f64; 3], par: Par, z: Mat<f64>) -> Self {
+        let m = layout.m;
+        assert!(z.nrows() == m && z.ncols() == 3 * m);
         Operator {
             ht,
             layout,
             pen,
-            z: Mat::zeros(m, 3 * m),
+            z,
             y: Mat::zeros(m, 3 * m),
             par,
             gemm_seconds: 0.0,
             solve_seconds: 0.0,
         }
+    }
+
+    /// The two m×3m scratch matrices, for reuse (fresh memory costs page faults).
+    pub fn into_buffers(self) -> (Mat<f64>, Mat<f64>) {
+        (self.z, self.y)
     }
 
     /// out = A x
@@ -378,7 +390,9 @@ pub fn pcg(
 /// Z and Z·H̃ (6m²), the answer's change of basis (3m²), eight CG vectors (one
 /// the best iterate), the pair factors and the single-precision H̃ and scratch
 /// of the Gauss–Seidel solves. (At m = 1000 a call's peak resident memory rose
-/// by 0.47 / 0.36 GB with / without the penalty, against 0.50 / 0.38 GB here.)
+/// by 0.47 / 0.36 GB with / without the penalty, against 0.50 / 0.38 GB here.
+/// Since then the transforms and the change of basis reuse the memory of what
+/// they replace, so the bound has slack.)
 pub fn memory_bytes(m: usize, symmetric: bool) -> u128 {
     let lay = Layout::new(m, symmetric);
     let doubles = 30 * m * m + 8 * lay.len() + PairPrecond::doubles(lay);
@@ -431,8 +445,7 @@ fn identify_cg_here(
     let t = Instant::now();
     let (q, diag) = basis_of(&hb, par).map_err(PodidError::Invalid)?;
     let basis_seconds = t.elapsed().as_secs_f64();
-    let (ht, bt) = to_basis(&hb, b.as_ref(), q.as_ref(), diag, par);
-    drop((hb, b));
+    let (ht, bt) = to_basis(hb, b, q.as_ref(), diag, par);
     let layout = Layout::new(m, symmetric);
     let pen = scaling.scaled_lam(lam).map(|l| 4.0 * l * l);
     let pre = PairPrecond::new(&ht, layout, pen);
@@ -442,13 +455,16 @@ fn identify_cg_here(
     let setup_seconds = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let mut op = Operator::new(&ht, layout, pen, par);
+    // B̃'s memory (m×3m) is the operator's Z, and afterwards the answer's
+    let mut op = Operator::with_z(&ht, layout, pen, par, bt);
     let (x, report) = pcg(&mut op, &pre, &sgs, &rhs, opts, &mut progress)?;
     let iterate_seconds = t.elapsed().as_secs_f64();
+    let (gemm_seconds, solve_seconds) = (op.gemm_seconds, op.solve_seconds);
 
-    let mut zt = Mat::zeros(m, 3 * m);
-    layout.unpack(&x, zt.as_mut());
-    let mut z = from_basis(zt.as_ref(), q.as_ref(), par);
+    let (mut z, mut scratch) = op.into_buffers();
+    layout.unpack(&x, z.as_mut());
+    from_basis(z.as_mut(), q.as_ref(), par, scratch.as_mut());
+    drop(scratch);
     if symmetric {
         for b in 0..3 {
             symmetrize(z.as_mut().submatrix_mut(0, b * m, m, m));
@@ -470,8 +486,8 @@ fn identify_cg_here(
             ("setup", setup_seconds),
             ("basis", basis_seconds),
             ("iterate", iterate_seconds),
-            ("gemm", op.gemm_seconds),
-            ("solves", op.solve_seconds),
+            ("gemm", gemm_seconds),
+            ("solves", solve_seconds),
             ("residual", residual_seconds),
             ("total", start.elapsed().as_secs_f64()),
         ],

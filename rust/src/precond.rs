@@ -28,7 +28,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
 
 /// Orthonormal eigenvectors (columns) of the symmetric m×m matrix `s` (lower triangle read).
@@ -87,24 +87,35 @@ fn off_fraction(a: MatRef<f64>) -> f64 {
 /// Qᵀ A Q for A (m×m) symmetric (`sign` = 1) or antisymmetric (−1): A Q by one
 /// GEMM, of Qᵀ(A Q) only the lower triangle (a triangular product, half a
 /// GEMM), mirrored with `sign`, so the result is exactly (anti)symmetric.
-fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par) -> Mat<f64> {
-    let m = q.nrows();
-    let mut aq = Mat::zeros(m, m);
+/// `aq` (m×m) is scratch for A Q, shared by a run of congruences (each fresh
+/// m×m is first-touch page faults).
+fn congruence(a: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par, aq: &mut Mat<f64>) -> Mat<f64> {
     matmul(aq.as_mut(), Accum::Replace, a, q, 1.0, par);
-    let mut out = Mat::zeros(m, m);
+    let mut out = Mat::zeros(q.nrows(), q.nrows());
+    congruence_end(aq.as_ref(), q, sign, par, out.as_mut());
+    out
+}
+
+/// [`congruence`] in place: A := Qᵀ A Q.
+fn congruence_in_place(a: &mut Mat<f64>, q: MatRef<f64>, sign: f64, par: Par, aq: &mut Mat<f64>) {
+    matmul(aq.as_mut(), Accum::Replace, a.as_ref(), q, 1.0, par);
+    congruence_end(aq.as_ref(), q, sign, par, a.as_mut());
+}
+
+/// out = Qᵀ (A Q), its lower triangle by a triangular product, mirrored.
+fn congruence_end(aq: MatRef<f64>, q: MatRef<f64>, sign: f64, par: Par, mut out: MatMut<f64>) {
     triangular::matmul(
         out.as_mut(),
         BlockStructure::TriangularLower,
         Accum::Replace,
         q.transpose(),
         BlockStructure::Rectangular,
-        aq.as_ref(),
+        aq,
         BlockStructure::Rectangular,
         1.0,
         par,
     );
-    mirror_lower(out.as_mut(), sign);
-    out
+    mirror_lower(out, sign);
 }
 
 /// Q: eigenvectors of the sum of the three diagonal blocks of H (3m×3m), in
@@ -120,7 +131,8 @@ pub fn basis_of(h: &HBlocks, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]
     let block = h.diagonal();
     let sum = Mat::from_fn(m, m, |i, j| (0..3).map(|b| block[b][(i, j)]).sum::<f64>());
     let mut q = eigenvectors(sum.as_ref(), par)?;
-    let diag = block.map(|blk| congruence(blk, q.as_ref(), 1.0, par));
+    let mut aq = Mat::zeros(m, m);
+    let diag = block.map(|blk| congruence(blk, q.as_ref(), 1.0, par, &mut aq));
     if diag
         .iter()
         .all(|a| off_fraction(a.as_ref()) <= JOINT_MIN_OFF)
@@ -148,11 +160,10 @@ pub fn basis_of(h: &HBlocks, par: Par) -> Result<(Mat<f64>, Option<[Mat<f64>; 3]
     Ok((q, None))
 }
 
-/// a ↦ a·(I₃⊗Q) for a with 3m columns (one GEMM per block column).
-fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Mat<f64> {
+/// out = a·(I₃⊗Q) for a with 3m columns (one GEMM per block column).
+fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par, mut out: MatMut<f64>) {
     let m = q.nrows();
     let q = if transpose { q.transpose() } else { q };
-    let mut out = Mat::zeros(a.nrows(), a.ncols());
     for b in 0..3 {
         matmul(
             out.as_mut().subcols_mut(b * m, m),
@@ -163,7 +174,6 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
             par,
         );
     }
-    out
 }
 
 /// (H̃, B̃) = ((I⊗Q)ᵀ H (I⊗Q), Qᵀ B (I⊗Q)) for H of the structure of
@@ -175,30 +185,45 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par) -> Ma
 /// (anti)symmetric ([`congruence`]), so H̃ is exactly symmetric; `diag`, if
 /// given, are the three diagonal ones already formed by [`basis_of`] (then 6m³).
 pub fn to_basis(
-    h: &HBlocks,
-    b: MatRef<f64>,
+    mut h: HBlocks,
+    mut b: Mat<f64>,
     q: MatRef<f64>,
     diag: Option<[Mat<f64>; 3]>,
     par: Par,
 ) -> (HBlocks, Mat<f64>) {
     let m = q.nrows();
-    let [s4, s2, s0] = diag.unwrap_or_else(|| h.diagonal().map(|blk| congruence(blk, q, 1.0, par)));
-    let (t3, t1) = (
-        congruence(h.t3.as_ref(), q, -1.0, par),
-        congruence(h.t1.as_ref(), q, -1.0, par),
-    );
+    // every product goes into the memory of what it replaces, but for one
+    // m×m and one m×3m scratch: fresh memory costs page faults
+    let mut aq = Mat::zeros(m, m);
+    match diag {
+        Some([s4, s2, s0]) => (h.s4, h.s2, h.s0) = (s4, s2, s0),
+        None => {
+            for a in [&mut h.s4, &mut h.s2, &mut h.s0] {
+                congruence_in_place(a, q, 1.0, par, &mut aq);
+            }
+        }
+    }
+    congruence_in_place(&mut h.t3, q, -1.0, par, &mut aq);
+    congruence_in_place(&mut h.t1, q, -1.0, par, &mut aq);
+    drop(aq);
     let mut qb = Mat::zeros(m, 3 * m);
-    matmul(qb.as_mut(), Accum::Replace, q.transpose(), b, 1.0, par);
-    let ht = HBlocks { s0, s2, s4, t1, t3 };
-    (ht, right_blocks(qb.as_ref(), q, false, par))
+    matmul(
+        qb.as_mut(),
+        Accum::Replace,
+        q.transpose(),
+        b.as_ref(),
+        1.0,
+        par,
+    );
+    right_blocks(qb.as_ref(), q, false, par, b.as_mut());
+    (h, b)
 }
 
-/// X_b = Q X̃_b Qᵀ for every block of Z̃ (m×3m).
-pub fn from_basis(zt: MatRef<f64>, q: MatRef<f64>, par: Par) -> Mat<f64> {
-    let m = q.nrows();
-    let mut qz = Mat::zeros(m, 3 * m);
-    matmul(qz.as_mut(), Accum::Replace, q, zt, 1.0, par);
-    right_blocks(qz.as_ref(), q, true, par)
+/// Z := (I₃⊗Q) Z̃ (I₃⊗Qᵀ), i.e. X_b = Q X̃_b Qᵀ for every block of Z̃ (m×3m),
+/// in place, with `scratch` (m×3m) for Q Z̃.
+pub fn from_basis(mut z: MatMut<f64>, q: MatRef<f64>, par: Par, mut scratch: MatMut<f64>) {
+    matmul(scratch.as_mut(), Accum::Replace, q, z.as_ref(), 1.0, par);
+    right_blocks(scratch.as_ref(), q, true, par, z.as_mut());
 }
 
 /// Index of (i, j), j ≤ i, in a packed lower triangle stored row by row.
