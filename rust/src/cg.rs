@@ -22,7 +22,7 @@ use crate::identify::{check_lam, scaled, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
 use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
-use crate::residual::residual_norm;
+use crate::residual::residual_norm_with;
 use crate::sgs::{Ends, Sgs, SgsWork};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
@@ -464,14 +464,13 @@ fn identify_cg_here(
     let (mut z, mut scratch) = op.into_buffers();
     layout.unpack(&x, z.as_mut());
     from_basis(z.as_mut(), q.as_ref(), par, scratch.as_mut());
-    drop(scratch);
     if symmetric {
         for b in 0..3 {
             symmetrize(z.as_mut().submatrix_mut(0, b * m, m, m));
         }
     }
     let t = Instant::now();
-    let residual_norm = residual_norm(cols, &scaling, z.as_ref());
+    let residual_norm = residual_norm_with(cols, &scaling, z.as_ref(), scratch.as_mut());
     let residual_seconds = t.elapsed().as_secs_f64();
     let nu = n_unknowns(m, symmetric);
     Ok(Identified {

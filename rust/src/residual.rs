@@ -12,7 +12,7 @@
 
 use crate::data::{Columns, Scaling};
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
 
 /// Lines per chunk: fixed, so the sum does not depend on the number of threads.
@@ -20,9 +20,26 @@ const LINES: usize = 64;
 
 /// ‖Ax − y‖ for the scaled answer `z` = [X̃_M X̃_C X̃_K] (m×3m) of the scaled problem.
 pub fn residual_norm(cols: &Columns, scaling: &Scaling, z: MatRef<f64>) -> f64 {
+    let mut xt = Mat::zeros(cols.m, 3 * cols.m);
+    residual_norm_with(cols, scaling, z, xt.as_mut())
+}
+
+/// [`residual_norm`] with `xt` (m×3m, any values) as scratch.
+pub fn residual_norm_with(
+    cols: &Columns,
+    scaling: &Scaling,
+    z: MatRef<f64>,
+    mut xt: MatMut<f64>,
+) -> f64 {
     let (n, m) = (cols.len(), cols.m);
     // xt[:, b·m + i] = row i of X̃_b: P = Ũ·xt holds the products X̃_b ũ as rows
-    let xt = Mat::from_fn(m, 3 * m, |j, c| z[(c % m, (c / m) * m + j)]);
+    assert!(xt.nrows() == m && xt.ncols() == 3 * m);
+    for c in 0..3 * m {
+        for j in 0..m {
+            xt[(j, c)] = z[(c % m, (c / m) * m + j)];
+        }
+    }
+    let xt = xt.as_ref();
     let (iu, iff, iw) = (1.0 / scaling.su, 1.0 / scaling.sf, 1.0 / scaling.omega0);
     let parts: Vec<f64> = (0..n.div_ceil(LINES))
         .into_par_iter()
@@ -34,14 +51,7 @@ pub fn residual_norm(cols: &Columns, scaling: &Scaling, z: MatRef<f64>) -> f64 {
                 iu * if r < len { v.re } else { v.im }
             });
             let mut p = Mat::zeros(2 * len, 3 * m);
-            matmul(
-                p.as_mut(),
-                Accum::Replace,
-                y.as_ref(),
-                xt.as_ref(),
-                1.0,
-                Par::Seq,
-            );
+            matmul(p.as_mut(), Accum::Replace, y.as_ref(), xt, 1.0, Par::Seq);
             let mut sum = 0.0;
             for l in 0..len {
                 let w = cols.omega[lo + l] * iw;
