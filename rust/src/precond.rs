@@ -184,6 +184,7 @@ fn right_blocks(a: MatRef<f64>, q: MatRef<f64>, transpose: bool, par: Par, mut o
 /// transformed (15m³ flops, not 36m³ for all nine), each exactly
 /// (anti)symmetric ([`congruence`]), so H̃ is exactly symmetric; `diag`, if
 /// given, are the three diagonal ones already formed by [`basis_of`] (then 6m³).
+/// H and B are taken by value: the results are written into their memory.
 pub fn to_basis(
     mut h: HBlocks,
     mut b: Mat<f64>,
