@@ -56,11 +56,18 @@ impl Layout {
         let nk = TILE.min(self.m - k0);
         let base = k0 * k0.saturating_sub(1) / 2 + tj * TILE * nk;
         let (c, r) = (k - k0, j - tj * TILE);
-        base + if tj < tk {
-            c * TILE + r
+        if tj < tk {
+            Self::in_tile(base, r, c)
         } else {
-            c * c.saturating_sub(1) / 2 + r
+            base + c * c.saturating_sub(1) / 2 + r
         }
+    }
+
+    /// Index of the pair (j₀ + r, k₀ + c) of an off-diagonal tile (J < K) whose
+    /// first pair (j₀, k₀) has index `first`: its pairs are stored column by column.
+    #[inline]
+    pub fn in_tile(first: usize, r: usize, c: usize) -> usize {
+        first + c * TILE + r
     }
 
     /// Number of coordinates: 3m(m+1)/2 (exact-symmetric) or 3m².

@@ -813,13 +813,12 @@ impl Solve<'_> {
             let (j, kk) = (i.min(c), i.max(c));
             let (wu, wl) = if i < c { (ax, az) } else { (az, ax) };
             let p = if FULL {
-                // a whole tile's pairs are contiguous, column by column
                 let (row, col) = if BACK {
                     (LEAF - 1 - k, LEAF - 1 - a)
                 } else {
                     (a, k)
                 };
-                p_tile + col * LEAF + row
+                Layout::in_tile(p_tile, row, col)
             } else {
                 self.sgs.layout.pair(j, kk)
             };
