@@ -1,4 +1,4 @@
-"""The output-error problem of ``podid_rs.refinement.refine`` written in NumPy.
+"""The output-error problem of ``podid_rs.identification.refinement.refine`` written in NumPy.
 
 The same parametrisation as the Rust core (``rust/src/refine``): data scaled as in
 DESIGN §3 (ω by its RMS, u and f by their RMS), θ = the lower triangles of the

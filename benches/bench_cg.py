@@ -417,7 +417,7 @@ def crossover_case(case: dict) -> dict:
 
 def main_auto(args: argparse.Namespace, me: str) -> str:
     """Direct against CG by unknowns: where ``solver="auto"`` should switch."""
-    from podid_rs.identification import AUTO_DIRECT_MAX_UNKNOWNS
+    from podid_rs.identification.solvers import AUTO_DIRECT_MAX_UNKNOWNS
 
     rows, loads, cross = [], [], []
     for band in args.bands.split(","):

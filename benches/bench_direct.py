@@ -44,7 +44,7 @@ def max_rel_err(res, sys_) -> float:
 
 def identify_case(case: dict) -> dict:
     from podid_rs import identify
-    from podid_rs.reference import identify_kronecker
+    from podid_rs.identification.reference import identify_kronecker
 
     sys_, U, F, omega = chain_problem(case["m"], s=S_LINES)
     sym = case["symmetric"]

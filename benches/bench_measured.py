@@ -8,7 +8,7 @@ band, in one run:
   the paper's energy rule (0.99, eq. 43);
 * **podid_rs, refined**: what ``podid-rs identify`` does by default — output-error
   models by continuation over the order, m chosen on held-out lines, refitted on all
-  lines (:mod:`podid_rs.model_order`);
+  lines (:mod:`podid_rs.identification.order`);
 * **sdypy-EMA**: LSCF poles + LSFD modal constants with lower and upper residuals,
   given its best shot: model orders 10–80, poles picked at the peaks of the summed
   FRF (``scipy.signal.find_peaks``, three prominence levels), the best median kept.
@@ -38,8 +38,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
 from _common import load_average, markdown_table  # noqa: E402
-from podid_rs.model_order import final_fit, sweep_orders  # noqa: E402
-from podid_rs.refinement import db_errors  # noqa: E402
+from podid_rs.identification.order import final_fit, sweep_orders  # noqa: E402
+from podid_rs.identification.refinement import db_errors  # noqa: E402
 
 BEAM = HERE.parent / "tests" / "data" / "ufsc_beam" / "beam_roving_hammer.uff"
 BANDS = ((50.0, 300.0), (20.0, 800.0))

@@ -31,7 +31,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
 from _common import load_average, markdown_table, write_report  # noqa: E402
-from podid_rs import paper  # noqa: E402
+from podid_rs.apps import paper  # noqa: E402
 from podid_rs.pod import pod_from_spectra  # noqa: E402
 
 SNR_DB = 10.0

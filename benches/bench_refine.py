@@ -68,7 +68,7 @@ def problem(m: int, s: int):
 
 
 def podid_case(case: dict) -> dict:
-    from podid_rs.refinement import refine
+    from podid_rs.identification.refinement import refine
 
     sys_, U, F, omega, start = problem(case["m"], case["s"])
     load = load_average()
@@ -105,7 +105,7 @@ def scipy_case(case: dict) -> dict:
     from scipy.optimize import least_squares
 
     from _oe_numpy import OutputError
-    from podid_rs.refinement import physical_start
+    from podid_rs.identification.refinement import physical_start
 
     sys_, U, F, omega, start = problem(case["m"], case["s"])
     (M1, C1, K1), _ = physical_start(start.M, start.C, start.K)

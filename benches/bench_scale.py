@@ -64,7 +64,7 @@ def _lattice(nx: int, ny: int):
 
 
 def paper_case(case: dict) -> dict:
-    from podid_rs.cli import main
+    from podid_rs.apps.cli import main
 
     out = Path(case["out"])
     code, secs = timed(lambda: main(["paper", "--quick", "--n", str(case["n"]),
@@ -103,7 +103,8 @@ def identify_data(n: int, folder: Path) -> Path:
     path = folder / f"lattice_frf_n{n}.npz"
     if path.is_file():
         return path
-    from podid_rs.measurements import from_frf, save_data
+    from podid_rs.io.npz import save_data
+    from podid_rs.measured import from_frf
 
     nx, ny = ID_SIZES[n]
     system = _lattice(nx, ny)
@@ -119,7 +120,7 @@ def identify_data(n: int, folder: Path) -> Path:
 
 
 def identify_case(case: dict) -> dict:
-    from podid_rs.cli import main
+    from podid_rs.apps.cli import main
 
     args = ["identify", case["data"], "--band-hz", str(ID_BAND_HZ[0]), str(ID_BAND_HZ[1]),
             "--m", str(ID_M), "--out", case["out"]]

@@ -8,7 +8,7 @@ refinement (relative weights, the same step budget), in one run:
   line, w_i = ‖x_i‖ / (‖f_i‖ ‖u_i‖) from the previous model's response x — the relative
   output error of a scalar-gain model — repeated ``SK_ITERATIONS`` times (they keep the
   Gram structure, so the fast solvers apply);
-* **continuation over the order** (:func:`podid_rs.model_order.sweep_orders` with the
+* **continuation over the order** (:func:`podid_rs.identification.order.sweep_orders` with the
   order given): orders 1 … m, each from the one before.
 
 Printed: the median |dB| error over every line and measured DOF of each start and of
@@ -31,8 +31,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
 from _common import load_average, markdown_table, write_report  # noqa: E402
-from podid_rs.model_order import sweep_orders  # noqa: E402
-from podid_rs.refinement import db_errors, refine  # noqa: E402
+from podid_rs.identification.order import sweep_orders  # noqa: E402
+from podid_rs.identification.refinement import db_errors, refine  # noqa: E402
 
 BEAM = HERE.parent / "tests" / "data" / "ufsc_beam" / "beam_roving_hammer.uff"
 SK_ITERATIONS = 8

@@ -15,7 +15,7 @@ import argparse
 import shutil
 from pathlib import Path
 
-from podid_rs.cli import main
+from podid_rs.apps.cli import main
 
 DEFAULT = Path(__file__).resolve().parents[1] / "tests/data/ufsc_beam/beam_roving_hammer.uff"
 

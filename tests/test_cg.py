@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from podid_rs import ConvergenceWarning, identify, mass_spring_chain
-from podid_rs.identification import AUTO_DIRECT_MAX_UNKNOWNS, CG_TOL, choose_solver
+from podid_rs.identification.solvers import AUTO_DIRECT_MAX_UNKNOWNS, CG_TOL, choose_solver
 
 BANDS = {"narrow": (102.8, 122.8), "wide": (50.0, 150.0)}
 

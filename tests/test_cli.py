@@ -13,7 +13,7 @@ import pytest
 
 from podid_rs import __version__
 from podid_rs._progress import Progress
-from podid_rs.cli import build_parser, main, parse_lam
+from podid_rs.apps.cli import build_parser, main, parse_lam
 
 
 def test_parse_lam_one_or_three_values_or_a_rule():

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from podid_rs import load_model, mass_spring_chain, modal_parameters
-from podid_rs.cli import main
+from podid_rs.apps.cli import main
 
 pytest.importorskip("pyuff")
 from test_measurements import periodic_test, write_uff  # noqa: E402

@@ -32,9 +32,9 @@ from podid_rs import (
     pod_from_correlation,
     spectra,
 )
-from podid_rs.measurements import MeasuredData, from_frf, to_receptance
+from podid_rs.identification.reference import identify_kronecker
+from podid_rs.measured import MeasuredData, from_frf, to_receptance
 from podid_rs.physical import modal_parameters, nearest_psd
-from podid_rs.reference import identify_kronecker
 
 SETTINGS = settings(
     max_examples=60,
@@ -282,7 +282,7 @@ def test_identify_refuses_malformed_input_by_name(data, which, backend):
 )
 def test_identify_refuses_what_would_not_fit_in_memory(monkeypatch, m, symmetric, lam, backend):
     """The guard must fire before anything large is allocated (memory faked small)."""
-    import podid_rs.identification as ident
+    import podid_rs._memory as ident
 
     monkeypatch.setattr(ident, "available_memory_bytes", lambda: 64)
     rng = np.random.default_rng(m)

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from podid_rs import RankDeficientWarning, _core, identify, mass_spring_chain
-from podid_rs.identification import gram_numpy
-from podid_rs.reference import identify_kronecker
+from podid_rs.identification.reference import identify_kronecker
+from podid_rs.identification.solvers import gram_numpy
 
 BACKENDS = ["rust", "numpy"]
 
@@ -259,7 +259,7 @@ def test_rank_deficient_data_warns_and_returns_min_norm(backend):
 
 
 def test_memory_guard_refuses_impossible_size(monkeypatch):
-    import podid_rs.identification as ident
+    import podid_rs._memory as ident
 
     monkeypatch.setattr(ident, "available_memory_bytes", lambda: 10**9)
     _, U, F, omega = random_system_data(40, 70, 1, 0, 0.0)
@@ -280,7 +280,7 @@ def test_residual_norm_from_the_core_is_the_misfit_of_the_answer(solver, p):
     # the core computes ‖Ax − y‖ from its per-line products; NumPy's row form of the
     # same misfit must agree to rounding (noisy data: the misfit is far from 0)
     from podid_rs._validation import check_frequency_data
-    from podid_rs.identification import residual_norm
+    from podid_rs.identification.result import residual_norm
 
     _, U, F, omega = chain_data(6, s=30, p=p, noise=0.02)
     res = identify(U, F, omega, 1.0, solver=solver)

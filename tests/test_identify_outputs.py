@@ -1,5 +1,5 @@
 """What ``podid-rs identify`` writes beside model.npz: model.uff, the stabilisation
-chart and the MAC between two orders (podid_rs.identify_outputs).
+chart and the MAC between two orders (podid_rs.apps.identify).
 
 Tolerances: dataset 55 fields carry 6 significant digits (2e-5 on frequencies and
 damping ratios, which combine two fields); see test_uff_out.
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from podid_rs import mass_spring_chain, modal_parameters, read_uff_modes
-from podid_rs.cli import build_parser, main
-from podid_rs.identify_outputs import stabilisation_orders
+from podid_rs.apps.cli import build_parser, main
+from podid_rs.apps.identify import stabilisation_orders
 
 pyuff = pytest.importorskip("pyuff")
 from test_measurements import write_uff  # noqa: E402

@@ -22,15 +22,12 @@ from podid_rs import (  # noqa: E402
     mass_spring_chain,
     simulate_white_noise,
 )
-from podid_rs.measurements import (  # noqa: E402
+from podid_rs.io.npz import load_data, load_model, save_data, save_model  # noqa: E402
+from podid_rs.io.uff import read_uff  # noqa: E402
+from podid_rs.measured import (  # noqa: E402
     MeasuredData,
     from_frf,
     from_time_histories,
-    load_data,
-    load_model,
-    read_uff,
-    save_data,
-    save_model,
     to_receptance,
 )
 

@@ -1,4 +1,4 @@
-"""The order sweep of output-error models (podid_rs.model_order).
+"""The order sweep of output-error models (podid_rs.identification.order).
 
 Asserted: every order is fitted (1, 2, … in turn), each model is physical and stable;
 on exact FRFs of a chain the full order reproduces them and is chosen; the choice
@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 import podid_rs as pr
-from podid_rs.model_order import (
+from podid_rs.identification.order import (
     TOLERANCE,
     final_fit,
-    plot_order_sweep,
     sweep_orders,
 )
-from podid_rs.refinement import db_errors
+from podid_rs.identification.refinement import db_errors
+from podid_rs.plotting import plot_order_sweep
 from podid_rs.stabilisation import is_physical
 
 

@@ -12,8 +12,8 @@ import pytest
 import scipy.linalg
 
 from podid_rs import ModeShapes, mac, mass_spring_chain, modal_parameters, mode_shapes, shape_mac
-from podid_rs.measurements import from_frf
-from podid_rs.modes import plot_mac
+from podid_rs.measured import from_frf
+from podid_rs.plotting import plot_mac
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

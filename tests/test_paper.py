@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from podid_rs.cli import main
-from podid_rs.paper import (
+from podid_rs.apps.cli import main
+from podid_rs.apps.paper import (
     BANDS_HZ,
     NOISE_LEVELS,
     PAPER_ORDERS,
@@ -164,7 +164,7 @@ def test_lambda_rules_choose_per_row_and_plot_the_curve(tmp_path, rule):
     chain): λ is chosen, its curve plotted; without a noise level, discrepancy falls
     back to GCV (the noise-free rows of the study)."""
     from podid_rs import mass_spring_chain
-    from podid_rs.paper import _identify_row
+    from podid_rs.apps.paper import _identify_row
 
     rng = np.random.default_rng(1)
     chain = mass_spring_chain(6)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from podid_rs import SecondOrderSystem, add_noise, identify, mass_spring_chain, simulate_white_noise
-from podid_rs.measurements import from_time_histories
+from podid_rs.measured import from_time_histories
 from podid_rs.physical import (
     compare_modes,
     make_physical,

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from podid_rs.reference import (
+from podid_rs.identification.reference import (
     identify_kronecker,
     kronecker_system,
     symmetry_constraints,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from podid_rs import SecondOrderSystem, identify, mass_spring_chain
-from podid_rs.refinement import db_errors, physical_start, refine
+from podid_rs.identification.refinement import db_errors, physical_start, refine
 
 
 def chain_data(m: int, s: int, p: int, noise: float, seed: int = 0):

@@ -1,4 +1,4 @@
-"""Output-error refinement (podid_rs.refinement.refine, DESIGN §6).
+"""Output-error refinement (podid_rs.identification.refinement.refine, DESIGN §6).
 
 What is asserted and why the tolerances:
 - noise-free full-order data give the exact model back (1e-8 relative, the issue's
@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 
 import podid_rs as pr
 from podid_rs.identification import ConvergenceWarning
-from podid_rs.refinement import StartWarning, db_errors, refine
+from podid_rs.identification.refinement import StartWarning, db_errors, refine
 
 
 def rel(a, b) -> float:
@@ -115,7 +115,7 @@ def test_an_unstable_indefinite_start_is_made_physical_with_a_warning():
 def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
     # |d| for a negative eigenvalue (the estimator's sign error keeps its size), the
     # rtol floor for a zero one in M, K; C keeps its zero; eigenvectors unchanged
-    from podid_rs.refinement import physical_start
+    from podid_rs.identification.refinement import physical_start
 
     Q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((3, 3)))
     sym = lambda d: (Q * np.asarray(d, float)) @ Q.T  # noqa: E731

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 
 import podid_rs._memory as memory
 from podid_rs import identify, pod, pod_from_frf, simulate_white_noise
-from podid_rs.paper import chain_entries, frf_entries
+from podid_rs.apps.paper import chain_entries, frf_entries
 from podid_rs.pod import pod_from_spectra
 from podid_rs.simulation import white_noise_spectrum
 from podid_rs.systems import SecondOrderSystem, mass_spring_chain, mass_spring_lattice
@@ -255,8 +255,9 @@ def test_identify_workflow_on_a_scan_allocates_nothing_of_n_by_n(tmp_path):
     peak far below one n × n array (128 MB)."""
     import tracemalloc
 
-    from podid_rs.measurements import from_frf, save_data
-    from podid_rs.workflow import run_identify
+    from podid_rs.apps.identify import run_identify
+    from podid_rs.io.npz import save_data
+    from podid_rs.measured import from_frf
 
     system = mass_spring_lattice(80, 50, mass_variation=0.05, seed=0)
     omega = 2 * np.pi * np.linspace(20.0, 24.0, 12)
@@ -276,8 +277,8 @@ def test_identify_workflow_on_a_scan_allocates_nothing_of_n_by_n(tmp_path):
 
 
 def test_cli_paper_n_reaches_the_study(monkeypatch, capsys):
-    import podid_rs.paper as paper
-    from podid_rs.cli import main
+    import podid_rs.apps.paper as paper
+    from podid_rs.apps.cli import main
 
     seen = {}
 

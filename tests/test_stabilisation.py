@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from podid_rs import IdentificationResult, mass_spring_chain, modal_parameters
-from podid_rs.measurements import from_frf
+from podid_rs.measured import from_frf
+from podid_rs.plotting import plot_stabilisation
 from podid_rs.stabilisation import (
     F_TOL,
     ZETA_TOL,
     is_physical,
-    plot_stabilisation,
     stabilisation_chart,
 )
 

@@ -13,7 +13,7 @@ import pytest
 import scipy.signal
 
 from podid_rs import mass_spring_chain, modal_parameters
-from podid_rs.measurements import from_frf
+from podid_rs.measured import from_frf
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import podid_rs as pr
+from podid_rs.io.uff import read_uff_geometry, read_uff_modes, uff_quantity, write_uff
 from podid_rs.physical import modal_table
-from podid_rs.uff import read_uff_geometry, read_uff_modes, uff_quantity, write_uff
 
 pyuff = pytest.importorskip("pyuff")
 from conftest import BEAM_UFF  # noqa: E402

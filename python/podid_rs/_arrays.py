@@ -1,4 +1,4 @@
-"""Input checks for the pure-Python modules (systems, simulation, pod, reference).
+"""Input checks shared by the modules: arrays, frequencies, counts, bases, DOF labels.
 
 Each helper returns a fresh array, so callers can never modify what the user
 passed, and raises ``ValueError`` naming the argument when the input is unusable.
@@ -71,6 +71,21 @@ def as_basis(basis: object, m: int) -> np.ndarray:
             f"basis must have shape (n, m) with m = {m} (the model's order), got {R.shape}"
         )
     return R
+
+
+def as_dof_labels(dofs: object, n: int) -> np.ndarray:
+    """(n, 2) int64 (node, direction) labels; ``None`` gives (k, 1), k = 1…n."""
+    if dofs is None:
+        return np.stack([np.arange(1, n + 1), np.ones(n, dtype=np.int64)], axis=1)
+    d = as_array(dofs, "dofs", real=True)
+    if d.shape != (n, 2):
+        raise ValueError(f"dofs must have shape (n, 2) = ({n}, 2) (node, direction), got {d.shape}")
+    if np.any(d != np.round(d)) or np.any(np.abs(d) > 2**53):
+        raise ValueError("dofs must hold integer (node, direction) labels")
+    labels = d.astype(np.int64)
+    if len({tuple(r) for r in labels.tolist()}) != n:
+        raise ValueError("dofs must not repeat a (node, direction) label")
+    return labels
 
 
 def as_array_nocopy(x: object, name: str) -> np.ndarray:

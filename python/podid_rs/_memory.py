@@ -1,20 +1,45 @@
-"""Refuse work that would not fit in memory, before anything is allocated.
+"""The one memory check: refuse work that would not fit in memory, before anything is allocated.
 
 Large systems (10⁵ DOFs) and large measurements (10⁴ points) make it easy to ask
 for an array of hundreds of GB by accident — ``frf(omega)`` of a big model, a
-correlation matrix of a big scan. Each place that allocates in proportion to a
-user's sizes calls :func:`require_memory` first, so the user gets a
-``MemoryError`` stating what is needed, not a swap storm or an OOM kill.
+correlation matrix of a big scan, the normal matrix of a high order. Each place
+that allocates in proportion to a user's sizes calls :func:`require_memory` first,
+so the user gets a ``MemoryError`` stating what is needed, not a swap storm or an
+OOM kill; a place that can take another path instead asks :func:`fits_in_memory`.
+Both read the available memory through :func:`available_memory_bytes`, the one
+place to fake it in a test.
 """
 
 from __future__ import annotations
-
-from .identification import available_memory_bytes
 
 #: Fraction of the available memory a single request may take.
 FRACTION = 0.9
 COMPLEX_BYTES = 16
 FLOAT_BYTES = 8
+
+
+def available_memory_bytes() -> int | None:
+    """MemAvailable from /proc/meminfo (Linux), or None where it cannot be read."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
+
+
+def _fits(nbytes: float, available: int | None, fraction: float) -> bool:
+    return available is None or nbytes <= fraction * available
+
+
+def fits_in_memory(nbytes: float, fraction: float = FRACTION) -> bool:
+    """True when ``nbytes`` take at most ``fraction`` of the available memory.
+
+    Also True where the available memory cannot be read.
+    """
+    return _fits(nbytes, available_memory_bytes(), fraction)
 
 
 def require_memory(nbytes: float, what: str, hint: str = "") -> None:
@@ -25,7 +50,7 @@ def require_memory(nbytes: float, what: str, hint: str = "") -> None:
     cannot be read.
     """
     avail = available_memory_bytes()
-    if avail is not None and nbytes > FRACTION * avail:
+    if not _fits(nbytes, avail, FRACTION):
         raise MemoryError(
             f"{what} needs {nbytes / 1e9:.3g} GB but only {avail / 1e9:.3g} GB of memory is "
             "available" + (f"; {hint}" if hint else "")

@@ -8,27 +8,24 @@ modal assurance criterion compares two sets of shapes,
     MAC(a, b) = |aᴴ b|² / ((aᴴ a)(bᴴ b)),
 
 1 for shapes that are multiples of each other, 0 for orthogonal ones
-(Allemang & Brown 1982). :func:`plot_mac` draws it against reference shapes:
-another model's (:func:`mode_shapes`) or those of a UFF file's dataset 55
-(:func:`podid_rs.uff.read_uff_modes`).
+(Allemang & Brown 1982). Shapes come from a model (:func:`mode_shapes`) or from a
+UFF file's dataset 55 (:func:`podid_rs.io.uff.read_uff_modes`);
+:func:`podid_rs.plotting.plot_mac` draws the MAC.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
-from ._arrays import as_array, as_basis
-from .identification import IdentificationResult
+from ._arrays import as_array, as_basis, as_dof_labels
+from .identification.result import IdentificationResult
 from .physical import companion_modes
 from .systems import SecondOrderSystem
 
 #: a model counts as symmetric (and gets its modal A) when ‖X − Xᵀ‖ ≤ this × ‖X‖
 SYMMETRY_RTOL = 1e-12
-#: MAC values are written in the cells of a figure up to this many cells
-ANNOTATE_MAX_CELLS = 400
 
 
 @dataclass(frozen=True)
@@ -110,8 +107,6 @@ def mode_shapes(
     ``dofs`` ``(n, 2)`` labels the rows (node, direction), for UFF output and for
     matching against reference shapes.
     """
-    from .measurements import _dof_labels
-
     lam, psi, _ = companion_modes(model, vectors=True)
     m = psi.shape[0]
     R = as_basis(basis, m)
@@ -128,7 +123,7 @@ def mode_shapes(
         modal_a = lam * np.einsum("ik,ij,jk->k", psi, 2 * M, psi) + np.einsum(
             "ik,ij,jk->k", psi, C, psi
         )
-    labels = None if dofs is None else _dof_labels(dofs, phi.shape[0])
+    labels = None if dofs is None else as_dof_labels(dofs, phi.shape[0])
     return ModeShapes(lam, phi, labels, modal_a)
 
 
@@ -177,52 +172,3 @@ def shape_mac(a: ModeShapes, b: ModeShapes) -> tuple[np.ndarray, np.ndarray | No
         )
     ia, ib = (np.asarray(x) for x in zip(*rows, strict=True))
     return mac(a.shapes[ia], b.shapes[ib]), a.dofs[ia]
-
-
-def _mode_labels(s: ModeShapes) -> list[str]:
-    return [f"{j}: {f:.4g} Hz" for j, f in zip(s.mode_numbers, s.frequencies_hz, strict=True)]
-
-
-def plot_mac(
-    identified: ModeShapes,
-    reference: ModeShapes | str | Path,
-    path: str | Path,
-    *,
-    names: tuple[str, str] = ("identified", "reference"),
-    band_hz: tuple[float, float] | None = None,
-    title: str | None = None,
-) -> Path:
-    """The MAC of ``identified`` against ``reference`` as a PNG (values in the cells).
-
-    ``reference``: shapes of another model (:func:`mode_shapes`) or a UFF file
-    whose dataset 55 holds them. ``band_hz`` keeps the modes of both in that band.
-    """
-    from .plotting import _new_figure, _save
-
-    if isinstance(reference, str | Path):
-        from .uff import read_uff_modes
-
-        ref_name = Path(reference).name
-        reference = read_uff_modes(reference)
-        names = (names[0], f"{names[1]} ({ref_name})")
-    if band_hz is not None:
-        identified, reference = identified.in_band(band_hz), reference.in_band(band_hz)
-    values, used = shape_mac(identified, reference)
-    ka, kb = values.shape
-    size = min(max(4.5, 0.45 * max(ka, kb) + 2.5), 14.0)
-    fig, axes = _new_figure(size + 1.2, size, 1)
-    ax = axes[0, 0]
-    fig.subplots_adjust(left=1.6 / (size + 1.2), bottom=1.7 / size, right=1 - 1.2 / (size + 1.2))
-    image = ax.imshow(values, vmin=0.0, vmax=1.0, cmap="Blues", aspect="auto")
-    fig.colorbar(image, ax=ax, fraction=0.05, pad=0.03, label="MAC")
-    if ka * kb <= ANNOTATE_MAX_CELLS:
-        for (i, j), v in np.ndenumerate(values):
-            ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=7,
-                    color="white" if v > 0.6 else "black")
-    ax.set_yticks(range(ka), _mode_labels(identified), fontsize=7)
-    ax.set_xticks(range(kb), _mode_labels(reference), fontsize=7, rotation=60, ha="right")
-    ax.set_ylabel(f"{names[0]} mode")
-    ax.set_xlabel(f"{names[1]} mode")
-    n_dofs = identified.shapes.shape[0] if used is None else len(used)
-    ax.set_title(title or f"MAC, {names[0]} vs {names[1]} ({n_dofs} DOFs)", fontsize=10)
-    return _save(fig, path)

@@ -27,7 +27,7 @@ import scipy.linalg
 
 from ._arrays import as_array, as_scalar
 from ._validation import check_frequency_data
-from .identification import IdentificationResult, residual_norm
+from .identification.result import IdentificationResult, residual_norm
 from .systems import SecondOrderSystem
 
 

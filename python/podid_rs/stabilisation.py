@@ -34,8 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from ._arrays import as_count, as_scalar
-from .identification import IdentificationResult, identify
-from .measurements import MeasuredData
+from .identification.estimator import identify
+from .identification.result import IdentificationResult
+from .measured import MeasuredData
 from .physical import ModalParameters, modal_parameters
 from .pod import PODResult
 
@@ -206,7 +207,7 @@ def stabilisation_chart(
     fit raises are kept in that order's ``notes``; an error names the order.
     ``progress`` shows a tqdm bar over the orders (on a terminal).
     """
-    from ._progress import progress_bar
+    from ._progress import progress_bar  # tqdm, imported on first use
 
     if not isinstance(data, MeasuredData):
         raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
@@ -249,98 +250,3 @@ def stabilisation_chart(
     summed = np.sum(np.abs(data.U), axis=(1, 2))
     return StabilisationChart(tuple(orders), data.freq_hz.copy(), summed, data.is_frf,
                               f_tol, zeta_tol, chosen_m)
-
-
-_POWER = {"displacement": 0, "velocity": 1, "acceleration": 2}
-_ORDINATE = {"displacement": "receptance", "velocity": "mobility", "acceleration": "accelerance"}
-
-
-def plot_stabilisation(
-    chart: StabilisationChart,
-    path: str | Path,
-    *,
-    quantity: str = "displacement",
-    title: str | None = None,
-) -> Path:
-    """The chart as a PNG: poles (frequency vs order) over the summed measured FRF.
-
-    Markers: ○ new pole, △ frequency consistent with order m − 1, ● frequency
-    and damping consistent; green for a physical model, blue otherwise, red ×
-    for an unstable pole. The chosen order is shaded (and named in the legend).
-    ``quantity`` draws the background FRF as receptance, mobility or accelerance
-    (as the test measured).
-    """
-    from .plotting import _new_figure, _save
-
-    if quantity not in _POWER:
-        raise ValueError(f"quantity must be one of {tuple(_POWER)}, got {quantity!r}")
-    lo, hi = chart.band_hz
-    fig, axes = _new_figure(11.0, 6.4, 1, legend_rows=2)
-    fig.subplots_adjust(right=1 - 1.0 / 11.0)  # room for the FRF axis on the right
-    ax = axes[0, 0]
-    back = ax.twinx()
-    w = 2 * np.pi * chart.freq_hz
-    back.semilogy(chart.freq_hz, chart.summed_frf * w ** _POWER[quantity], color="0.6", lw=1.0)
-    what = "FRF" if chart.is_frf else "response spectrum"
-    back.set_ylabel(f"Σ |measured {what}| ({_ORDINATE[quantity] if chart.is_frf else quantity})",
-                    color="0.4")
-    back.tick_params(axis="y", colors="0.4")
-    ax.set_zorder(back.get_zorder() + 1)
-    ax.patch.set_visible(False)
-
-    styles = {
-        "new": dict(marker="o", facecolors="none", s=22, lw=0.9),
-        "f": dict(marker="^", facecolors="none", s=26, lw=0.9),
-        "fz": dict(marker="o", s=26, lw=0.5),
-    }
-    labels = {"new": "new pole", "f": f"frequency within {100 * chart.f_tol:g} %",
-              "fz": f"frequency and damping within {100 * chart.f_tol:g} % / "
-                    f"{100 * chart.zeta_tol:g} %"}
-    seen: set[str] = set()
-    for o in chart.orders:
-        f = o.modes.frequencies_hz
-        show = o.oscillatory & (f >= lo) & (f <= hi)
-        color = "tab:green" if o.physical else "tab:blue"
-        for key, pick in (("new", ~o.consistent_f), ("f", o.consistent_f & ~o.consistent),
-                          ("fz", o.consistent)):
-            sel = show & pick & o.stable
-            if np.any(sel):
-                st = dict(styles[key])
-                if st.pop("facecolors", None) == "none":
-                    st.update(facecolors="none", edgecolors=color)
-                else:
-                    st.update(color=color)
-                ax.scatter(f[sel], np.full(sel.sum(), o.m), label=None, **st)
-                seen.add(key)
-        bad = show & ~o.stable
-        if np.any(bad):
-            ax.scatter(f[bad], np.full(bad.sum(), o.m), marker="x", color="tab:red", s=22,
-                       lw=1.0)
-            seen.add("unstable")
-    handles = []
-    for key in ("new", "f", "fz"):
-        st = dict(styles[key])
-        if st.pop("facecolors", None) == "none":
-            st.update(facecolors="none", edgecolors="0.25")
-        else:
-            st.update(color="0.25")
-        handles.append(ax.scatter([], [], label=labels[key], **st))
-    handles.append(ax.scatter([], [], marker="x", color="tab:red", s=22, label="unstable pole"))
-    handles.append(ax.scatter([], [], marker="s", color="tab:green", s=22,
-                              label="physical model (M, K ≻ 0, C ⪰ 0)"))
-    handles.append(ax.scatter([], [], marker="s", color="tab:blue", s=22,
-                              label="model not physical"))
-    if chart.chosen_m is not None:
-        # marked by a band and in the legend: a label on the axes would hide poles
-        handles.append(ax.axhspan(chart.chosen_m - 0.45, chart.chosen_m + 0.45, color="gold",
-                                  alpha=0.35, lw=0, label=f"chosen order m = {chart.chosen_m}"))
-    ms = [o.m for o in chart.orders]
-    ax.set_ylim(min(ms) - 0.7, max(ms) + 0.7)
-    ax.set_xlim(lo, hi)
-    ax.set_xlabel("Frequency (Hz)")
-    ax.set_ylabel("model order m (POD modes)")
-    ax.yaxis.get_major_locator().set_params(integer=True)
-    ax.grid(True, alpha=0.25)
-    fig.legend(handles=handles, loc="lower center", ncols=4, fontsize=8, frameon=False)
-    fig.suptitle(title or "Stabilisation chart over the POD order")
-    return _save(fig, path)

@@ -1,7 +1,14 @@
-"""An identified model out as a Universal File, and mode shapes and geometry in.
+"""All Universal File (UFF) handling: measured FRFs, geometry and modes in, the model out.
 
-:func:`write_uff` writes what modal software and finite-element correlation
-tools read (the inverse of :func:`podid_rs.read_uff`):
+In (pyuff reads the file):
+
+* :func:`read_uff` — the FRFs of dataset 58 (func_type 4) as :class:`MeasuredData`;
+* :func:`read_uff_geometry` — node coordinates from dataset 15 (or 2411);
+* :func:`read_uff_modes` — mode shapes from dataset 55;
+* :func:`uff_quantity` — the ordinate (displacement, velocity, acceleration) of the FRFs.
+
+Out, :func:`write_uff` writes what modal software and finite-element correlation
+tools read (the inverse of :func:`read_uff`):
 
 * dataset 15 — the node coordinates, when the test's geometry is known
   (:func:`read_uff_geometry` takes it from the input file);
@@ -22,15 +29,21 @@ are exact doubles.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from ._arrays import as_array, as_basis, as_omega
-from .identification import IdentificationResult
-from .measurements import QUANTITIES, UFF_FRF, UFF_QUANTITY, MeasuredData, _dof_labels
-from .modes import ModeShapes, mode_shapes
+from .._arrays import as_array, as_basis, as_dof_labels, as_omega
+from ..identification.result import IdentificationResult
+from ..measured import QUANTITIES, MeasuredData, from_frf, to_receptance
+from ..modes import ModeShapes, mode_shapes
 
+#: UFF specific data types of an FRF's numerator (record 9) and denominator (record 10).
+UFF_QUANTITY = {8: "displacement", 11: "velocity", 12: "acceleration"}
+UFF_FORCE_TYPES = (0, 1, 9, 13)  # unknown, general, reaction force, excitation force
+UFF_FRF = 4  # func_type of a frequency response function
+UFF_FREQUENCY_TYPES = (0, 18)  # abscissa: unknown or frequency (Hz)
 #: UFF specific data type of a displacement, velocity or acceleration numerator
 UFF_NUMERATOR = {q: k for k, q in UFF_QUANTITY.items()}
 UFF_EXCITATION_FORCE = 13
@@ -40,6 +53,7 @@ UFF_MODAL_ANALYSES = (2, 3, 7)
 
 
 def _pyuff():
+    """pyuff, imported on first use (``import podid_rs`` does not need it)."""
     import pyuff
 
     return pyuff
@@ -58,8 +72,138 @@ def _read_sets(path: str | Path, types: tuple[int, ...], header_only: bool = Fal
     try:
         sets = uff.read_sets(idx, header_only=header_only)
     except Exception as exc:  # pyuff raises bare Exception on malformed records
-        raise ValueError(f"{path}: could not read dataset(s) {types}: {exc}") from None
+        what = "/".join(str(t) for t in types)
+        raise ValueError(f"{path}: could not read dataset {what}: {exc}") from None
     return ([sets] if isinstance(sets, dict) else list(sets)), found
+
+
+# --------------------------------------------------------------------------- in
+
+
+def _uff_int(d: dict, key: str, where: str) -> int:
+    v = d.get(key)
+    if isinstance(v, bool) or not isinstance(v, int | np.integer):
+        raise ValueError(f"{where}: field {key!r} must be an integer, got {v!r}")
+    return int(v)
+
+
+def read_uff(
+    path: str | Path,
+    *,
+    quantity: str | None = None,
+    band_hz: tuple[float, float] | None = None,
+) -> MeasuredData:
+    """FRFs from the dataset-58 records (func_type 4) of a Universal File.
+
+    Each record is one FRF, response (node, direction) over reference (node,
+    direction); a negative direction code (−3 = −Z) flips the sign, so that every
+    FRF is in the positive directions. DOFs are ordered by (node, direction),
+    response DOFs and driven DOFs alike; every reference must also be a response
+    (driving point) and every response/reference pair must be present once. A
+    roving-hammer file (fixed response, roving references, the response among the
+    references) is read by reciprocity as the FRF column of a force at the fixed
+    DOF, and says so in ``notes``. Numerator type 8/11/12 (displacement, velocity,
+    acceleration; ``quantity`` overrides it) is converted to receptance; the
+    abscissa is frequency in Hz, shared by all records. Other records (coherence,
+    time data, other datasets) are ignored. The 0 Hz line is dropped, and lines
+    outside ``band_hz``.
+    """
+    path = Path(path)
+    sets, _ = _read_sets(path, (58,))
+    if not sets:
+        raise ValueError(f"{path}: no dataset 58 (function at nodal DOF) in the file")
+    frfs = [d for d in sets if d.get("func_type") == UFF_FRF]
+    if not frfs:
+        found = sorted({str(d.get("func_type")) for d in sets})
+        raise ValueError(
+            f"{path}: no FRF records (dataset 58 with func_type 4); "
+            f"found func_type {', '.join(found)}"
+        )
+    if quantity is not None and quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {QUANTITIES} or None, got {quantity!r}")
+    freq = None
+    entries: dict[tuple[tuple[int, int], tuple[int, int]], tuple[np.ndarray, str]] = {}
+    for k, d in enumerate(frfs):
+        where = f"{path}: FRF record {k + 1}"
+        rsp = (_uff_int(d, "rsp_node", where), _uff_int(d, "rsp_dir", where))
+        ref = (_uff_int(d, "ref_node", where), _uff_int(d, "ref_dir", where))
+        x = as_array(d.get("x"), f"{where} abscissa", real=True)
+        y = as_array(d.get("data"), f"{where} ordinate")
+        if x.ndim != 1 or y.shape != x.shape or x.size < 2:
+            raise ValueError(f"{where}: abscissa and ordinate must be 1-D of equal length >= 2")
+        if d.get("abscissa_spec_data_type", 0) not in UFF_FREQUENCY_TYPES:
+            raise ValueError(f"{where}: the abscissa is not frequency (specific data type 18)")
+        if d.get("orddenom_spec_data_type", 0) not in UFF_FORCE_TYPES:
+            raise ValueError(f"{where}: the denominator is not a force (specific data type 13)")
+        q = quantity or UFF_QUANTITY.get(d.get("ordinate_spec_data_type"))
+        if q is None:
+            raise ValueError(
+                f"{where}: the numerator type {d.get('ordinate_spec_data_type')!r} is not "
+                "displacement (8), velocity (11) or acceleration (12); pass quantity="
+            )
+        if freq is None:
+            freq = x
+        elif x.shape != freq.shape or not np.allclose(x, freq, rtol=1e-9, atol=0.0):
+            raise ValueError(f"{where}: its frequency lines differ from those of record 1")
+        key = ((rsp[0], abs(rsp[1])), (ref[0], abs(ref[1])))
+        if key in entries:
+            raise ValueError(f"{where}: a second FRF for response {key[0]} / reference {key[1]}")
+        sign = (-1.0 if rsp[1] < 0 else 1.0) * (-1.0 if ref[1] < 0 else 1.0)
+        entries[key] = (sign * y, q)
+    if np.any(np.diff(freq) <= 0):
+        raise ValueError(f"{path}: the frequency lines are not strictly increasing")
+    entries, notes = _driving_point_layout(entries, path)
+    outs = sorted({k[0] for k in entries})
+    refs = sorted({k[1] for k in entries})
+    missing = [(o, r) for o in outs for r in refs if (o, r) not in entries]
+    if missing:
+        raise ValueError(
+            f"{path}: {len(missing)} FRF(s) of the {len(outs)} × {len(refs)} grid are missing, "
+            f"e.g. response {missing[0][0]} / reference {missing[0][1]}"
+        )
+    keep = freq > 0
+    omega = 2 * np.pi * freq[keep]
+    H = np.empty((omega.size, len(outs), len(refs)), dtype=np.complex128)
+    for (o, r), (y, q) in entries.items():
+        H[:, outs.index(o), refs.index(r)] = to_receptance(y[keep], omega, q)
+    data = from_frf(
+        H,
+        omega,
+        inputs=[outs.index(r) for r in refs],
+        dofs=np.asarray(outs, dtype=np.int64),
+    )
+    data = replace(data, notes=notes)
+    return data if band_hz is None else data.band(band_hz)
+
+
+def _driving_point_layout(entries: dict, path: Path) -> tuple[dict, tuple[str, ...]]:
+    """The FRF grid with every reference among the responses, by reciprocity if need be.
+
+    A shaker test measures the driving point: its references are responses too. A
+    roving-hammer test fixes the response and roves the reference, so its references
+    are not responses; Maxwell–Betti reciprocity, H(j, k) = H(k, j), turns it into
+    the column of the FRF matrix for a force at the fixed response DOF, which must
+    then be among the hit points. Returns the entries keyed (response, reference)
+    and a note saying what was done (empty when nothing was).
+    """
+    outs = sorted({k[0] for k in entries})
+    refs = sorted({k[1] for k in entries})
+    missing_refs = [r for r in refs if r not in outs]
+    if not missing_refs:
+        return entries, ()
+    if all(o in refs for o in outs):
+        note = (
+            f"{path.name}: the {len(refs)} reference DOFs are not all among the "
+            f"{len(outs)} response DOF(s) (a roving-hammer test): read by reciprocity, "
+            "H(j, k) = H(k, j), as the FRFs of the hit DOFs for a force at the response "
+            f"DOF(s) {outs}"
+        )
+        return {(r, o): v for (o, r), v in entries.items()}, (note,)
+    raise ValueError(
+        f"{path}: reference DOF(s) {missing_refs} are not among the measured responses, "
+        "and not every response is a reference either, so reciprocity cannot supply "
+        "the driving point; the force must be known on a measured DOF to be projected"
+    )
 
 
 def read_uff_geometry(path: str | Path) -> np.ndarray | None:
@@ -129,9 +273,12 @@ def read_uff_modes(path: str | Path) -> ModeShapes:
                       numbers=np.asarray(numbers))
 
 
+# --------------------------------------------------------------------------- out
+
+
 def _receptance_to(quantity: str, omega: np.ndarray) -> np.ndarray:
     """Factor from receptance to ``quantity`` per force: 1, iω or −ω² (inverse of
-    :func:`podid_rs.measurements.to_receptance`)."""
+    :func:`podid_rs.measured.to_receptance`)."""
     return {"displacement": np.ones_like(omega) + 0j, "velocity": 1j * omega,
             "acceleration": -(omega**2) + 0j}[quantity]
 
@@ -269,7 +416,7 @@ def write_uff(
             "the model has no measured-DOF labelling: UFF output needs the (node, direction) "
             f"label of each of the {R.shape[0]} basis rows (dofs=, or data=)"
         )
-    labels = _dof_labels(dofs, R.shape[0])
+    labels = as_dof_labels(dofs, R.shape[0])
     rotations = [tuple(d) for d in labels.tolist() if not 1 <= abs(d[1]) <= 3]
     if rotations:
         raise ValueError(

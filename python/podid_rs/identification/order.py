@@ -3,7 +3,7 @@
 The paper picks m by the energy the POD modes capture (eq. 43). On a real test that
 says little about the model: it is the frequency response the model reproduces
 that matters. :func:`sweep_orders` fits output-error models
-(:func:`podid_rs.refinement.refine`) of order m = 1, 2, … on the first m POD modes
+(:func:`podid_rs.identification.refinement.refine`) of order m = 1, 2, … on the first m POD modes
 and scores each on frequency lines it was not fitted to:
 
 * **continuation over orders** — the model of order m starts from the one of
@@ -41,13 +41,14 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
-from .identification import IdentificationResult, identify
-from .pod import PODResult
-from .refinement import ConvergenceWarning, StartWarning, db_errors, refine
+from ..physical import modal_parameters
+from ..pod import PODResult
+from .estimator import identify
+from .refinement import StartWarning, db_errors, refine
+from .result import ConvergenceWarning, IdentificationResult
 
 #: held-out lines: every HOLDOUT-th line (starting at the middle of the first group)
 HOLDOUT = 4
@@ -333,8 +334,6 @@ def sweep_orders(
             model = _refine_quietly(
                 model, U_n[train], F_n[train], wt, R, max_iter - TRIAL_ITER, threads
             )
-        from .physical import modal_parameters
-
         fit = OrderFit(
             m=order,
             model=model,
@@ -461,30 +460,3 @@ def final_fit(
     }
     info = {**best.info, "refinement": {**best.info["refinement"], "final_refit": kept}}
     return replace(best, info=info), R
-
-
-def plot_order_sweep(sweep: OrderSweep, path: str | Path, *, title: str | None = None) -> Path:
-    """Held-out and training median |dB| error against the order, the chosen m marked."""
-    from .plotting import _new_figure, _save
-
-    fig, axes = _new_figure(7.5, 4.2, 1)
-    ax = axes[0, 0]
-    ms = [f.m for f in sweep.fits]
-    ax.plot(ms, [f.test_db for f in sweep.fits], "o-", color="tab:red", label="held-out lines")
-    ax.plot(ms, [f.train_db for f in sweep.fits], "s--", color="tab:blue", ms=4,
-            label="training lines")
-    unstable = [f for f in sweep.fits if not f.stable]
-    if unstable:
-        ax.plot([f.m for f in unstable], [f.test_db for f in unstable], "kx", ms=9,
-                label="unstable")
-    ax.axvline(sweep.chosen, color="grey", ls=":", lw=1.2)
-    at_right = sweep.chosen > (ms[0] + ms[-1]) / 2  # keep the label inside the axes
-    ax.text(sweep.chosen, 0.97, f" m = {sweep.chosen} ", transform=ax.get_xaxis_transform(),
-            va="top", ha="right" if at_right else "left", fontsize=9, color="dimgrey")
-    ax.set_yscale("log")
-    ax.set_xlabel("reduced order m (POD modes)")
-    ax.set_ylabel("median |dB error| of the FRFs")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=9)
-    fig.suptitle(title or "Order of the output-error model: error on held-out lines")
-    return _save(fig, path)

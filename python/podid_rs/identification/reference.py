@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from podid_rs._arrays import as_count
-from podid_rs._validation import FrequencyData, check_frequency_data, check_lam
+from .._arrays import as_count
+from .._validation import FrequencyData, check_frequency_data, check_lam
 
 MAX_BYTES = 2 * 1024**3
 

@@ -1,12 +1,14 @@
-"""Identification of M, C, K from frequency-domain data (paper §3–4, eqs. 19–49).
+"""The fixed-λ solvers of eq. 49: M, C, K from frequency-domain data at a given λ (§3–4).
 
-``identify`` is the entry point. It never forms the Kronecker matrix A of eq. 25:
+:func:`identify_fixed` is what :func:`podid_rs.identify` runs for a number or a
+triple λ; the rules that choose λ (:mod:`.regularisation`) call it too, and
+nothing here knows them. It never forms the Kronecker matrix A of eq. 25:
 the least-squares data term only needs the Gram products H = Re(V Vᴴ) and
 B = Re(F Vᴴ) (DESIGN §2), and the normal equations are written in each block's
 orthonormal symmetric/skew basis, where the symmetry penalty of eq. 40 is a
 diagonal 4λ² on the skew coordinates (DESIGN §3). Two backends solve the same
 equations: ``"rust"`` (default: faer, parallel, in place) and ``"numpy"``
-(scipy.sparse + LAPACK, for comparison). ``podid_rs.reference`` keeps the
+(scipy.sparse + LAPACK, for comparison). :mod:`.reference` keeps the
 paper's literal Kronecker formulation as the oracle both are tested against.
 
 For large orders the Rust backend also solves the same equations matrix-free
@@ -19,14 +21,22 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-from ._validation import FrequencyData, Triple, check_frequency_data, check_lam, count_equations
+from .._memory import fits_in_memory, require_memory
+from .._validation import FrequencyData, Triple, check_frequency_data, check_lam, count_equations
+from .result import (
+    ConvergenceWarning,
+    IdentificationResult,
+    RankDeficientWarning,
+    _check_threads,
+    _skew_norm,
+    residual_norm,
+)
 
 Backend = Literal["rust", "numpy"]
 Solver = Literal["auto", "direct", "cg"]
@@ -47,145 +57,12 @@ AUTO_DIRECT_MAX_UNKNOWNS = 300
 #: README's direct-path table), which reports the rank and returns the
 #: minimum-norm answer where CG can only stall.
 AUTO_FALLBACK_MAX_UNKNOWNS = 4800
-
-
-class RankDeficientWarning(UserWarning):
-    """The normal equations were numerically singular; a minimum-norm answer was returned."""
-
-
-class ConvergenceWarning(UserWarning):
-    """The iterative solver stopped before reaching its tolerance; see the achieved residual."""
-
-
-@dataclass(frozen=True)
-class IdentificationResult:
-    """Identified reduced matrices and what the solver saw.
-
-    ``M, C, K`` are float64 (m, m) in the caller's units; ``lam`` is the
-    (λ_M, λ_C, λ_K) triple in the paper's units (eq. 40); ``symmetric`` marks the
-    exact λ → ∞ solution. ``residual_norm`` is ‖Ax − y‖ (eq. 28) over all
-    frequency lines and load cases; ``penalty_norms`` are ‖X − Xᵀ‖_F = ‖L_X x‖ for
-    X = M, C, K and ``penalty_norm`` their root sum of squares.
-
-    ``method`` is ``"cholesky"`` or ``"eigen-min-norm"`` (direct) or ``"cg"``. For
-    ``"cg"``, ``iterations`` and ``relative_residual`` (‖b − Gx‖/‖b‖ of the scaled
-    normal equations) say what the iteration achieved; the rank is not measured
-    (``rank`` = ``n_unknowns``) and ``min_pivot_ratio`` is NaN. Both are None for
-    the direct path.
-    """
-
-    M: np.ndarray
-    C: np.ndarray
-    K: np.ndarray
-    lam: Triple
-    symmetric: bool
-    residual_norm: float
-    penalty_norms: Triple
-    method: str
-    rank: int
-    n_unknowns: int
-    min_pivot_ratio: float
-    backend: str
-    info: dict = field(default_factory=dict, repr=False)
-    iterations: int | None = None
-    relative_residual: float | None = None
-
-    @property
-    def penalty_norm(self) -> float:
-        return float(np.sqrt(sum(v * v for v in self.penalty_norms)))
-
-    @property
-    def m(self) -> int:
-        return self.M.shape[0]
-
-    @property
-    def well_posed(self) -> bool:
-        """True when the normal matrix had full rank."""
-        return self.rank == self.n_unknowns
-
-    def symmetry_defect(self) -> Triple:
-        """‖X − Xᵀ‖_F / ‖X‖_F for X = M, C, K (0 for exactly symmetric matrices)."""
-        out = []
-        for X in (self.M, self.C, self.K):
-            nx = _frobenius(X)
-            out.append(_skew_norm(X) / nx if nx > 0 else 0.0)
-        return (out[0], out[1], out[2])
-
-    def system(self):
-        """The identified model as a :class:`podid_rs.SecondOrderSystem`."""
-        from .systems import SecondOrderSystem
-
-        return SecondOrderSystem(self.M, self.C, self.K)
-
-    def to_state_space(self, basis: np.ndarray | None = None):
-        """The model as a continuous ``scipy.signal.StateSpace``, state x = [q; q̇].
-
-        With a basis R ``(n, m)`` the inputs are forces on the n measured DOFs and
-        the outputs their displacements R q, so the transfer function is
-        ``R H_m(ω) Rᵀ`` (eq. 19); without it, reduced forces and displacements q.
-        See :mod:`podid_rs.statespace`; ``ValueError`` for a basis of the wrong
-        shape or a singular M.
-        """
-        from .statespace import state_space
-
-        return state_space(self.M, self.C, self.K, basis)
+#: what a ``MemoryError`` of the solvers suggests
+MEMORY_HINT = "reduce the order m, or use symmetric=True (3m(m+1)/2 unknowns instead of 3m²)"
 
 
 # ---------------------------------------------------------------------------
 # helpers shared by the backends
-
-
-def available_memory_bytes() -> int | None:
-    """MemAvailable from /proc/meminfo (Linux), or None where it cannot be read."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        return None
-    return None
-
-
-def _check_memory(nbytes: int, what: str) -> None:
-    avail = available_memory_bytes()
-    if avail is not None and nbytes > 0.9 * avail:
-        raise MemoryError(
-            f"{what} needs {nbytes / 1e9:.2f} GB but only {avail / 1e9:.2f} GB of memory is "
-            "available; reduce the order m, or use symmetric=True "
-            "(3m(m+1)/2 unknowns instead of 3m²)"
-        )
-
-
-MAX_THREADS = 1024  # as the Rust core's bound
-
-
-def _check_threads(threads: object) -> int:
-    """Worker-thread count for the Rust core: None → 0 (all cores), else 1…MAX_THREADS."""
-    if threads is None:
-        return 0
-    if isinstance(threads, bool) or not isinstance(threads, int | np.integer):
-        raise ValueError(f"threads must be None or a positive integer, got {threads!r}")
-    if not 0 <= threads <= MAX_THREADS:
-        raise ValueError(f"threads must be between 1 and {MAX_THREADS}, got {threads}")
-    return int(threads)
-
-
-def residual_norm(M: np.ndarray, C: np.ndarray, K: np.ndarray, data: FrequencyData) -> float:
-    """‖Ax − y‖ (eq. 28): the misfit of (−ω²M + iωC + K)u − f over all lines and loads.
-
-    Row form R = −ω²·U Mᵀ + iω·U Cᵀ + U Kᵀ − F on the (N, m) columns: six real
-    GEMMs (O(N·m²) at BLAS speed; at m = 1000 the einsum form took 10 s); the norm
-    by BLAS nrm2, which cannot overflow.
-    """
-    U, F, w = data.columns()
-    Ur, Ui = np.ascontiguousarray(U.real), np.ascontiguousarray(U.imag)
-
-    def times(X: np.ndarray) -> np.ndarray:
-        return Ur @ X.T + 1j * (Ui @ X.T)
-
-    R = -(w**2)[:, None] * times(M) + 1j * w[:, None] * times(C) + times(K) - F
-    return float(scipy.linalg.norm(R.ravel(), check_finite=False))
 
 
 def gram_numpy(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -281,14 +158,14 @@ def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> dict:
     H, B = gram_numpy(U / su, F / sf, w / w0)
     factors = np.array([sf / (su * w0**2), sf / (su * w0), sf / su])
     if not symmetric and not any(lam):
-        _check_memory(8 * (3 * m) ** 2, "the 3m×3m Gram matrix")
+        require_memory(8 * (3 * m) ** 2, "the 3m×3m Gram matrix", MEMORY_HINT)
         Zt, method, rank, ratio = _solve_spd(H, B.T.copy())
         Z = Zt.T
         rank *= m
     else:
         T, blocks, skew = symskew_basis(m, symmetric)
         n = T.shape[1]
-        _check_memory(3 * 8 * n * n, f"the {n}×{n} normal matrix (NumPy backend)")
+        require_memory(3 * 8 * n * n, f"the {n}×{n} normal matrix (NumPy backend)", MEMORY_HINT)
         KH = sp.kron(sp.identity(m, format="csr"), sp.csr_matrix(H), format="csr")
         G = (T.T @ (KH @ T)).toarray()
         lam_s = np.asarray(lam) * factors / sf
@@ -309,9 +186,10 @@ def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> dict:
 
 
 def _identify_rust(data: FrequencyData, lam: Triple, symmetric: bool, threads: int) -> dict:
-    from . import _core
+    from .. import _core
 
-    _check_memory(int(_core.direct_memory_bytes(data.m, lam, symmetric)), "the direct solve")
+    need = int(_core.direct_memory_bytes(data.m, lam, symmetric))
+    require_memory(need, "the direct solve", MEMORY_HINT)
     U, F, w = data.columns()
     return _core.identify_direct(U, F, w, lam, symmetric, threads)
 
@@ -320,7 +198,7 @@ class _ProgressBar:
     """CG progress as a tqdm bar on stderr: the fraction done is log(residual)/log(tol)."""
 
     def __init__(self, tol: float) -> None:
-        from ._progress import progress_bar
+        from .._progress import progress_bar
 
         self.tol = tol
         self.bar = progress_bar(100, desc="CG", unit="%", leave=True)
@@ -341,19 +219,6 @@ class _ProgressBar:
         self.bar.close()
 
 
-def _frobenius(A: np.ndarray) -> float:
-    """‖A‖_F by NumPy's own loops, not BLAS: ``np.linalg.norm`` of an m×m array
-    is an OpenBLAS ddot, whose threads then busy-wait for about 0.1 s on the
-    cores that the next solve wants (m = 400, back-to-back CG calls: median
-    0.607 s against 0.578 s; pen 0.674 against 0.617 s)."""
-    return math.sqrt(float(np.einsum("ij,ij->", A, A)))
-
-
-def _skew_norm(X: np.ndarray) -> float:
-    """‖X − Xᵀ‖_F (:func:`_frobenius`)."""
-    return _frobenius(X - X.T)
-
-
 def _identify_cg(
     data: FrequencyData,
     lam: Triple,
@@ -363,9 +228,10 @@ def _identify_cg(
     max_iter: int,
     progress: bool | Callable[[int, float], object],
 ) -> dict:
-    from . import _core
+    from .. import _core
 
-    _check_memory(int(_core.cg_memory_bytes(data.m, symmetric)), "the matrix-free CG solver")
+    need = int(_core.cg_memory_bytes(data.m, symmetric))
+    require_memory(need, "the matrix-free CG solver", MEMORY_HINT)
     U, F, w = data.columns()
     bar = _ProgressBar(tol) if progress is True else None
     callback = bar if bar is not None else (progress if callable(progress) else None)
@@ -383,16 +249,15 @@ def _identify_cg(
 def _direct_fits(m: int, lam: Triple, symmetric: bool, max_unknowns: int) -> bool:
     """At most ``max_unknowns`` unknowns, and the dense matrix takes at most half the
     available memory."""
-    from . import _core
+    from .. import _core
 
     n = 3 * m * (m + 1) // 2 if symmetric else 3 * m * m
-    avail = available_memory_bytes()
     dense = int(_core.direct_memory_bytes(m, lam, symmetric))
-    return n <= max_unknowns and (avail is None or dense <= 0.5 * avail)
+    return n <= max_unknowns and fits_in_memory(dense, 0.5)
 
 
 def choose_solver(m: int, lam: Triple, symmetric: bool) -> str:
-    """The path ``solver="auto"`` takes (see :func:`identify`)."""
+    """The path ``solver="auto"`` takes (see :func:`podid_rs.identify`)."""
     if not symmetric and not any(lam):
         return "direct"  # one 3m×3m factorisation: always cheap
     return "direct" if _direct_fits(m, lam, symmetric, AUTO_DIRECT_MAX_UNKNOWNS) else "cg"
@@ -417,88 +282,26 @@ def _check_cg_options(tol: object, max_iter: object, progress: object) -> tuple[
 # ---------------------------------------------------------------------------
 
 
-def identify(
+def identify_fixed(
     U: np.ndarray,
     F: np.ndarray,
     omega: np.ndarray,
-    lam: float | tuple[float, float, float] | str = 0.0,
+    lam: float | tuple[float, float, float] = 0.0,
     symmetric: bool = False,
     *,
     backend: Backend = "rust",
     threads: int | None = None,
-    noise: float | None = None,
-    snr_db: float | None = None,
     solver: Solver = "auto",
     tol: float = CG_TOL,
     max_iter: int = CG_MAX_ITER,
     progress: bool | Callable[[int, float], object] = False,
+    stacklevel: int = 2,
 ) -> IdentificationResult:
-    """Identify reduced M, C, K from responses U and forces F (paper eq. 49).
+    """M, C, K at a fixed λ (eq. 49): :func:`podid_rs.identify` for a number or a triple.
 
-    Parameters
-    ----------
-    U, F : complex arrays ``(s, m)`` or ``(s, m, p)``
-        Reduced responses and forces (eqs. 45–46), frequency-first, p load cases.
-    omega : ``(s,)`` angular frequencies in rad/s, all > 0.
-    lam : float, (λ_M, λ_C, λ_K), or a rule ``"lcurve"``, ``"gcv"``, ``"discrepancy"``
-        Symmetry regularisation in the paper's units (eq. 40); 0 = plain least squares.
-        A rule chooses one common λ (paper §4.2, :mod:`podid_rs.regularisation`); the
-        result's ``lam`` holds it and ``info["lambda_curve"]`` the whole curve.
-    symmetric : solve the exact λ → ∞ limit (M, C, K exactly symmetric).
-    backend : ``"rust"`` (default) or ``"numpy"``, the same equations either way.
-    threads : worker threads for the Rust backend (None = all cores).
-    noise, snr_db : the noise on U for ``lam="discrepancy"`` (at most one): RMS σ per
-        entry, or 10 log10(mean |U|² / σ²).
-    solver : ``"direct"`` (dense normal matrix, Cholesky), ``"cg"`` (matrix-free
-        preconditioned conjugate gradients, Rust backend only: O(m²) memory, about
-        18m³ flops per iteration) or ``"auto"``: direct when the problem is
-        unregularised (a 3m×3m system), or when it has at most
-        ``AUTO_DIRECT_MAX_UNKNOWNS`` = 300 unknowns (m ≤ 10 with a penalty,
-        m ≤ 13 exact-symmetric) and its dense matrix takes at most half the
-        available memory; CG otherwise. Measured on the full-order chain
-        (``benches/bench_cg.py --auto``, s = 2m lines, both modes, 20 % and
-        50–150 Hz bands, whole calls): CG is faster from 100–170 unknowns on
-        (1.3–4.7× at 300–650 unknowns, 4–20× at 1200–1900), except on 50–150 Hz
-        exact-symmetric, where it needs 80–300 iterations at m ≤ 17 and is level
-        with the direct path up to about 460 unknowns (0.87–1.3×). Up to 300
-        unknowns both take under 1.5 ms, and the direct path also reveals rank
-        deficiency, which CG cannot: where CG stops by itself above ``tol`` and the
-        problem has at most ``AUTO_FALLBACK_MAX_UNKNOWNS`` = 4800 unknowns, ``auto``
-        redoes it by the direct path (``info["stalled_cg"]`` then says what CG
-        reached).
-    tol : CG stops when the relative residual of the scaled normal equations is
-        ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to
-        3e-9 in our tests).
-    max_iter : CG iteration limit (default 10 000).
-    progress : CG only: ``True`` draws a tqdm progress bar (iterations, residual)
-        on stderr when it is a terminal; a callable is called as
-        ``progress(iteration, residual)`` about every 0.1 s and after the last
-        iteration (residual: the iteration's recursively updated one). Ctrl-C,
-        or an exception raised by the callable, stops the solve and propagates.
-
-    Raises ``ValueError`` for malformed data or options or a problem with fewer
-    equations than unknowns, ``MemoryError`` when the chosen solver's memory would
-    not fit. A numerically singular problem (direct path) gives the minimum-norm
-    answer and a :class:`RankDeficientWarning` stating the rank; CG that stops at
-    ``max_iter`` (or at its attainable accuracy) above ``tol`` returns its
-    answer with a :class:`ConvergenceWarning` stating the achieved residual.
+    Arguments, result, warnings and errors as for :func:`podid_rs.identify`;
+    ``stacklevel`` places its warnings (2: the caller of this function).
     """
-    if isinstance(lam, str):
-        from .regularisation import identify_with_rule
-
-        return identify_with_rule(
-            U,
-            F,
-            omega,
-            lam,
-            symmetric=symmetric,
-            backend=backend,
-            threads=threads,
-            noise=noise,
-            snr_db=snr_db,
-        )
-    if noise is not None or snr_db is not None:
-        raise ValueError("noise and snr_db set the discrepancy target; they need lam='discrepancy'")
     data = check_frequency_data(U, F, omega)
     lam_t = check_lam(lam)
     if not isinstance(symmetric, bool | np.bool_):
@@ -548,7 +351,7 @@ def identify(
             "returned as it stands. Raise max_iter, loosen tol, or use solver='direct' "
             "where the dense system fits",
             ConvergenceWarning,
-            stacklevel=2,
+            stacklevel=stacklevel,
         )
     if out["method"] == "eigen-min-norm":
         warnings.warn(
@@ -557,7 +360,7 @@ def identify(
             "frequency lines or load cases, a lower order m, or symmetry regularisation "
             "would make the problem well posed",
             RankDeficientWarning,
-            stacklevel=2,
+            stacklevel=stacklevel,
         )
     pen = tuple(_skew_norm(X) for X in (M, C, K))
     return IdentificationResult(

@@ -54,14 +54,10 @@ from typing import Literal
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from ._validation import FrequencyData, check_frequency_data
-from .identification import (
-    IdentificationResult,
-    _check_threads,
-    available_memory_bytes,
-    identify,
-    residual_norm,
-)
+from .._memory import fits_in_memory, require_memory
+from .._validation import FrequencyData, check_frequency_data
+from .result import IdentificationResult, _check_threads, residual_norm
+from .solvers import identify_fixed
 
 RULES = ("lcurve", "gcv", "discrepancy")
 Method = Literal["auto", "spectral", "repeated"]
@@ -185,7 +181,7 @@ class _Repeated:
         close to the spectral sweep's; the lower is a heuristic (μ_min ≪ min diag),
         wide on the cases tested.
         """
-        from . import _core
+        from .. import _core
 
         U, F, w = self._data.columns()
         H, _ = _core.gram(U, F, w)
@@ -372,7 +368,7 @@ def _target_residual(
         sigma = value
     else:
         sigma = math.sqrt(float(np.mean(np.abs(data.U) ** 2)) * 10.0 ** (-value / 10.0))
-    pilot = identify(data.U, data.F, data.omega, 0.0)
+    pilot = identify_fixed(data.U, data.F, data.omega, 0.0)
     w = data.omega[:, None, None]
     D = -(w**2) * pilot.M + 1j * w * pilot.C + pilot.K  # (s, m, m)
     return sigma * math.sqrt(data.p * float(np.sum(np.abs(D) ** 2)))
@@ -388,25 +384,23 @@ def _evaluator(
     threads: int,
     backend: str = "rust",
 ) -> _Spectral | _Repeated:
-    from . import _core
+    from .. import _core
 
     if method not in ("auto", "spectral", "repeated"):
         raise ValueError(f"method must be 'auto', 'spectral' or 'repeated', got {method!r}")
     if solve is None:
 
         def solve(lam: float) -> IdentificationResult:
-            return identify(data.U, data.F, data.omega, lam, backend=backend, threads=threads)
+            return identify_fixed(
+                data.U, data.F, data.omega, lam, backend=backend, threads=threads
+            )
 
     if method == "repeated":
         return _Repeated(solve, data)
     need = int(_core.sweep_memory_bytes(data.m))
-    avail = available_memory_bytes()
-    if avail is not None and need > 0.9 * avail:
-        if method == "spectral":
-            raise MemoryError(
-                f"the spectral λ sweep needs {need / 1e9:.2f} GB but only {avail / 1e9:.2f} GB "
-                "is available; use method='repeated'"
-            )
+    if method == "spectral":
+        require_memory(need, "the spectral λ sweep", "use method='repeated'")
+    elif not fits_in_memory(need):
         return _Repeated(solve, data)
     U, F, w = data.columns()
     sweep = _core.lambda_sweep(U, F, w, threads)
@@ -601,7 +595,7 @@ def identify_with_rule(
     if isinstance(ev, _Repeated):
         res = ev.result(lam)
     elif backend == "numpy":
-        res = identify(data.U, data.F, data.omega, lam, backend="numpy")
+        res = identify_fixed(data.U, data.F, data.omega, lam, backend="numpy")
     else:
         M, C, K = ev.sweep.solve(lam, nthreads)
         pen = tuple(float(np.linalg.norm(X - X.T)) for X in (M, C, K))
@@ -621,100 +615,3 @@ def identify_with_rule(
             info={"scaling": tuple(ev.sweep.scaling), "timings": dict(ev.sweep.timings)},
         )
     return dataclasses.replace(res, info={**res.info, "lambda_curve": curve})
-
-
-# ---------------------------------------------------------------------------
-
-
-def _narrow_log_axis(axis, values: np.ndarray) -> None:
-    """Plain, uncrowded ticks on a log axis whose data span less than a decade."""
-    from matplotlib import ticker
-
-    v = values[np.isfinite(values) & (values > 0)]
-    if v.size and v.max() < 10 * v.min():
-        axis.set_major_locator(ticker.MaxNLocator(4))
-        axis.set_minor_locator(ticker.NullLocator())
-        axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: f"{x:.5g}"))
-
-
-def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None):
-    """The L-curve with the chosen corner, GCV against λ, and both norms against λ.
-
-    Returns a matplotlib ``Figure`` (Agg canvas, no pyplot state); written to
-    ``path`` (PNG, 150 dpi) when given.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(15, 4.6), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax_l, ax_g, ax_n = fig.subplots(1, 3)
-    marks = {"lcurve": ("o", "C3"), "gcv": ("s", "C2"), "discrepancy": ("D", "C4")}
-    names = {"lcurve": "L-curve corner", "gcv": "GCV minimum", "discrepancy": "discrepancy"}
-    ln = np.log(curve.lams)
-    log_res, log_pen = np.log(curve.residual_norms), np.log(curve.penalty_norms)
-
-    def on_curve(lam: float) -> tuple[float, float]:
-        """The point of the L-curve at λ, by interpolation in ln λ."""
-        t = math.log(lam)
-        return float(np.exp(np.interp(t, ln, log_res))), float(np.exp(np.interp(t, ln, log_pen)))
-
-    ax_l.loglog(curve.residual_norms, curve.penalty_norms, ".-", color="C0", lw=1, ms=4)
-    for k in range(math.ceil(ln[0] / _LN10), math.floor(ln[-1] / _LN10) + 1):
-        ax_l.annotate(
-            f"$10^{{{k}}}$",
-            on_curve(10.0**k),
-            xytext=(4, 3),
-            textcoords="offset points",
-            fontsize=7,
-            color="0.35",
-        )
-    for rule, lam in curve.choices.items():
-        mk, col = marks[rule]
-        sel = " (chosen)" if rule == curve.rule else ""
-        label = f"{names[rule]}{sel}: λ = {lam:.3g}"
-        ax_l.loglog(*on_curve(lam), mk, color=col, ms=9, mfc="none", mew=2, label=label)
-    _narrow_log_axis(ax_l.xaxis, curve.residual_norms)
-    ax_l.set_xlabel("residual norm ‖Ax − y‖")
-    ax_l.set_ylabel("penalty norm ‖Lx‖ = (Σ ‖X − Xᵀ‖²)$^{1/2}$")
-    kap = curve.corner_curvature
-    corner = f" (corner curvature {kap:.3g})" if math.isfinite(kap) else ""
-    ax_l.set_title(f"L-curve, λ marked by decade{corner}")
-    ax_l.legend(fontsize=8, loc="best")
-    ax_l.grid(True, which="both", alpha=0.3)
-
-    ax_g.set_title("generalised cross-validation")
-    if np.any(np.isfinite(curve.gcv)):
-        ax_g.loglog(curve.lams, curve.gcv, ".-", color="C0", lw=1, ms=4)
-        if "gcv" in curve.choices:
-            lam = curve.choices["gcv"]
-            ax_g.axvline(lam, color="C2", ls="--", label=f"minimum: λ = {lam:.3g}")
-            ax_g.legend(fontsize=8)
-        _narrow_log_axis(ax_g.yaxis, curve.gcv)
-        ax_g.set_xlabel("λ")
-        ax_g.set_ylabel("GCV(λ) = ‖Ax − y‖² / (2Nm − t(λ))²")
-        ax_g.grid(True, which="both", alpha=0.3)
-    else:
-        ax_g.text(0.5, 0.5, "not available from repeated solves", ha="center", va="center")
-        ax_g.set_axis_off()
-
-    ax_n.loglog(curve.lams, curve.residual_norms, ".-", color="C0", lw=1, ms=4, label="‖Ax − y‖")
-    ax_p = ax_n.twinx()
-    ax_p.loglog(curve.lams, curve.penalty_norms, ".-", color="C1", lw=1, ms=4)
-    ax_n.plot([], [], ".-", color="C1", label="‖Lx‖ (right axis)")
-    if curve.target_residual is not None:
-        ax_n.axhline(curve.target_residual, color="C4", ls=":", label="target δ")
-    for rule, lam in curve.choices.items():
-        ax_n.axvline(lam, color=marks[rule][1], ls="--", lw=1, label=names[rule])
-    _narrow_log_axis(ax_n.yaxis, curve.residual_norms)
-    ax_n.set_xlabel("λ")
-    ax_n.set_ylabel("residual norm")
-    ax_p.set_ylabel("penalty norm")
-    ax_n.set_title(f"norms against λ ({curve.method} sweep)")
-    ax_n.legend(fontsize=8, loc="center left")
-    ax_n.grid(True, which="both", alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    if path is not None:
-        fig.savefig(path, dpi=150)
-    return fig

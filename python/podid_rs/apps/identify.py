@@ -1,18 +1,18 @@
 """Measured data to a reduced model on disk: the work behind ``podid-rs identify``.
 
-:func:`run_identify` reads a data file (:func:`podid_rs.measurements.load_data`:
+:func:`run_identify` reads a data file (:func:`podid_rs.io.npz.load_data`:
 UFF 58 FRFs, time histories or a saved data set), keeps the lines of a band and
 builds the POD basis of the measured responses (paper §5, steps 1–5). Then, by
-default, it fits **output-error models** (:mod:`podid_rs.refinement`) of order
-1, 2, … by continuation over the order, chooses m by the error on held-out lines
-(:mod:`podid_rs.model_order`) and refits that order on every line: M, C, K
+default, it fits **output-error models** (:mod:`podid_rs.identification.refinement`)
+of order 1, 2, … by continuation over the order, chooses m by the error on held-out
+lines (:mod:`podid_rs.identification.order`) and refits that order on every line: M, C, K
 symmetric and positive definite, the model stable by construction, fitted to the
 measured FRFs themselves. The paper's estimator (eq. 49, exactly symmetric or with
 λ) is computed at the same order for comparison; ``paper_estimator=True`` writes
 it instead (optionally made physical, :func:`podid_rs.physical.make_physical`).
 Into the output folder go
 
-* ``model.npz`` — the model (:func:`podid_rs.measurements.load_model`), with the
+* ``model.npz`` — the model (:func:`podid_rs.io.npz.load_model`), with the
   basis ``basis`` (n × m), the measured ``dofs``, the driven ``inputs`` and ``band_hz``;
 * ``frf_input<k>.png`` — measured and identified FRF (``R H_m Rᵀ``) at the driving
   point of driven DOF k and at the measured DOF farthest from it (at most four),
@@ -22,28 +22,46 @@ Into the output folder go
   why, FRF errors of the paper's estimator and of the refined model, stability;
 * ``order.png`` and ``order.md`` — the held-out and training errors of every order
   tried (refined models only);
-* ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` — the model for
-  other tools, the evidence for the order (the sweep's models), the MAC between two
-  orders (:mod:`podid_rs.identify_outputs`).
+* ``model.uff`` — the model for modal and FE-correlation software
+  (:func:`podid_rs.io.uff.write_uff`): the input's geometry (dataset 15) when it had
+  one, the identified modes on the measured DOFs (55, one per row of
+  ``modes.csv``) and the identified FRFs (58) in the input's ordinate;
+* ``stabilisation.png`` / ``stabilisation.csv`` — the stabilisation chart over
+  the POD order (:mod:`podid_rs.stabilisation`), the evidence for the order: the
+  sweep's models (every order it tried), or with ``paper_estimator`` models fitted
+  as the command fits (λ or exactly symmetric, made physical with ``--physical``)
+  of orders 1 … :func:`stabilisation_orders`; the chosen order marked;
+* ``mac.png`` — the MAC between the in-band complex modes of the chosen order m
+  and of order m + 1 (m − 1 at full order): shapes that persist are not artefacts
+  of the order (not written when either order has no mode in the band).
+
+The last three are :func:`write_identify_outputs`'s.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .identification import IdentificationResult, identify
-from .identify_outputs import write_identify_outputs
-from .measurements import MeasuredData, load_data, save_model
-from .model_order import OrderSweep, final_fit, plot_order_sweep, sweep_orders
-from .physical import make_physical, modal_parameters, modal_table, table_csv, table_markdown
-from .plotting import Curve, plot_frf_comparison
-from .refinement import db_errors
-from .stabilisation import is_physical
+from ..identification.estimator import identify
+from ..identification.order import OrderSweep, final_fit, sweep_orders
+from ..identification.refinement import db_errors
+from ..identification.result import IdentificationResult
+from ..io.npz import load_data, save_model
+from ..io.uff import read_uff_geometry, uff_quantity, write_uff
+from ..measured import MeasuredData
+from ..modes import mode_shapes
+from ..physical import make_physical, modal_parameters, modal_table, table_csv, table_markdown
+from ..plotting import Curve, plot_frf_comparison, plot_mac, plot_order_sweep, plot_stabilisation
+from ..pod import PODResult
+from ..stabilisation import is_physical, pod_fit, stabilisation_chart
 
 MAX_OVERLAYS = 4
+#: the chart runs to order max(STABILISATION_ORDERS, m + 5), at most n
+STABILISATION_ORDERS = 30
 
 
 @dataclass(frozen=True)
@@ -222,7 +240,7 @@ def run_identify(
     at ``m`` or by ``energy`` (default 0.99), made physical with ``physical``.
     ``lam=None`` solves the paper's estimator exactly symmetric (the λ → ∞ limit;
     FRFs from fewer driven DOFs than m need symmetry, see
-    :mod:`podid_rs.measurements`), a number or triple the regularised one (eq. 40).
+    :mod:`podid_rs.measured`), a number or triple the regularised one (eq. 40).
     ``progress`` shows the order sweep, the refinement and the chart on a terminal.
     """
     if m is not None and energy is not None:
@@ -300,7 +318,7 @@ class _SweepBar:
     """The order sweep as a tqdm bar on stderr: orders fitted, the latest held-out error."""
 
     def __init__(self, enabled: bool) -> None:
-        from ._progress import progress_bar
+        from .._progress import progress_bar
 
         self.bar = progress_bar(None, enabled=enabled, desc="order sweep", unit="order")
 
@@ -310,3 +328,102 @@ class _SweepBar:
 
     def close(self) -> None:
         self.bar.close()
+
+
+# --------------------------------------------------------------------------- the other files
+
+
+def stabilisation_orders(m: int, n: int) -> int:
+    """Highest order charted for a chosen order m on n measured DOFs."""
+    return min(n, max(STABILISATION_ORDERS, m + 5))
+
+
+def source_ordinate(path: Path) -> str:
+    """The ordinate the test measured: a UFF's FRF numerator type, an ``.npz``'s
+    ``quantity`` array; displacement when neither says."""
+    if path.suffix.lower() in (".uff", ".unv", ".uf"):
+        return uff_quantity(path) or "displacement"
+    if path.suffix.lower() == ".npz":
+        with np.load(path, allow_pickle=False) as z:
+            if "quantity" in z.files:
+                return str(z["quantity"].item())
+    return "displacement"
+
+
+def source_geometry(path: Path) -> np.ndarray | None:
+    """Node coordinates of a UFF input (dataset 15 or 2411), else None."""
+    if path.suffix.lower() in (".uff", ".unv", ".uf"):
+        return read_uff_geometry(path)
+    return None
+
+
+def command_fit(
+    data: MeasuredData,
+    lam: float | tuple[float, float, float] | str | None,
+    physical: bool,
+    basis: PODResult,
+) -> Callable[[int], IdentificationResult]:
+    """fit(m) as ``run_identify`` fits: eq. 49 on the POD ``basis`` of ``data``, λ or
+    exactly symmetric (``lam=None``), made physical when asked."""
+    plain = pod_fit(data, 0.0 if lam is None else lam, lam is None, basis)
+    if not physical:
+        return plain
+
+    def fit(m: int) -> IdentificationResult:
+        return make_physical(plain(m), *data.project(basis.basis(m)), data.omega)
+
+    return fit
+
+
+def write_identify_outputs(
+    source: Path,
+    data: MeasuredData,
+    result: IdentificationResult,
+    basis: np.ndarray,
+    out: Path,
+    *,
+    band_hz: tuple[float, float],
+    lam: float | tuple[float, float, float] | str | None = None,
+    physical: bool = False,
+    progress: bool = True,
+    pod: PODResult | None = None,
+    fit: Callable[[int], IdentificationResult] | None = None,
+    max_order: int | None = None,
+) -> list[Path]:
+    """Write ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` to ``out``.
+
+    The chart fits orders 1 … ``max_order`` (default :func:`stabilisation_orders`)
+    with ``fit`` (default: as the command's paper estimator, :func:`command_fit`).
+    """
+    quantity = source_ordinate(source)
+    files = [
+        write_uff(out / "model.uff", result, basis, data, quantity=quantity,
+                  geometry=source_geometry(source), name=source.name)
+    ]
+    m = result.m
+    pod = data.pod() if pod is None else pod
+    top = stabilisation_orders(m, data.n) if max_order is None else max_order
+    chart = stabilisation_chart(
+        data, top, fit=command_fit(data, lam, physical, pod) if fit is None else fit,
+        chosen_m=m, progress=progress,
+    )
+    files.append(chart.to_csv(out / "stabilisation.csv"))
+    files.append(plot_stabilisation(
+        chart, out / "stabilisation.png", quantity=quantity,
+        title=f"Stabilisation chart over the POD order: {source.name}, "
+        f"{band_hz[0]:g}–{band_hz[1]:g} Hz",
+    ))
+    other = m + 1 if m < top else m - 1
+    lo, hi = float(data.freq_hz[0]), float(data.freq_hz[-1])
+    if other >= 1:
+        shapes = mode_shapes(result, basis, data.dofs).in_band((lo, hi)).oscillatory()
+        neighbour = mode_shapes(
+            chart.order(other).model, pod.basis(other), data.dofs
+        ).in_band((lo, hi)).oscillatory()
+        if shapes.n_modes and neighbour.n_modes:
+            files.append(plot_mac(
+                shapes, neighbour, out / "mac.png", names=(f"m = {m}", f"m = {other}"),
+                title=f"MAC of the identified mode shapes in {lo:g}–{hi:g} Hz, "
+                f"m = {m} vs m = {other}",
+            ))
+    return files

@@ -34,15 +34,10 @@ from typing import Literal
 
 import numpy as np
 
-from ._arrays import as_array
-from ._validation import FrequencyData, check_frequency_data
-from .identification import (
-    ConvergenceWarning,
-    IdentificationResult,
-    _check_threads,
-    residual_norm,
-)
-from .systems import SecondOrderSystem
+from .._arrays import as_array
+from .._validation import FrequencyData, check_frequency_data
+from ..systems import SecondOrderSystem
+from .result import ConvergenceWarning, IdentificationResult, _check_threads, residual_norm
 
 WeightSpec = Literal["relative", "uniform"] | np.ndarray
 
@@ -63,7 +58,7 @@ class _RefineBar:
     """Refinement progress as a tqdm bar on stderr: steps taken and the current cost."""
 
     def __init__(self, max_iter: int) -> None:
-        from ._progress import progress_bar
+        from .._progress import progress_bar
 
         self.bar = progress_bar(max_iter, desc="output error", unit="step", leave=True)
 
@@ -331,7 +326,7 @@ def refine(
         ``benches/bench_measured.py`` it found models 0.82 → 0.39 dB (50–300 Hz) and
         0.94 → 0.58 dB (20–800 Hz) off the measurement. Off by default: on noise-free
         data from a start a few per cent off it can take more steps. The order sweep
-        and the final fit (:mod:`podid_rs.model_order`) turn it on.
+        and the final fit (:mod:`podid_rs.identification.order`) turn it on.
     metric : the matrix-free step's LM damping and CG preconditioner. ``"diagonal"``:
         μ·diag(N) and the 3×3 M–C–K blocks of N. ``"modal"``: the Gauss–Newton matrix's
         blocks in the current model's undamped modes, pulled back through the factors
@@ -363,7 +358,7 @@ def refine(
     cannot be made physical, or a start with a pole on a measured line; a
     :class:`ConvergenceWarning` when ``max_iter`` ends the iteration.
     """
-    from . import _core
+    from .. import _core
 
     M0, C0, K0, start_note = _start_matrices(model)
     if basis is not None:

@@ -11,7 +11,7 @@ frequency bands:
 3. project the measured spectra on the first m POD modes (eqs. 45–46);
 4. identify the reduced M, C, K with symmetry regularisation λ (eq. 40), from
    noise-free responses and from responses with noise at SNR 20 dB and 10 dB;
-5. refine that model to the least output error (:mod:`podid_rs.refinement`:
+5. refine that model to the least output error (:mod:`podid_rs.identification.refinement`:
    M, C, K positive definite, the model stable; noise on the responses biases
    the paper's estimator, not this one);
 6. compare the driving-point FRF H(50,50) and the cross-FRF H(60,40) (1-based,
@@ -70,16 +70,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ._progress import Progress
-from ._validation import check_lam
-from .identification import ConvergenceWarning, identify
-from .physical import modal_parameters
-from .plotting import Curve, plot_frf_comparison, plot_full_frf, plot_pod_eigenvalues
-from .pod import PODResult, pod_from_spectra
-from .refinement import StartWarning, refine
-from .regularisation import RULES, LambdaSelectionWarning, plot_lambda_curve
-from .simulation import Simulation, add_noise, simulate_white_noise
-from .systems import SecondOrderSystem, mass_spring_chain
+from .._progress import Progress
+from .._validation import check_lam
+from ..identification.estimator import identify
+from ..identification.refinement import StartWarning, refine
+from ..identification.regularisation import RULES, LambdaSelectionWarning
+from ..identification.result import ConvergenceWarning
+from ..physical import modal_parameters
+from ..plotting import (
+    Curve,
+    plot_frf_comparison,
+    plot_full_frf,
+    plot_lambda_curve,
+    plot_pod_eigenvalues,
+)
+from ..pod import PODResult, pod_from_spectra
+from ..simulation import Simulation, add_noise, simulate_white_noise
+from ..systems import SecondOrderSystem, mass_spring_chain
 
 #: The four frequency bands of Section 6.1 (Hz).
 BANDS_HZ: tuple[tuple[float, float], ...] = (

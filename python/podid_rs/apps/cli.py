@@ -3,10 +3,10 @@
 Commands:
 
 - ``paper`` — reproduce Section 6 of the paper: figures and a results table
-  (:func:`podid_rs.paper.run_paper_study`).
+  (:func:`podid_rs.apps.paper.run_paper_study`).
 - ``identify`` — identify a reduced model from measured data (UFF 58 FRFs, time
   histories or a saved data set): model, FRF overlays and modal table
-  (:func:`podid_rs.workflow.run_identify`).
+  (:func:`podid_rs.apps.identify.run_identify`).
 
 Each command is one ``_add_<name>`` function that registers its sub-parser and
 sets ``handler``, a function ``(args) -> int`` (bound to its sub-parser, for usage
@@ -21,8 +21,8 @@ import math
 import sys
 from collections.abc import Sequence
 
-from . import __version__
-from .regularisation import RULES
+from .. import __version__
+from ..identification.regularisation import RULES
 
 
 def parse_lam(tokens: Sequence[str]) -> float | tuple[float, float, float] | str:
@@ -81,7 +81,7 @@ _chain_size = _integer_at_least(2, "an integer >= 2")
 
 def _run_paper(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``podid-rs paper``: run the study, print its summary; 1 if it fails."""
-    from .paper import run_paper_study
+    from .paper import run_paper_study  # the study's modules, loaded when it runs
 
     try:
         lam = parse_lam(args.lam)
@@ -133,7 +133,7 @@ def _add_paper(sub: argparse._SubParsersAction) -> None:
 
 def _run_identify(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``podid-rs identify``: identify, write the files, print the summary; 1 if it fails."""
-    from .workflow import run_identify
+    from .identify import run_identify  # the command's modules, loaded when it runs
 
     lo, hi = args.band_hz
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):

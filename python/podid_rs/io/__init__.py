@@ -1,0 +1,1 @@
+"""Files: Universal Files (:mod:`.uff`) and ``.npz`` data sets and models (:mod:`.npz`)."""

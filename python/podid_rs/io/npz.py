@@ -1,0 +1,158 @@
+"""Measured data and identified models as ``.npz`` files, and measured data in from any file.
+
+* :func:`save_data` / :func:`load_data` — a :class:`MeasuredData`; :func:`load_data`
+  also reads time histories saved as ``.npz`` and UFF files (:mod:`.uff`);
+* :func:`save_model` / :func:`load_model` — an :class:`IdentificationResult` with
+  extra named arrays (the basis R, the DOF labels, …).
+
+Files are read without pickles (``allow_pickle=False``).
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from dataclasses import MISSING, fields
+from pathlib import Path
+
+import numpy as np
+
+from ..identification.result import IdentificationResult
+from ..measured import MeasuredData, from_time_histories
+from .uff import read_uff
+
+DATA_FORMAT = "podid_rs.MeasuredData/1"
+MODEL_FORMAT = "podid_rs.IdentificationResult/1"
+
+
+def save_data(path: str | Path, data: MeasuredData) -> Path:
+    """Write a :class:`MeasuredData` to an ``.npz`` file (the name is used as given)."""
+    if not isinstance(data, MeasuredData):
+        raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
+    path = Path(path)
+    with path.open("wb") as fh:
+        np.savez(
+            fh,
+            format=DATA_FORMAT,
+            omega=data.omega,
+            U=data.U,
+            F=data.F,
+            dofs=data.dofs,
+            inputs=data.inputs,
+            notes=np.array(data.notes, dtype=str),
+        )
+    return path
+
+
+def _read_npz(path: str | Path) -> dict[str, np.ndarray]:
+    """All arrays of an ``.npz`` file (no pickles); ``ValueError`` if it is not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if not isinstance(z, np.lib.npyio.NpzFile):
+                raise ValueError("it holds a single array, not named arrays")
+            return {k: z[k] for k in z.files}
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"{path}: not a readable .npz file: {exc}") from None
+
+
+def _need(z: dict, keys: tuple[str, ...], path: str | Path, what: str) -> None:
+    absent = [k for k in keys if k not in z]
+    if absent:
+        raise ValueError(f"{path}: {what} needs the arrays {absent} (found {sorted(z)})")
+
+
+def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -> MeasuredData:
+    """Read measured data: a UFF file (``.uff``/``.unv``) or an ``.npz`` file.
+
+    An ``.npz`` is either a data set written by :func:`save_data`, or time
+    histories with arrays ``forces``, ``responses``, ``dt`` and optionally
+    ``inputs``, ``dofs``, ``quantity``, ``estimator``, ``nperseg``
+    (see :func:`from_time_histories`). ``band_hz`` keeps the lines in that band.
+    """
+    path = Path(path)
+    if path.suffix.lower() in (".uff", ".unv", ".uf"):
+        return read_uff(path, band_hz=band_hz)
+    if path.suffix.lower() != ".npz":
+        raise ValueError(f"{path}: unknown data format (expected .uff, .unv or .npz)")
+    z = _read_npz(path)
+    if "forces" in z or "responses" in z:
+        _need(z, ("forces", "responses", "dt"), path, "a time-history file")
+        opts = {k: z[k].item() for k in ("quantity", "estimator", "nperseg") if k in z}
+        return from_time_histories(
+            z["forces"],
+            z["responses"],
+            z["dt"],
+            inputs=z.get("inputs"),
+            dofs=z.get("dofs"),
+            band_hz=band_hz,
+            **opts,
+        )
+    _need(z, ("omega", "U", "F"), path, "a measured data set")
+    notes = tuple(str(v) for v in z["notes"]) if "notes" in z else ()
+    data = MeasuredData(z["omega"], z["U"], z["F"], z.get("dofs"), z.get("inputs"), notes)
+    return data if band_hz is None else data.band(band_hz)
+
+
+def _jsonable(x: object) -> object:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return x
+
+
+def _tuples(x: object) -> object:
+    if isinstance(x, dict):
+        return {k: _tuples(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return tuple(_tuples(v) for v in x)
+    return x
+
+
+def save_model(path: str | Path, result: IdentificationResult, **arrays: object) -> Path:
+    """Write an :class:`IdentificationResult` and extra named arrays (e.g. R) to ``.npz``.
+
+    Array fields are stored as arrays, the rest (λ, norms, solver facts, ``info``)
+    as JSON; :func:`load_model` restores them.
+    """
+    if not isinstance(result, IdentificationResult):
+        raise ValueError(f"result must be an IdentificationResult, got {type(result).__name__}")
+    out: dict[str, np.ndarray] = {}
+    meta: dict[str, object] = {}
+    for f in fields(result):
+        v = getattr(result, f.name)
+        if isinstance(v, np.ndarray):
+            out[f"result.{f.name}"] = v
+        else:
+            meta[f.name] = _jsonable(v)
+    for k, v in arrays.items():
+        out[f"extra.{k}"] = np.asarray(v)
+    path = Path(path)
+    with path.open("wb") as fh:
+        np.savez(fh, format=MODEL_FORMAT, meta=json.dumps(meta), **out)
+    return path
+
+
+def load_model(path: str | Path) -> tuple[IdentificationResult, dict[str, np.ndarray]]:
+    """Read a model written by :func:`save_model`: the result and the extra arrays."""
+    z = _read_npz(path)
+    if "format" not in z or str(z["format"]) != MODEL_FORMAT:
+        raise ValueError(f"{path}: not a model file written by save_model ({MODEL_FORMAT})")
+    meta = json.loads(str(z["meta"]))
+    kwargs: dict[str, object] = {}
+    for f in fields(IdentificationResult):
+        if f"result.{f.name}" in z:
+            kwargs[f.name] = z[f"result.{f.name}"]
+        elif f.name in meta:
+            kwargs[f.name] = _tuples(meta[f.name])
+        elif f.default is MISSING and f.default_factory is MISSING:
+            raise ValueError(f"{path}: the model lacks the field {f.name!r}")
+    extras = {k.removeprefix("extra."): v for k, v in z.items() if k.startswith("extra.")}
+    return IdentificationResult(**kwargs), extras

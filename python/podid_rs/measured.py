@@ -1,0 +1,348 @@
+"""Measured data in memory: :class:`MeasuredData`, from FRFs or from time histories.
+
+A test engineer's data become a :class:`MeasuredData`: responses ``U`` on the n
+measured DOFs and forces ``F`` on the n_in driven DOFs, both frequency-first with
+p load cases per frequency line. FRFs ``H (s, n, n_in)`` are the case of unit
+forces, one load case per driven DOF: ``U = H``, ``F = I`` on every line.
+
+**Coordinates.** POD and identification (paper eqs. 41–46) need responses and
+forces on the same DOFs. Forces are known only where the structure is driven;
+on every other measured DOF they are taken to be zero, which holds for shaker
+and hammer tests and is exactly what the data can support. Hence every driven
+DOF must also be a measured response DOF (a driving-point measurement), and the
+reduced forces are ``F_m = Rᵀ F_n`` with ``F_n`` zero off the driven DOFs.
+
+**What the data allow.** The POD basis comes from the measured responses
+alone, ``Ruu = ∫ Re(U Uᴴ) dω`` (eq. 4): for FRFs this is the response to white
+noise on the *driven* DOFs, not on every DOF as in the paper's "rain on the
+roof", so it spans only what those inputs excite, on the measured DOFs only.
+The identified M, C, K are the reduced matrices of that subspace (eqs. 14–16)
+and are fixed by the force scale: responses without measured forces (ambient,
+operational data) give a basis but no M, C, K, and a force calibration error
+scales all three matrices by its inverse. Each load case gives 2m real
+equations per line against 3m² unknowns (3m(m+1)/2 symmetric), so
+``s · p ≥ 1.5 m`` lines × load cases is the least that can determine them.
+Unit forces on p driven DOFs span at most p of the m reduced directions, and
+then every ``(I + Q) [M C K]`` with ``Q F_m = 0`` fits the data as well as the
+truth: plain least squares (λ = 0) is rank deficient, rank at most
+m (2m + p) of 3m², unless p ≥ m. Symmetry removes that freedom for generic
+systems, so identify FRF data with ``symmetric=True`` or λ > 0. Forces that vary
+from line to line (random excitation, ``estimator="spectra"``) have no such limit.
+
+**Units.** Everything is converted to receptance (displacement per unit force)
+with the e^{iωt} convention of the FFT used here: velocity ÷ iω, acceleration
+÷ −ω². Frequencies are rad/s inside, Hz in files and bands; the 0 Hz line is
+dropped. UFF unit exponents are not applied: ordinates are taken to be in
+consistent units.
+
+Files are read and written by :mod:`podid_rs.io` (UFF dataset 58, ``.npz``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from ._arrays import as_array, as_dof_labels, as_omega
+from .identification.estimator import identify
+from .identification.order import OrderSweep, final_fit, sweep_orders
+from .identification.result import IdentificationResult
+from .identification.solvers import Backend
+from .pod import PODResult, pod_from_frf
+from .simulation import _records, frf_h1, spectra
+from .systems import SecondOrderSystem
+
+Quantity = Literal["displacement", "velocity", "acceleration"]
+QUANTITIES: tuple[str, ...] = ("displacement", "velocity", "acceleration")
+
+
+def to_receptance(X: object, omega: object, quantity: str) -> np.ndarray:
+    """Displacement from ``quantity`` spectra or FRFs ``X`` ``(s, ...)``: ÷ iω or ÷ −ω².
+
+    ``omega`` ``(s,)`` in rad/s, all > 0. Returns a fresh complex array.
+    """
+    Xa = as_array(X, "X").astype(np.complex128)
+    w = as_omega(omega)
+    if Xa.ndim == 0 or Xa.shape[0] != w.size:
+        raise ValueError(f"X must be frequency-first with {w.size} lines, got shape {Xa.shape}")
+    w = w.reshape((-1,) + (1,) * (Xa.ndim - 1))
+    if quantity == "displacement":
+        return Xa
+    if quantity == "velocity":
+        return Xa / (1j * w)
+    if quantity == "acceleration":
+        return Xa / -(w**2)
+    raise ValueError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
+
+
+def _input_indices(inputs: object, n: int, n_in: int) -> np.ndarray:
+    """Indices of the driven DOFs among the n measured ones; ``None`` → all (n_in = n)."""
+    if inputs is None:
+        if n_in != n:
+            raise ValueError(
+                f"inputs (the indices of the {n_in} driven DOFs among the {n} measured "
+                "responses) must be given when they are not all of them"
+            )
+        return np.arange(n)
+    a = as_array(inputs, "inputs", real=True).reshape(-1)
+    if a.size != n_in or np.any(a != np.round(a)):
+        raise ValueError(
+            f"inputs must hold {n_in} integer indices (one per driven DOF), got {inputs!r}"
+        )
+    if np.any(a < 0) or np.any(a >= n):
+        raise ValueError(f"inputs must index the {n} measured DOFs (0 … {n - 1}), got {inputs!r}")
+    idx = a.astype(np.int64)
+    if np.unique(idx).size != idx.size:
+        raise ValueError(f"inputs must not repeat a DOF, got {inputs!r}")
+    return idx
+
+
+def _load_cases(x: object, name: str, s: int) -> np.ndarray:
+    """Fresh complex ``(s, k, p)`` array from ``(s, k)`` or ``(s, k, p)``."""
+    a = as_array(x, name).astype(np.complex128)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or a.shape[0] != s or 0 in a.shape:
+        raise ValueError(
+            f"{name} must have shape (s, ·) or (s, ·, p) with s = {s} lines, got {a.shape}"
+        )
+    return a
+
+
+@dataclass(frozen=True)
+class MeasuredData:
+    """Responses and forces of a test, frequency-first (paper eqs. 45–46 before projection).
+
+    ``omega`` ``(s,)`` rad/s, strictly increasing, > 0; ``U`` ``(s, n, p)`` complex
+    displacements on the n measured DOFs (receptances for FRF data); ``F``
+    ``(s, n_in, p)`` complex forces on the driven DOFs, ``inputs`` ``(n_in,)``
+    their indices among the measured DOFs; ``dofs`` ``(n, 2)`` the (node,
+    direction) label of each measured DOF; ``notes`` what reading the data
+    assumed (e.g. reciprocity for a roving-hammer file). The constructor checks and
+    copies everything; ``(s, n)`` / ``(s, n_in)`` arrays mean one load case.
+    """
+
+    omega: np.ndarray
+    U: np.ndarray
+    F: np.ndarray
+    dofs: np.ndarray | None = None
+    inputs: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        w = as_omega(self.omega)
+        if w.size < 2 or np.any(np.diff(w) <= 0):
+            raise ValueError("omega must hold at least 2 strictly increasing frequency lines")
+        U = _load_cases(self.U, "U", w.size)
+        F = _load_cases(self.F, "F", w.size)
+        if F.shape[2] != U.shape[2]:
+            raise ValueError(
+                "U and F must have the same number of load cases p, "
+                f"got {U.shape[2]} and {F.shape[2]}"
+            )
+        if not np.any(U):
+            raise ValueError("U is identically zero: there is nothing to identify from")
+        n, n_in = U.shape[1], F.shape[1]
+        object.__setattr__(self, "omega", w)
+        object.__setattr__(self, "U", U)
+        object.__setattr__(self, "F", F)
+        object.__setattr__(self, "dofs", as_dof_labels(self.dofs, n))
+        object.__setattr__(self, "inputs", _input_indices(self.inputs, n, n_in))
+        object.__setattr__(self, "notes", tuple(str(v) for v in self.notes))
+
+    @property
+    def s(self) -> int:
+        """Number of frequency lines."""
+        return self.U.shape[0]
+
+    @property
+    def n(self) -> int:
+        """Number of measured (response) DOFs."""
+        return self.U.shape[1]
+
+    @property
+    def p(self) -> int:
+        """Number of load cases per frequency line."""
+        return self.U.shape[2]
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        return self.omega / (2 * np.pi)
+
+    @property
+    def is_frf(self) -> bool:
+        """True when the forces are unit forces, one load case per driven DOF (U = H)."""
+        return self.F.shape[1] == self.p and bool(np.all(self.F == np.eye(self.p)))
+
+    def forces_on_dofs(self) -> np.ndarray:
+        """``F_n`` ``(s, n, p)``: the forces on all measured DOFs, zero off the driven ones."""
+        Fn = np.zeros_like(self.U)
+        Fn[:, self.inputs, :] = self.F
+        return Fn
+
+    def band(self, band_hz: tuple[float, float]) -> MeasuredData:
+        """The lines with ``lo ≤ f ≤ hi`` (Hz); at least 2 must remain."""
+        b = as_array(band_hz, "band_hz", real=True)
+        if b.shape != (2,) or not 0 <= b[0] < b[1]:
+            raise ValueError(
+                f"band_hz must be a pair (lo, hi) in Hz with 0 <= lo < hi, got {band_hz!r}"
+            )
+        keep = (self.freq_hz >= b[0]) & (self.freq_hz <= b[1])
+        if keep.sum() < 2:
+            raise ValueError(
+                f"band_hz {band_hz!r} keeps {int(keep.sum())} of the {self.s} lines "
+                f"({self.freq_hz[0]:g}–{self.freq_hz[-1]:g} Hz); at least 2 are needed"
+            )
+        return replace(self, omega=self.omega[keep], U=self.U[keep], F=self.F[keep])
+
+    def pod(self) -> PODResult:
+        """POD of the measured responses: ``Ruu = ∫ Re(U Uᴴ) dω`` over the lines (eqs. 4–5).
+
+        For FRFs this is the correlation under white noise on the driven DOFs.
+        """
+        return pod_from_frf(self.U, self.omega)
+
+    def project(self, R: object) -> tuple[np.ndarray, np.ndarray]:
+        """``U_m = Rᵀ U``, ``F_m = Rᵀ F_n`` ``(s, m, p)`` on a basis R ``(n, m)`` (eqs. 45–46)."""
+        Ra = as_array(R, "R", real=True)
+        if Ra.ndim != 2 or Ra.shape[0] != self.n or Ra.shape[1] == 0:
+            raise ValueError(
+                f"R must have shape (n, m) with n = {self.n} measured DOFs, got {Ra.shape}"
+            )
+        U_m = np.einsum("nm,snp->smp", Ra, self.U)
+        F_m = np.einsum("im,sip->smp", Ra[self.inputs], self.F)
+        return U_m, F_m
+
+    def predict(self, system: SecondOrderSystem, R: object) -> np.ndarray:
+        """Responses ``R Z_m(ω)⁻¹ Rᵀ F_n`` ``(s, n, p)`` of a reduced model on basis ``R`` (eq. 19).
+
+        For FRF data this is the model's FRF on the measured DOFs, ``R H_m Rᵀ``.
+        """
+        if not isinstance(system, SecondOrderSystem):
+            raise ValueError(f"system must be a SecondOrderSystem, got {type(system).__name__}")
+        _, F_m = self.project(R)
+        if F_m.shape[1] != system.n:
+            raise ValueError(f"the model has {system.n} DOFs but R has {F_m.shape[1]} columns")
+        return np.einsum(
+            "nm,smp->snp", as_array(R, "R", real=True), system.response(self.omega, F_m)
+        )
+
+    def identify(
+        self,
+        m: int | None = None,
+        energy: float | None = None,
+        lam: float | tuple[float, float, float] = 0.0,
+        symmetric: bool = False,
+        *,
+        backend: Backend = "rust",
+        threads: int | None = None,
+    ) -> tuple[IdentificationResult, np.ndarray]:
+        """POD, projection and :func:`podid_rs.identify` in one step (paper §5, steps 1–6).
+
+        The order is ``m``, or the smallest capturing the energy fraction ``energy``
+        (eq. 43; 0.99 when neither is given). Returns the result and the basis R ``(n, m)``.
+        """
+        if m is not None and energy is not None:
+            raise ValueError("give the reduced order m or the energy fraction, not both")
+        basis = self.pod()
+        if m is None:
+            m = basis.order_for_energy(0.99 if energy is None else energy)
+        R = basis.basis(m)
+        U_m, F_m = self.project(R)
+        result = identify(U_m, F_m, self.omega, lam, symmetric, backend=backend, threads=threads)
+        return result, R
+
+    def fit(
+        self,
+        m: int | None = None,
+        *,
+        m_max: int | None = None,
+        progress: bool = False,
+        threads: int | None = None,
+    ):
+        """Output-error models that reproduce these data (DESIGN §6).
+
+        Orders 1, 2, … are fitted by continuation on the POD basis, m is chosen on
+        held-out lines (or given), and that order is refitted on every line
+        (:mod:`podid_rs.identification.order`). Returns ``(model, R, sweep)``: the
+        refined :class:`IdentificationResult` (M, C, K positive definite, stable), the
+        basis R ``(n, m)`` and the :class:`~podid_rs.OrderSweep` (every order's
+        errors, the reason for m).
+        """
+        return _fit_output_error(self, m, m_max, progress, threads)
+
+
+def _fit_output_error(
+    data: MeasuredData, m: int | None, m_max: int | None, progress: bool, threads: int | None
+) -> tuple[IdentificationResult, np.ndarray, OrderSweep]:
+    pod = data.pod()
+    F_n = data.forces_on_dofs()
+    sweep = sweep_orders(data.U, F_n, data.omega, pod, m=m, m_max=m_max, threads=threads)
+    model, R = final_fit(sweep, data.U, F_n, data.omega, pod, threads=threads,
+                         progress=progress)
+    return model, R, sweep
+
+
+def from_frf(
+    H: object,
+    omega: object,
+    *,
+    inputs: object = None,
+    dofs: object = None,
+    quantity: str = "displacement",
+) -> MeasuredData:
+    """FRFs ``H`` ``(s, n, n_in)`` of ``quantity`` per unit force as :class:`MeasuredData`.
+
+    ``inputs`` are the indices of the n_in driven DOFs among the n responses
+    (default: all, for square H). Unit forces: p = n_in load cases, ``F = I``.
+    """
+    Ha = as_array(H, "H")
+    if Ha.ndim != 3 or 0 in Ha.shape:
+        raise ValueError(f"H must have shape (s, n_out, n_in), got {Ha.shape}")
+    w = as_omega(omega)
+    U = to_receptance(Ha, w, quantity)
+    F = np.broadcast_to(np.eye(Ha.shape[2]), (w.size, Ha.shape[2], Ha.shape[2]))
+    return MeasuredData(w, U, F, dofs, inputs)
+
+
+def from_time_histories(
+    forces: object,
+    responses: object,
+    dt: float,
+    *,
+    inputs: object = None,
+    dofs: object = None,
+    quantity: str = "displacement",
+    estimator: Literal["h1", "spectra"] = "h1",
+    band_hz: tuple[float, float] | None = None,
+    nperseg: int | None = None,
+) -> MeasuredData:
+    """Time histories of forces ``(r, n_in)`` and responses ``(r, n)`` as :class:`MeasuredData`.
+
+    Several records are ``(n_rec, r, ·)``. ``estimator="h1"``: FRFs by the H1
+    estimator with Welch averaging (:func:`podid_rs.frf_h1`, segments of
+    ``nperseg``), p = n_in unit load cases. ``estimator="spectra"``: the real FFT
+    of each whole record (:func:`podid_rs.spectra`, as in the paper), one load
+    case per record; exact for periodic records, leaky otherwise. ``inputs``:
+    indices of the forced DOFs among the responses; responses in ``quantity``.
+    """
+    if estimator == "h1":
+        omega, H = frf_h1(forces, responses, dt, nperseg=nperseg, band_hz=band_hz)
+        return from_frf(H, omega, inputs=inputs, dofs=dofs, quantity=quantity)
+    if estimator != "spectra":
+        raise ValueError(f"estimator must be 'h1' or 'spectra', got {estimator!r}")
+    if nperseg is not None:
+        raise ValueError("nperseg applies to estimator='h1' only (Welch segments)")
+    x = _records(forces, "forces")
+    y = _records(responses, "responses")
+    if x.shape[:2] != y.shape[:2]:
+        raise ValueError(
+            "forces and responses must have the same number of records and samples, "
+            f"got {x.shape} and {y.shape}"
+        )
+    omega = spectra(y[0], dt, band_hz)[0]
+    X = np.stack([spectra(rec, dt, band_hz)[1] for rec in x], axis=-1)
+    Y = np.stack([spectra(rec, dt, band_hz)[1] for rec in y], axis=-1)
+    return MeasuredData(omega, to_receptance(Y, omega, quantity), X, dofs, inputs)
