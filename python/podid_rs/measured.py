@@ -59,9 +59,28 @@ QUANTITIES: tuple[str, ...] = ("displacement", "velocity", "acceleration")
 
 
 def to_receptance(X: object, omega: object, quantity: str) -> np.ndarray:
-    """Displacement from ``quantity`` spectra or FRFs ``X`` ``(s, ...)``: ÷ iω or ÷ −ω².
+    """Displacement from spectra or FRFs of displacement, velocity or acceleration.
 
-    ``omega`` ``(s,)`` in rad/s, all > 0. Returns a fresh complex array.
+    With the e^{iωt} convention: velocity ÷ iω, acceleration ÷ −ω².
+
+    Parameters
+    ----------
+    X : array_like, (s, ...)
+        Spectra or FRFs, frequency-first.
+    omega : array_like, (s,)
+        Angular frequencies (rad/s), all > 0.
+    quantity : {"displacement", "velocity", "acceleration"}
+        What X measures.
+
+    Returns
+    -------
+    numpy.ndarray, complex
+        A fresh array of X's shape.
+
+    Raises
+    ------
+    ValueError
+        For malformed X or omega, or an unknown quantity.
     """
     Xa = as_array(X, "X").astype(np.complex128)
     w = as_omega(omega)
@@ -115,13 +134,57 @@ def _load_cases(x: object, name: str, s: int) -> np.ndarray:
 class MeasuredData:
     """Responses and forces of a test, frequency-first (paper eqs. 45–46 before projection).
 
-    ``omega`` ``(s,)`` rad/s, strictly increasing, > 0; ``U`` ``(s, n, p)`` complex
-    displacements on the n measured DOFs (receptances for FRF data); ``F``
-    ``(s, n_in, p)`` complex forces on the driven DOFs, ``inputs`` ``(n_in,)``
-    their indices among the measured DOFs; ``dofs`` ``(n, 2)`` the (node,
-    direction) label of each measured DOF; ``notes`` what reading the data
-    assumed (e.g. reciprocity for a roving-hammer file). The constructor checks and
-    copies everything; ``(s, n)`` / ``(s, n_in)`` arrays mean one load case.
+    The constructor checks and copies everything; ``(s, n)`` / ``(s, n_in)`` arrays
+    mean one load case. Made by :func:`from_frf`, :func:`from_time_histories`,
+    :func:`podid_rs.read_uff` and :func:`podid_rs.load_data`.
+
+    Parameters
+    ----------
+    omega : array_like, (s,)
+        Angular frequencies (rad/s), at least 2, strictly increasing, > 0.
+    U : array_like, complex, (s, n) or (s, n, p)
+        Displacements on the n measured DOFs (receptances for FRF data), not all zero.
+    F : array_like, complex, (s, n_in) or (s, n_in, p)
+        Forces on the driven DOFs, with U's load cases.
+    dofs : array_like, (n, 2), optional
+        The (node, direction) label of each measured DOF, integers, distinct
+        (default (k, 1), k = 1 … n).
+    inputs : array_like, (n_in,), optional
+        Indices of the driven DOFs among the measured ones, distinct (default: all,
+        when n_in = n).
+    notes : tuple of str
+        What reading the data assumed (e.g. reciprocity for a roving-hammer file).
+
+    Attributes
+    ----------
+    omega : numpy.ndarray, (s,)
+        The lines, rad/s.
+    U : numpy.ndarray, complex, (s, n, p)
+        The responses.
+    F : numpy.ndarray, complex, (s, n_in, p)
+        The forces.
+    dofs : numpy.ndarray of int64, (n, 2)
+        The (node, direction) labels.
+    inputs : numpy.ndarray of int64, (n_in,)
+        The driven DOFs' indices.
+    notes : tuple of str
+        What reading the data assumed.
+    s : int
+        Number of frequency lines.
+    n : int
+        Number of measured (response) DOFs.
+    p : int
+        Number of load cases per frequency line.
+    freq_hz : numpy.ndarray, (s,)
+        The lines in Hz.
+    is_frf : bool
+        True when the forces are unit forces, one load case per driven DOF (U = H).
+
+    Raises
+    ------
+    ValueError
+        For malformed or inconsistent arrays, fewer than 2 lines, U identically
+        zero, or bad ``dofs``/``inputs``.
     """
 
     omega: np.ndarray
@@ -177,13 +240,35 @@ class MeasuredData:
         return self.F.shape[1] == self.p and bool(np.all(self.F == np.eye(self.p)))
 
     def forces_on_dofs(self) -> np.ndarray:
-        """``F_n`` ``(s, n, p)``: the forces on all measured DOFs, zero off the driven ones."""
+        """The forces on all measured DOFs, zero off the driven ones.
+
+        Returns
+        -------
+        numpy.ndarray, complex, (s, n, p)
+            ``F_n``, whose reduced forces are ``F_m = Rᵀ F_n`` (eq. 46).
+        """
         Fn = np.zeros_like(self.U)
         Fn[:, self.inputs, :] = self.F
         return Fn
 
     def band(self, band_hz: tuple[float, float]) -> MeasuredData:
-        """The lines with ``lo ≤ f ≤ hi`` (Hz); at least 2 must remain."""
+        """The lines of a frequency band.
+
+        Parameters
+        ----------
+        band_hz : tuple of float
+            (lo, hi) in Hz, ``0 ≤ lo < hi``; lines with ``lo ≤ f ≤ hi`` are kept.
+
+        Returns
+        -------
+        MeasuredData
+            The same data on those lines.
+
+        Raises
+        ------
+        ValueError
+            For a malformed band, or one that keeps fewer than 2 lines.
+        """
         b = as_array(band_hz, "band_hz", real=True)
         if b.shape != (2,) or not 0 <= b[0] < b[1]:
             raise ValueError(
@@ -201,11 +286,32 @@ class MeasuredData:
         """POD of the measured responses: ``Ruu = ∫ Re(U Uᴴ) dω`` over the lines (eqs. 4–5).
 
         For FRFs this is the correlation under white noise on the driven DOFs.
+
+        Returns
+        -------
+        PODResult
+            :func:`podid_rs.pod_from_frf` of U.
         """
         return pod_from_frf(self.U, self.omega)
 
     def project(self, R: object) -> tuple[np.ndarray, np.ndarray]:
-        """``U_m = Rᵀ U``, ``F_m = Rᵀ F_n`` ``(s, m, p)`` on a basis R ``(n, m)`` (eqs. 45–46)."""
+        """The reduced responses and forces on a basis (eqs. 45–46).
+
+        Parameters
+        ----------
+        R : array_like, real, (n, m)
+            The basis, e.g. the first m POD modes.
+
+        Returns
+        -------
+        U_m, F_m : numpy.ndarray, complex, (s, m, p)
+            ``Rᵀ U`` and ``Rᵀ F_n``.
+
+        Raises
+        ------
+        ValueError
+            When R is not a real (n, m) array.
+        """
         Ra = as_array(R, "R", real=True)
         if Ra.ndim != 2 or Ra.shape[0] != self.n or Ra.shape[1] == 0:
             raise ValueError(
@@ -216,9 +322,27 @@ class MeasuredData:
         return U_m, F_m
 
     def predict(self, system: SecondOrderSystem, R: object) -> np.ndarray:
-        """Responses ``R Z_m(ω)⁻¹ Rᵀ F_n`` ``(s, n, p)`` of a reduced model on basis ``R`` (eq. 19).
+        """Responses of a reduced model on basis R to these data's forces (eq. 19).
 
         For FRF data this is the model's FRF on the measured DOFs, ``R H_m Rᵀ``.
+
+        Parameters
+        ----------
+        system : SecondOrderSystem
+            The reduced model, order m.
+        R : array_like, real, (n, m)
+            Its basis.
+
+        Returns
+        -------
+        numpy.ndarray, complex, (s, n, p)
+            ``R Z_m(ω)⁻¹ Rᵀ F_n`` on each line.
+
+        Raises
+        ------
+        ValueError
+            For a system that is not a :class:`SecondOrderSystem`, R of the wrong shape
+            or order, or a singular dynamic stiffness on a line.
         """
         if not isinstance(system, SecondOrderSystem):
             raise ValueError(f"system must be a SecondOrderSystem, got {type(system).__name__}")
@@ -241,8 +365,27 @@ class MeasuredData:
     ) -> tuple[IdentificationResult, np.ndarray]:
         """POD, projection and :func:`podid_rs.identify` in one step (paper §5, steps 1–6).
 
-        The order is ``m``, or the smallest capturing the energy fraction ``energy``
-        (eq. 43; 0.99 when neither is given). Returns the result and the basis R ``(n, m)``.
+        Parameters
+        ----------
+        m : int, optional
+            The reduced order.
+        energy : float, optional
+            Without ``m``, the order is the smallest capturing this energy fraction
+            (eq. 43; 0.99 when neither is given).
+        lam, symmetric, backend, threads
+            As for :func:`podid_rs.identify`.
+
+        Returns
+        -------
+        result : IdentificationResult
+            The identified model.
+        R : numpy.ndarray, (n, m)
+            Its basis.
+
+        Raises
+        ------
+        ValueError
+            When both ``m`` and ``energy`` are given, or as :func:`podid_rs.identify`.
         """
         if m is not None and energy is not None:
             raise ValueError("give the reduced order m or the energy fraction, not both")
@@ -261,15 +404,37 @@ class MeasuredData:
         m_max: int | None = None,
         progress: bool = False,
         threads: int | None = None,
-    ):
+    ) -> tuple[IdentificationResult, np.ndarray, OrderSweep]:
         """Output-error models that reproduce these data (DESIGN §6).
 
         Orders 1, 2, … are fitted by continuation on the POD basis, m is chosen on
         held-out lines (or given), and that order is refitted on every line
-        (:mod:`podid_rs.identification.order`). Returns ``(model, R, sweep)``: the
-        refined :class:`IdentificationResult` (M, C, K positive definite, stable), the
-        basis R ``(n, m)`` and the :class:`~podid_rs.OrderSweep` (every order's
-        errors, the reason for m).
+        (:func:`podid_rs.sweep_orders`, :func:`podid_rs.final_fit`).
+
+        Parameters
+        ----------
+        m : int, optional
+            The order; default chosen on held-out lines.
+        m_max : int, optional
+            Largest order tried (as for :func:`podid_rs.sweep_orders`).
+        progress : bool
+            Show the final refinement's progress on stderr.
+        threads : int, optional
+            Worker threads (None = all cores).
+
+        Returns
+        -------
+        model : IdentificationResult
+            The refined model (M, C, K positive definite, stable).
+        R : numpy.ndarray, (n, m)
+            Its basis.
+        sweep : OrderSweep
+            Every order's errors and the reason for m.
+
+        Raises
+        ------
+        ValueError
+            As for :func:`podid_rs.sweep_orders`.
         """
         return _fit_output_error(self, m, m_max, progress, threads)
 
@@ -293,10 +458,31 @@ def from_frf(
     dofs: object = None,
     quantity: str = "displacement",
 ) -> MeasuredData:
-    """FRFs ``H`` ``(s, n, n_in)`` of ``quantity`` per unit force as :class:`MeasuredData`.
+    """FRFs per unit force as :class:`MeasuredData`: p = n_in unit load cases, ``F = I``.
 
-    ``inputs`` are the indices of the n_in driven DOFs among the n responses
-    (default: all, for square H). Unit forces: p = n_in load cases, ``F = I``.
+    Parameters
+    ----------
+    H : array_like, complex, (s, n, n_in)
+        FRFs, frequency-first.
+    omega : array_like, (s,)
+        Angular frequencies (rad/s).
+    inputs : array_like, (n_in,), optional
+        Indices of the n_in driven DOFs among the n responses (default: all, for
+        square H).
+    dofs : array_like, (n, 2), optional
+        (node, direction) labels of the responses.
+    quantity : {"displacement", "velocity", "acceleration"}
+        What H measures per unit force; converted to receptance.
+
+    Returns
+    -------
+    MeasuredData
+        U = the receptances, F = I on every line.
+
+    Raises
+    ------
+    ValueError
+        For malformed H, omega, inputs or dofs, or an unknown quantity.
     """
     Ha = as_array(H, "H")
     if Ha.ndim != 3 or 0 in Ha.shape:
@@ -319,14 +505,42 @@ def from_time_histories(
     band_hz: tuple[float, float] | None = None,
     nperseg: int | None = None,
 ) -> MeasuredData:
-    """Time histories of forces ``(r, n_in)`` and responses ``(r, n)`` as :class:`MeasuredData`.
+    """Time histories of forces and responses as :class:`MeasuredData`.
 
-    Several records are ``(n_rec, r, ·)``. ``estimator="h1"``: FRFs by the H1
-    estimator with Welch averaging (:func:`podid_rs.frf_h1`, segments of
-    ``nperseg``), p = n_in unit load cases. ``estimator="spectra"``: the real FFT
-    of each whole record (:func:`podid_rs.spectra`, as in the paper), one load
-    case per record; exact for periodic records, leaky otherwise. ``inputs``:
-    indices of the forced DOFs among the responses; responses in ``quantity``.
+    Parameters
+    ----------
+    forces : array_like, real, (r, n_in) or (n_rec, r, n_in)
+        Force histories (several records: ``(n_rec, r, ·)``).
+    responses : array_like, real, (r, n) or (n_rec, r, n)
+        Response histories, with the forces' records and samples.
+    dt : float
+        Sampling interval (s).
+    inputs : array_like, (n_in,), optional
+        Indices of the forced DOFs among the responses.
+    dofs : array_like, (n, 2), optional
+        (node, direction) labels of the responses.
+    quantity : {"displacement", "velocity", "acceleration"}
+        What the responses measure; converted to displacement.
+    estimator : {"h1", "spectra"}
+        ``"h1"``: FRFs by the H1 estimator with Welch averaging
+        (:func:`podid_rs.frf_h1`, segments of ``nperseg``), p = n_in unit load
+        cases. ``"spectra"``: the real FFT of each whole record
+        (:func:`podid_rs.spectra`, as in the paper), one load case per record; exact
+        for periodic records, leaky otherwise.
+    band_hz : tuple of float, optional
+        The lines kept, (lo, hi) in Hz.
+    nperseg : int, optional
+        Welch segment length (``"h1"`` only).
+
+    Returns
+    -------
+    MeasuredData
+        The data on the lines of the band.
+
+    Raises
+    ------
+    ValueError
+        For malformed histories or options, or ``nperseg`` with ``"spectra"``.
     """
     if estimator == "h1":
         omega, H = frf_h1(forces, responses, dt, nperseg=nperseg, band_hz=band_hz)

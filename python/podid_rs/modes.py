@@ -32,15 +32,33 @@ SYMMETRY_RTOL = 1e-12
 class ModeShapes:
     """Modes with their shapes on labelled DOFs.
 
-    ``eigenvalues`` ``(k,)`` (one per mode, ``Im λ ≥ 0``, sorted by ``|λ|``, as
-    :func:`podid_rs.modal_parameters`); ``shapes`` ``(n, k)`` complex, column j
-    scaled so that its largest entry is 1; ``dofs`` ``(n, 2)`` (node, direction)
-    labels of the rows, or None. ``modal_a`` ``(k,)``: ``ψᵀ(2λM + C)ψ`` for the
-    scaled shapes of a symmetric model, so that the receptance is
-    ``Σ_j φ_j φ_jᵀ / (a_j (iω − λ_j))`` (plus the conjugate of every complex
-    mode); None when the model is not symmetric or the shapes were read from a
-    file without it. ``numbers`` ``(k,)``: the modes' numbers (1-based, as in the
-    modal table or the file), kept when modes are selected; None means 1 … k.
+    Made by :func:`mode_shapes` (from a model) and :func:`podid_rs.read_uff_modes`
+    (from a file).
+
+    Attributes
+    ----------
+    eigenvalues : numpy.ndarray, complex, (k,)
+        One per mode (``Im λ ≥ 0``, sorted by ``|λ|``, as :func:`podid_rs.modal_parameters`).
+    shapes : numpy.ndarray, complex, (n, k)
+        Column j is mode j's shape, scaled so that its largest entry is 1.
+    dofs : numpy.ndarray of int64, (n, 2), or None
+        The (node, direction) labels of the rows.
+    modal_a : numpy.ndarray, complex, (k,), or None
+        ``ψᵀ(2λM + C)ψ`` for the scaled shapes of a symmetric model, so that the
+        receptance is ``Σ_j φ_j φ_jᵀ / (a_j (iω − λ_j))`` (plus the conjugate of
+        every complex mode); None when the model is not symmetric or the shapes were
+        read from a file without it.
+    numbers : numpy.ndarray, (k,), or None
+        The modes' numbers (1-based, as in the modal table or the file), kept when
+        modes are selected; None means 1 … k.
+    mode_numbers : numpy.ndarray, (k,)
+        ``numbers``, or 1 … k.
+    frequencies_hz : numpy.ndarray, (k,)
+        Undamped natural frequencies ``|λ| / 2π``.
+    damping_ratios : numpy.ndarray, (k,)
+        ``−Re λ / |λ|`` (0 for λ = 0).
+    n_modes : int
+        k.
     """
 
     eigenvalues: np.ndarray
@@ -73,16 +91,44 @@ class ModeShapes:
         return self.eigenvalues.size
 
     def in_band(self, band_hz: tuple[float, float]) -> ModeShapes:
-        """The modes with natural frequency in ``[lo, hi]`` Hz."""
+        """The modes with natural frequency in a band.
+
+        Parameters
+        ----------
+        band_hz : tuple of float
+            (lo, hi) in Hz, ends included.
+
+        Returns
+        -------
+        ModeShapes
+            Those modes, numbers kept.
+        """
         f = self.frequencies_hz
         return self.select((f >= band_hz[0]) & (f <= band_hz[1]))
 
     def oscillatory(self) -> ModeShapes:
-        """The complex modes (``Im λ > 0``), without the real (overdamped) roots."""
+        """The complex modes (``Im λ > 0``), without the real (overdamped) roots.
+
+        Returns
+        -------
+        ModeShapes
+            Those modes, numbers kept.
+        """
         return self.select(self.eigenvalues.imag > 0)
 
     def select(self, keep: np.ndarray) -> ModeShapes:
-        """The modes where the boolean ``(k,)`` mask ``keep`` is true, numbers kept."""
+        """The modes where a mask is true.
+
+        Parameters
+        ----------
+        keep : numpy.ndarray of bool, (k,)
+            Which modes to keep.
+
+        Returns
+        -------
+        ModeShapes
+            Those modes, numbers kept.
+        """
         return replace(
             self,
             eigenvalues=self.eigenvalues[keep],
@@ -101,11 +147,31 @@ def mode_shapes(
     basis: object = None,
     dofs: object = None,
 ) -> ModeShapes:
-    """The model's modes with shapes φ = R ψ on the measured DOFs (R = ``basis``).
+    """The model's modes with shapes φ = R ψ on the measured DOFs (eq. 9).
 
-    ``basis`` R ``(n, m)``; None gives the shapes in the model's own coordinates.
-    ``dofs`` ``(n, 2)`` labels the rows (node, direction), for UFF output and for
-    matching against reference shapes.
+    ψ are the vectors of the pencil ``(λ²M + λC + K)ψ = 0`` (eq. 1), from
+    :func:`podid_rs.physical.companion_modes`.
+
+    Parameters
+    ----------
+    model : IdentificationResult or SecondOrderSystem
+        The model, order m.
+    basis : array_like, (n, m), optional
+        R; None gives the shapes in the model's own coordinates.
+    dofs : array_like, (n, 2), optional
+        (node, direction) labels of the rows, for UFF output and for matching
+        against reference shapes.
+
+    Returns
+    -------
+    ModeShapes
+        The modes, shapes scaled to largest entry 1.
+
+    Raises
+    ------
+    ValueError
+        For a basis or labels of the wrong shape, or a mode with no component on
+        the measured DOFs.
     """
     lam, psi, _ = companion_modes(model, vectors=True)
     m = psi.shape[0]
@@ -130,8 +196,25 @@ def mode_shapes(
 def mac(A: object, B: object) -> np.ndarray:
     """Modal assurance criterion ``|aᴴb|² / ((aᴴa)(bᴴb))`` of every column pair.
 
-    ``A`` ``(n, ka)`` and ``B`` ``(n, kb)`` (or 1-D, one shape), real or complex,
-    with the same rows (DOFs). Returns ``(ka, kb)`` in [0, 1].
+    1 for shapes that are multiples of each other, 0 for orthogonal ones (Allemang
+    & Brown 1982).
+
+    Parameters
+    ----------
+    A : array_like, (n, ka) or (n,)
+        Shapes as columns, real or complex.
+    B : array_like, (n, kb) or (n,)
+        Shapes on the same rows (DOFs).
+
+    Returns
+    -------
+    numpy.ndarray, (ka, kb)
+        MAC values in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        For empty arrays, different numbers of rows, or a zero column.
     """
     a, b = as_array(A, "A"), as_array(B, "B")
     a = a[:, None] if a.ndim == 1 else a
@@ -153,9 +236,26 @@ def mac(A: object, B: object) -> np.ndarray:
 def shape_mac(a: ModeShapes, b: ModeShapes) -> tuple[np.ndarray, np.ndarray | None]:
     """MAC of the shapes of ``a`` (rows) against ``b`` (columns) on their common DOFs.
 
-    With labels on both, the DOFs both sets have are used, in ``a``'s order (at
-    least two); without, the rows must correspond. Returns the MAC and the labels
-    used (None without labels).
+    With labels on both, the DOFs both sets have are used, in ``a``'s order; without,
+    the rows must correspond.
+
+    Parameters
+    ----------
+    a, b : ModeShapes
+        The two sets of modes.
+
+    Returns
+    -------
+    values : numpy.ndarray, (ka, kb)
+        The MAC.
+    dofs : numpy.ndarray, (k, 2), or None
+        The labels of the DOFs used (None without labels).
+
+    Raises
+    ------
+    ValueError
+        For arguments that are not :class:`ModeShapes`, a set without modes, fewer
+        than 2 common DOFs, or rows that differ (without labels).
     """
     if not isinstance(a, ModeShapes) or not isinstance(b, ModeShapes):
         raise ValueError("shape_mac compares two ModeShapes (see podid_rs.mode_shapes)")

@@ -69,11 +69,30 @@ def make_physical(
     """The nearest model with M, K symmetric positive definite and C symmetric PSD.
 
     M and K get eigenvalues at least ``rtol`` times their largest, C at least 0
-    (:func:`nearest_psd`). ``U, F, omega`` are the reduced data the result was
-    identified from; the returned result carries the residual ‖Ax − y‖ (eq. 28)
-    of the corrected matrices, and ``info["physical"]`` records the residual
-    before and after, the relative change of each matrix and the number of
-    eigenvalues raised.
+    (:func:`nearest_psd`, Higham 1988), and the cost is measured in the data residual.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        The model, e.g. of ``identify(..., symmetric=True)`` (then the correction only
+        touches definiteness).
+    U, F, omega : array_like
+        The reduced data it was identified from (as for :func:`podid_rs.identify`).
+    rtol : float
+        The floor of M's and K's eigenvalues, relative to their largest, > 0.
+
+    Returns
+    -------
+    IdentificationResult
+        The corrected model, with the residual ‖Ax − y‖ (eq. 28) of the corrected
+        matrices; ``info["physical"]`` records the residual before and after, the
+        relative change of each matrix and the number of eigenvalues raised.
+
+    Raises
+    ------
+    ValueError
+        For a result that is not an :class:`IdentificationResult`, malformed data or
+        data of another order, a non-positive ``rtol``, or a zero M or K.
     """
     if not isinstance(result, IdentificationResult):
         raise ValueError(f"result must be an IdentificationResult, got {type(result).__name__}")
@@ -112,11 +131,21 @@ def make_physical(
 class ModalParameters:
     """Modes of ``(λ² M + λ C + K) φ = 0`` from the companion form.
 
-    ``eigenvalues`` ``(k,)``: one per mode, sorted by ``|λ|`` — the one with
-    ``Im λ > 0`` of each complex pair, and every real (overdamped) eigenvalue.
-    ``frequencies_hz = |λ| / 2π`` (undamped natural frequency),
-    ``damping_ratios = −Re λ / |λ|`` (1 for a stable real root, < 0 unstable).
-    ``n_infinite`` counts the infinite eigenvalues of a singular M.
+    Attributes
+    ----------
+    eigenvalues : numpy.ndarray, complex, (k,)
+        One per mode, sorted by ``|λ|`` — the one with ``Im λ > 0`` of each complex
+        pair, and every real (overdamped) eigenvalue.
+    frequencies_hz : numpy.ndarray, (k,)
+        ``|λ| / 2π`` (undamped natural frequency).
+    damping_ratios : numpy.ndarray, (k,)
+        ``−Re λ / |λ|`` (1 for a stable real root, < 0 unstable).
+    n_infinite : int
+        The number of infinite eigenvalues (of a singular M).
+    max_real_part : float
+        Largest ``Re λ`` (−inf without finite eigenvalues).
+    stable : bool
+        Asymptotically stable: every finite eigenvalue has ``Re λ < 0``, none infinite.
     """
 
     eigenvalues: np.ndarray
@@ -170,9 +199,25 @@ def companion_modes(
 
 
 def modal_parameters(model: IdentificationResult | SecondOrderSystem) -> ModalParameters:
-    """Natural frequencies, damping ratios and stability of ``M ü + C u̇ + K u = 0``.
+    """Natural frequencies, damping ratios and stability of ``M ü + C u̇ + K u = 0`` (eq. 1).
 
-    The modes of :func:`companion_modes`.
+    The modes of :func:`companion_modes`: the generalised eigenvalues of the
+    first-order companion form ``[[0, I], [−K, −C]] z = λ [[I, 0], [0, M]] z``.
+
+    Parameters
+    ----------
+    model : IdentificationResult or SecondOrderSystem
+        The model (dense M, C, K).
+
+    Returns
+    -------
+    ModalParameters
+        Eigenvalues, frequencies, damping ratios, stability.
+
+    Raises
+    ------
+    ValueError
+        For a model of another type.
     """
     keep, _, n_infinite = companion_modes(model)
     mag = np.abs(keep)

@@ -240,11 +240,24 @@ def _narrow_log_axis(axis, values: np.ndarray) -> None:
         axis.set_major_formatter(ticker.FuncFormatter(lambda x, _: f"{x:.5g}"))
 
 
-def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None):
-    """The L-curve with the chosen corner, GCV against λ, and both norms against λ.
+def plot_lambda_curve(
+    curve: LambdaCurve, path: str | Path | None = None, *, title: str | None = None
+) -> Figure:
+    """The L-curve with the chosen corner, GCV against λ, and both norms against λ (§4.2).
 
-    Returns a matplotlib ``Figure`` (Agg canvas, no pyplot state); written to
-    ``path`` (PNG, 150 dpi) when given.
+    Parameters
+    ----------
+    curve : LambdaCurve
+        What :func:`podid_rs.lambda_curve` returned.
+    path : str or pathlib.Path, optional
+        Write the figure there (PNG, 150 dpi).
+    title : str, optional
+        A title over the three panels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure (Agg canvas, no pyplot state).
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -327,7 +340,22 @@ def plot_lambda_curve(curve: LambdaCurve, path=None, *, title: str | None = None
 
 
 def plot_order_sweep(sweep: OrderSweep, path: str | Path, *, title: str | None = None) -> Path:
-    """Held-out and training median |dB| error against the order, the chosen m marked."""
+    """Held-out and training median |dB| error against the order, the chosen m marked.
+
+    Parameters
+    ----------
+    sweep : OrderSweep
+        What :func:`podid_rs.sweep_orders` returned.
+    path : str or pathlib.Path
+        The PNG to write (folders are created).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     fig, axes = _new_figure(7.5, 4.2, 1)
     ax = axes[0, 0]
     ms = [f.m for f in sweep.fits]
@@ -367,8 +395,28 @@ def plot_stabilisation(
     Markers: ○ new pole, △ frequency consistent with order m − 1, ● frequency
     and damping consistent; green for a physical model, blue otherwise, red ×
     for an unstable pole. The chosen order is shaded (and named in the legend).
-    ``quantity`` draws the background FRF as receptance, mobility or accelerance
-    (as the test measured).
+
+    Parameters
+    ----------
+    chart : StabilisationChart
+        What :func:`podid_rs.stabilisation_chart` returned.
+    path : str or pathlib.Path
+        The PNG to write (folders are created).
+    quantity : {"displacement", "velocity", "acceleration"}
+        Draw the background FRF as receptance, mobility or accelerance (as the test
+        measured).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``quantity``.
     """
     if quantity not in _POWER:
         raise ValueError(f"quantity must be one of {tuple(_POWER)}, got {quantity!r}")
@@ -462,8 +510,33 @@ def plot_mac(
 ) -> Path:
     """The MAC of ``identified`` against ``reference`` as a PNG (values in the cells).
 
-    ``reference``: shapes of another model (:func:`mode_shapes`) or a UFF file
-    whose dataset 55 holds them. ``band_hz`` keeps the modes of both in that band.
+    Parameters
+    ----------
+    identified : ModeShapes
+        The rows.
+    reference : ModeShapes, str or pathlib.Path
+        The columns: shapes of another model (:func:`podid_rs.mode_shapes`), or a
+        UFF file whose dataset 55 holds them (:func:`podid_rs.read_uff_modes`).
+    path : str or pathlib.Path
+        The PNG to write (folders are created).
+    names : tuple of str
+        What to call the two sets in the labels.
+    band_hz : tuple of float, optional
+        Keep the modes of both in (lo, hi) Hz.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        As for :func:`podid_rs.shape_mac` and :func:`podid_rs.read_uff_modes`.
+    FileNotFoundError
+        For a reference file that does not exist.
     """
     if isinstance(reference, str | Path):
         ref_name = Path(reference).name

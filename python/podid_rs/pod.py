@@ -39,9 +39,26 @@ _COLUMN_BLOCK = 4096  # DOFs per block when a product over all n is formed piece
 
 
 def correlation_from_snapshots(snapshots: object) -> np.ndarray:
-    """Time-averaged correlation ``Ruu = ⟨u uᵀ⟩`` of snapshots ``(r, n)`` (eqs. 3, 41).
+    """Time-averaged correlation ``Ruu = ⟨u uᵀ⟩`` of snapshots (eqs. 3, 41).
 
     The average is over the r snapshots (rows); the mean is not removed.
+
+    Parameters
+    ----------
+    snapshots : array_like, real, (r, n)
+        Responses, time first.
+
+    Returns
+    -------
+    numpy.ndarray, (n, n)
+        Ruu, exactly symmetric.
+
+    Raises
+    ------
+    ValueError
+        For a non-numeric, non-finite or empty array.
+    MemoryError
+        When the n × n matrix would not fit.
     """
     u = as_array(snapshots, "snapshots", real=True)
     if u.ndim != 2 or u.shape[0] == 0 or u.shape[1] == 0:
@@ -90,13 +107,31 @@ def _stacked_rows(X: np.ndarray, weights: np.ndarray | None = None) -> np.ndarra
 def correlation_from_frf(H: object, omega: object) -> np.ndarray:
     """``Ruu = ∫_B Re(H(ω) H(ω)ᴴ) dω`` by the trapezoid rule over the given lines (eq. 4).
 
-    ``H`` is ``(s, n, n_in)``, ``omega`` ``(s,)`` strictly increasing (rad/s). This is
-    the response correlation under incoherent white noise of unit one-sided PSD
+    The response correlation under incoherent white noise of unit one-sided PSD
     (per rad/s) on every input over the band B. The paper writes ``Re(HᴴH)``; for
     reciprocal (symmetric) H the two agree, and ``H Hᴴ`` is the form that is right
-    in general. Under :func:`podid_rs.simulation.simulate_white_noise` with
-    variance ``σ²`` per DOF, ``⟨u uᵀ⟩ ≈ σ² / (ω_hi − ω_lo) · Ruu``. Formed as one
-    product AᵀA of the weighted real and imaginary FRF columns (no (s, n, n) array).
+    in general. Under :func:`podid_rs.simulate_white_noise` with variance ``σ²`` per
+    DOF, ``⟨u uᵀ⟩ ≈ σ² / (ω_hi − ω_lo) · Ruu``. Formed as one product AᵀA of the
+    weighted real and imaginary FRF columns (no (s, n, n) array).
+
+    Parameters
+    ----------
+    H : array_like, complex, (s, n, n_in)
+        FRFs, frequency first.
+    omega : array_like, (s,)
+        Strictly increasing angular frequencies (rad/s), all > 0.
+
+    Returns
+    -------
+    numpy.ndarray, (n, n)
+        Ruu, exactly symmetric.
+
+    Raises
+    ------
+    ValueError
+        For malformed ``H`` or ``omega``.
+    MemoryError
+        When the n × n matrix would not fit.
     """
     Ha, w = _check_frf(H, omega)
     _require_correlation(Ha.shape[1])
@@ -116,11 +151,36 @@ def _require_correlation(n: int) -> None:
 class PODResult:
     """POD of a correlation matrix: ``Ruu = Σ λ_i φ_i φ_iᵀ`` (eqs. 5, 42).
 
-    ``eigenvalues`` ``(n,)`` descending and non-negative; ``modes`` ``(n, k)`` with
-    the orthonormal POD modes as columns, each signed so that its largest-magnitude
-    component is positive. From the correlation matrix k = n; by the method of
-    snapshots only the k modes of non-zero energy exist (the eigenvalues after
-    them are zero), and they are formed on first use — ``basis(m)`` forms only m.
+    From the correlation matrix every mode is kept; by the method of snapshots only
+    the k modes of non-zero energy exist (the eigenvalues after them are zero), and
+    they are formed on first use — ``basis(m)`` forms only m. Made by :func:`pod`,
+    :func:`pod_from_frf`, :func:`pod_from_spectra` and :func:`pod_from_correlation`.
+
+    Parameters
+    ----------
+    eigenvalues : array_like, (n,)
+        Descending, non-negative.
+    modes : array_like, (n, n_modes)
+        The orthonormal POD modes as columns, each signed so that its
+        largest-magnitude component is positive.
+
+    Attributes
+    ----------
+    eigenvalues : numpy.ndarray, (n,)
+        The eigenvalues λ_i, descending, non-negative.
+    modes : numpy.ndarray, (n, n_modes)
+        The POD modes as columns (formed on first use).
+    n : int
+        Number of DOFs of the full response.
+    n_modes : int
+        Number of modes available (n, or the rank of the snapshots).
+    method : str
+        ``"correlation"`` or ``"snapshots"``: the side the POD was computed from.
+    energy_fraction : numpy.ndarray, (n,)
+        Cumulative energy fraction ``Σ_{i≤m} λ_i / Σ λ_i`` for m = 1…n (eqs. 7, 43).
+    noise_variance : numpy.ndarray, (n,), or None
+        The per-DOF noise variances removed from ``Ruu`` before the decomposition
+        (:meth:`without_noise`), if any.
     """
 
     noise_variance: np.ndarray | None = None
@@ -197,7 +257,23 @@ class PODResult:
         return cum / cum[-1]
 
     def order_for_energy(self, k: float) -> int:
-        """Smallest m whose modes capture at least the fraction ``k`` of the energy (eq. 43)."""
+        """The smallest m whose modes capture at least the fraction ``k`` of the energy (eq. 43).
+
+        Parameters
+        ----------
+        k : float
+            Energy fraction, 0 < k ≤ 1.
+
+        Returns
+        -------
+        int
+            m, at most the number of modes available.
+
+        Raises
+        ------
+        ValueError
+            For k outside (0, 1].
+        """
         ka = as_array(k, "k", real=True)
         if ka.ndim != 0 or not 0 < ka <= 1:
             raise ValueError(f"the energy fraction k must satisfy 0 < k <= 1, got {k!r}")
@@ -205,7 +281,25 @@ class PODResult:
         return min(m, self.n_modes)
 
     def basis(self, m: int) -> np.ndarray:
-        """``R = [φ_1 … φ_m]`` ``(n, m)``, the first m POD modes (eqs. 11, 44)."""
+        """``R = [φ_1 … φ_m]``, the first m POD modes (eqs. 11, 44).
+
+        Parameters
+        ----------
+        m : int
+            The reduced order, 1 ≤ m ≤ the number of modes available.
+
+        Returns
+        -------
+        numpy.ndarray, (n, m)
+            A fresh copy of the modes.
+
+        Raises
+        ------
+        ValueError
+            For m out of range (beyond the modes that carry energy on the snapshot side).
+        MemoryError
+            When m modes of n DOFs would not fit.
+        """
         m = as_count(m, "m", 1, self.n)
         if m > self.n_modes:
             raise ValueError(
@@ -218,7 +312,7 @@ class PODResult:
 
     def without_noise(self, noise_variance: object) -> PODResult:
         """The POD of ``Ruu − diag(noise_variance)``: the correlation less that of
-        independent noise on each DOF (a number or ``(n,)``, in ``Ruu``'s units).
+        independent noise on each DOF.
 
         Rayleigh–Ritz on the span Q of these modes — ``QᵀRuuQ = diag(λ)``, so a
         k × k eigenproblem of ``diag(λ) − Qᵀ D Q`` — exact from the correlation
@@ -234,6 +328,24 @@ class PODResult:
         is sampling error, and the correction changes them little (measured on a
         rank-3 signal, 200–800 snapshots of 400–1000 DOFs: 3.37° → 3.37°, 1.60° →
         1.59°, even with the exact n × n correction).
+
+        Parameters
+        ----------
+        noise_variance : float or array_like, (n,)
+            The noise variance of each DOF, in ``Ruu``'s units, ≥ 0. Where it exceeds a
+            channel's measured mean square (``diag(Ruu)``, sampling error) it is clipped
+            there with a warning.
+
+        Returns
+        -------
+        PODResult
+            The corrected POD, with ``noise_variance`` set.
+
+        Raises
+        ------
+        ValueError
+            When this POD is already noise-corrected, or for a variance that is negative,
+            of the wrong shape, or more than twice a channel's mean square.
         """
         if self.noise_variance is not None:
             raise ValueError("this POD is already noise-corrected")
@@ -272,8 +384,22 @@ class PODResult:
     def project(self, X: object, m: int) -> np.ndarray:
         """Reduced coordinates ``Rᵀ X`` on each line (eqs. 12, 17–18, 45–46).
 
-        ``X`` is frequency- (or time-) first, ``(s, n)`` or ``(s, n, p)``; the result
-        is ``(s, m)`` or ``(s, m, p)``.
+        Parameters
+        ----------
+        X : array_like, (s, n) or (s, n, p)
+            Responses or forces, frequency- (or time-) first.
+        m : int
+            The reduced order: R is :meth:`basis` (m).
+
+        Returns
+        -------
+        numpy.ndarray, (s, m) or (s, m, p)
+            The reduced coordinates.
+
+        Raises
+        ------
+        ValueError
+            For m out of range or X of the wrong shape.
         """
         R = self.basis(m)
         Xa = as_array_nocopy(X, "X")
@@ -294,6 +420,22 @@ def pod_from_correlation(Ruu: object) -> PODResult:
     """Eigendecomposition of a symmetric positive semi-definite correlation matrix (eq. 5).
 
     Negative eigenvalues within round-off (above ``−1e-8 λ_max``) are set to zero.
+
+    Parameters
+    ----------
+    Ruu : array_like, real, (n, n)
+        The correlation matrix.
+
+    Returns
+    -------
+    PODResult
+        Every mode, from the correlation matrix.
+
+    Raises
+    ------
+    ValueError
+        For a matrix that is not square, is zero, is not symmetric (to 1e-10
+        relative) or has an eigenvalue below ``−1e-8 λ_max``.
     """
     R = as_array(Ruu, "Ruu", real=True)
     if R.ndim != 2 or R.shape[0] != R.shape[1] or R.shape[0] == 0:
@@ -343,13 +485,32 @@ def _choose(method: str, k: int, n: int) -> str:
 def pod(
     snapshots: object, method: str = "auto", noise_variance: object | None = None
 ) -> PODResult:
-    """POD of time snapshots ``(r, n)``: eigendecomposition of ``⟨u uᵀ⟩`` (eqs. 3, 5).
+    """POD of time snapshots: eigendecomposition of ``⟨u uᵀ⟩`` (eqs. 3, 5).
 
-    ``method``: ``"correlation"`` (n × n), ``"snapshots"`` (r × r Gram), or
-    ``"auto"``: the smaller of the two. ``noise_variance`` (a number or ``(n,)``):
-    the variance of independent noise on each response channel (e.g. from a
-    noise-floor record); the POD is then that of ``⟨u uᵀ⟩ − diag(noise_variance)``,
-    the noise-free correlation's estimate (see the module note).
+    Parameters
+    ----------
+    snapshots : array_like, real, (r, n)
+        Responses, time first.
+    method : {"auto", "correlation", "snapshots"}
+        ``"correlation"`` (n × n), ``"snapshots"`` (r × r Gram matrix), or
+        ``"auto"``: the smaller of the two.
+    noise_variance : float or array_like, (n,), optional
+        The variance of independent noise on each response channel (e.g. from a
+        noise-floor record); the POD is then that of ``⟨u uᵀ⟩ − diag(noise_variance)``,
+        the noise-free correlation's estimate (:meth:`PODResult.without_noise`).
+
+    Returns
+    -------
+    PODResult
+        The POD.
+
+    Raises
+    ------
+    ValueError
+        For malformed snapshots, an unknown ``method``, zero snapshots or a bad
+        ``noise_variance``.
+    MemoryError
+        When the chosen side's matrix would not fit.
     """
     u = as_array(snapshots, "snapshots", real=True)
     if u.ndim != 2 or u.shape[0] == 0 or u.shape[1] == 0:
@@ -364,9 +525,30 @@ def pod(
 def pod_from_frf(H: object, omega: object, method: str = "auto") -> PODResult:
     """POD of the band-limited white-noise correlation built from an FRF (eqs. 4, 5).
 
-    ``H`` ``(s, n, n_in)``: with more DOFs than the 2·s·n_in real snapshot columns
-    (a scan of many points) ``method="auto"`` uses the method of snapshots and
-    never forms an n × n (or (s, n, n)) array.
+    With more DOFs than the 2·s·n_in real snapshot columns (a scan of many points)
+    ``method="auto"`` uses the method of snapshots and never forms an n × n (or
+    (s, n, n)) array.
+
+    Parameters
+    ----------
+    H : array_like, complex, (s, n, n_in)
+        FRFs, frequency first.
+    omega : array_like, (s,)
+        Strictly increasing angular frequencies (rad/s), all > 0.
+    method : {"auto", "correlation", "snapshots"}
+        As for :func:`pod`.
+
+    Returns
+    -------
+    PODResult
+        The POD of :func:`correlation_from_frf`'s Ruu.
+
+    Raises
+    ------
+    ValueError
+        For malformed ``H`` or ``omega``, an unknown ``method`` or an FRF of zeros.
+    MemoryError
+        When the chosen side's matrix would not fit.
     """
     Ha, w = _check_frf(H, omega)
     s, n, p = Ha.shape
@@ -380,14 +562,36 @@ def pod_from_spectra(
 ) -> PODResult:
     """POD of ``⟨u uᵀ⟩`` over an r-sample record from its in-band real-FFT spectrum (Parseval).
 
-    ``X`` ``(s, n)`` (or ``(s, n, p)``, p records) are the lines of
-    ``numpy.fft.rfft`` of a history ``u`` ``(r, n)`` whose other lines are zero
-    (a band-limited record, as :func:`podid_rs.simulate_white_noise` makes),
-    strictly between 0 Hz and Nyquist; ``n_samples`` = r. Then
+    For the lines ``X`` of ``numpy.fft.rfft`` of a history ``u`` ``(r, n)`` whose
+    other lines are zero (a band-limited record, as :func:`podid_rs.simulate_white_noise`
+    makes), strictly between 0 Hz and Nyquist,
     ``⟨u uᵀ⟩ = (1/r) Σ_t u uᵀ = (2/r²) Σ_k Re(X_k X_kᴴ)``, so this equals
     ``pod(u)`` without the r × n history, from 2·s rows instead of r.
-    ``noise_variance``: as for :func:`pod` — the variance of each channel's noise
-    in the history (by Parseval, ``(2/r²) Σ_k E|N_k|²`` over its lines).
+
+    Parameters
+    ----------
+    X : array_like, complex, (s, n) or (s, n, p)
+        The in-band lines (p records).
+    n_samples : int
+        r, the record's samples, ≥ 2.
+    method : {"auto", "correlation", "snapshots"}
+        As for :func:`pod`.
+    noise_variance : float or array_like, (n,), optional
+        As for :func:`pod`: the variance of each channel's noise in the history (by
+        Parseval, ``(2/r²) Σ_k E|N_k|²`` over its lines).
+
+    Returns
+    -------
+    PODResult
+        The POD.
+
+    Raises
+    ------
+    ValueError
+        For malformed ``X`` or ``n_samples``, an unknown ``method``, a zero spectrum
+        or a bad ``noise_variance``.
+    MemoryError
+        When the chosen side's matrix would not fit.
     """
     Xa = as_array_nocopy(X, "X")
     if Xa.ndim == 2:

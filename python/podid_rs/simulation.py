@@ -22,14 +22,28 @@ from podid_rs.systems import SecondOrderSystem
 class Simulation:
     """Steady-state response of a system to band-limited white noise.
 
-    Time histories are time-first: ``t`` ``(r,)``, ``forces`` and ``response``
-    ``(r, n)``. ``omega`` ``(s,)`` (rad/s) are the FFT lines inside ``band_hz``;
-    ``force_spectrum`` and ``response_spectrum`` ``(s, n)`` are the real FFT of the
-    histories on those lines, exactly as :func:`spectra` returns them.
-
+    What :func:`simulate_white_noise` returns. Time histories are time-first.
     Without histories (large n, ``histories=False``) ``forces`` and ``response``
-    are ``None`` and the spectra are the synthesised ones themselves; everything
-    the POD needs is in them (:meth:`pod`, Parseval).
+    are None and the spectra are the synthesised ones themselves; everything the
+    POD needs is in them (:meth:`pod`, Parseval).
+
+    Attributes
+    ----------
+    t : numpy.ndarray, (r,)
+        Sample times (s).
+    forces, response : numpy.ndarray, (r, n), or None
+        The force and response histories, if kept.
+    omega : numpy.ndarray, (s,)
+        The FFT lines inside ``band_hz`` (rad/s).
+    force_spectrum, response_spectrum : numpy.ndarray, complex, (s, n)
+        The real FFT of the histories on those lines, exactly as :func:`spectra`
+        returns them (``F_n(ω)``, ``U_n(ω)`` of eqs. 45–46).
+    dt : float
+        Sampling interval (s).
+    band_hz : tuple of float
+        The forcing band (lo, hi) in Hz.
+    n_samples : int
+        Samples r of the record (the histories' length, kept or not).
     """
 
     t: np.ndarray
@@ -51,6 +65,23 @@ class Simulation:
 
         Computed from the in-band response spectrum (:func:`podid_rs.pod_from_spectra`),
         equal by Parseval to ``pod(self.response)`` but without the r × n history.
+
+        Parameters
+        ----------
+        method : {"auto", "correlation", "snapshots"}
+            As for :func:`podid_rs.pod`.
+
+        Returns
+        -------
+        PODResult
+            The POD.
+
+        Raises
+        ------
+        ValueError
+            For an unknown ``method``.
+        MemoryError
+            When the chosen side's matrix would not fit.
         """
         from .pod import pod_from_spectra
 
@@ -121,21 +152,47 @@ def simulate_white_noise(
     Gaussian with equal expected power on each line inside ``band_hz`` and zero
     outside; the response is synthesised exactly, ``U_k = H(ω_k) F_k`` (eq. 19),
     and both are brought back to time by the inverse real FFT, so there is no
-    transient and no leakage.
+    transient and no leakage. The one-sided force PSD is about
+    ``intensity / (hi − lo)`` per Hz, and the response correlation
+    ``⟨u uᵀ⟩ ≈ intensity / (2π (hi − lo)) · Ruu`` with ``Ruu`` from
+    :func:`podid_rs.pod.correlation_from_frf`.
 
-    ``intensity`` is the expected variance (mean square) of each force history,
-    in force units squared; the paper's "unit variance" is ``intensity=1``. The
-    one-sided force PSD is then about ``intensity / (hi − lo)`` per Hz, and the
-    response correlation ``⟨u uᵀ⟩ ≈ intensity / (2π (hi − lo)) · Ruu`` with ``Ruu``
-    from :func:`podid_rs.pod.correlation_from_frf`. The record has
-    ``r = round(duration / dt)`` samples; the line spacing is ``1 / (r dt)`` Hz.
+    Parameters
+    ----------
+    system : SecondOrderSystem
+        The structure.
+    band_hz : tuple of float
+        The forcing band (lo, hi) in Hz, ``0 < lo < hi <`` Nyquist, holding a line.
+    dt : float
+        Sampling interval (s), > 0.
+    duration : float
+        Record length (s): ``r = round(duration / dt)`` samples, at least 2; the line
+        spacing is ``1 / (r dt)`` Hz.
+    intensity : float
+        Expected variance (mean square) of each force history, in force units
+        squared; the paper's "unit variance" is 1.
+    seed : int, optional
+        Seed of the random forces.
+    histories : bool, optional
+        Keep the r × n time histories (True), or only the in-band spectra (False:
+        memory O(s·n), the way to simulate 10⁵ DOFs); None (default) keeps them when
+        they take at most 1 GB. The forces and the response are the same either way
+        (the same random draws; spectra equal to round-off).
+    threads : int, optional
+        Worker threads for the per-line solves of a sparse system.
 
-    ``histories``: keep the r × n time histories (``True``), or only the in-band
-    spectra (``False``: memory O(s·n), the way to simulate 10⁵ DOFs); ``None``
-    keeps them when they take at most 1 GB. The forces and the response are the
-    same either way (the same random draws; spectra equal to round-off).
-    ``threads``: worker threads for the per-line solves of a sparse system.
-    ``MemoryError`` before any work when the result would not fit.
+    Returns
+    -------
+    Simulation
+        The record, its in-band spectra and lines.
+
+    Raises
+    ------
+    ValueError
+        For a system that is not a :class:`SecondOrderSystem`, a missing or empty band,
+        a non-positive ``dt``, ``duration`` or ``intensity``, or fewer than 2 samples.
+    MemoryError
+        Before any work, when the result would not fit.
     """
     if not isinstance(system, SecondOrderSystem):
         raise ValueError(f"system must be a SecondOrderSystem, got {type(system).__name__}")
@@ -194,11 +251,33 @@ def simulate_white_noise(
 
 
 def add_noise(x: object, snr_db: float, seed: int | None = None, axis: int = 0) -> np.ndarray:
-    """Copy of ``x`` plus independent Gaussian noise at signal-to-noise ratio ``snr_db`` (eq. 53).
+    """A copy of ``x`` plus independent Gaussian noise at signal-to-noise ratio ``snr_db`` (eq. 53).
 
     Every channel (every index other than ``axis``) gets noise of variance
     ``σ_s² / 10^(snr_db / 10)``, with ``σ_s²`` that channel's own variance along
     ``axis``. Real input gets real noise, complex input circular complex noise.
+
+    Parameters
+    ----------
+    x : array_like
+        The signal, real or complex, non-empty.
+    snr_db : float
+        Signal-to-noise ratio in dB.
+    seed : int, optional
+        Seed of the noise.
+    axis : int
+        The axis along which each channel's variance is taken (time or frequency).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``x`` with noise, float64 or complex128.
+
+    Raises
+    ------
+    ValueError
+        For non-numeric or non-finite ``x``, an empty ``x``, a non-scalar ``snr_db``
+        or an ``axis`` out of range.
     """
     a = as_array(x, "x")
     snr = as_array(snr_db, "snr_db", real=True)
@@ -229,12 +308,32 @@ def add_noise(x: object, snr_db: float, seed: int | None = None, axis: int = 0) 
 def spectra(
     x: object, dt: float, band_hz: tuple[float, float] | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Real FFT of time histories ``x`` ``(r, n)`` along time → ``(omega (s,), X (s, n))``.
+    """Real FFT of time histories along time, on the lines of a band.
 
-    Keeps the lines inside ``band_hz`` (every line above 0 Hz when ``None``), the
-    same lines :func:`simulate_white_noise` uses, so that
+    The same lines :func:`simulate_white_noise` uses, so that
     ``spectra(sim.response, sim.dt, sim.band_hz)[1]`` equals ``sim.response_spectrum``.
     These are the ``U_n(ω)``, ``F_n(ω)`` of eqs. 45–46.
+
+    Parameters
+    ----------
+    x : array_like, real, (r, n)
+        Time histories, time first, r ≥ 2.
+    dt : float
+        Sampling interval (s), > 0.
+    band_hz : tuple of float, optional
+        The lines kept, (lo, hi) in Hz; None keeps every line above 0 Hz.
+
+    Returns
+    -------
+    omega : numpy.ndarray, (s,)
+        The lines kept (rad/s).
+    X : numpy.ndarray, complex, (s, n)
+        ``numpy.fft.rfft(x, axis=0)`` on those lines (unnormalised).
+
+    Raises
+    ------
+    ValueError
+        For malformed ``x`` or ``dt``, or a band outside (0, Nyquist) or without a line.
     """
     a = as_array(x, "x", real=True)
     if a.ndim != 2 or a.shape[0] < 2 or a.shape[1] == 0:
@@ -266,11 +365,36 @@ def frf_h1(
 ) -> tuple[np.ndarray, np.ndarray]:
     """H1 estimate of the FRF, ``H1(ω) = S_yx(ω) S_xx(ω)⁻¹``, by Welch averaging.
 
-    ``forces`` ``(r, n_in)`` and ``responses`` ``(r, n_out)``, or several records
-    ``(n_rec, r, ·)`` averaged together. Segments of ``nperseg`` samples
-    (default ``min(r, 256)``) overlap by half, are mean-removed and windowed, as in
-    ``scipy.signal.csd``. Returns ``omega`` ``(s,)`` (rad/s; lines in ``band_hz``,
-    or all above 0 Hz) and ``H`` ``(s, n_out, n_in)``.
+    Segments of ``nperseg`` samples overlap by half, are mean-removed and windowed,
+    as in ``scipy.signal.csd``; several records are averaged together.
+
+    Parameters
+    ----------
+    forces : array_like, real, (r, n_in) or (n_rec, r, n_in)
+        Force histories.
+    responses : array_like, real, (r, n_out) or (n_rec, r, n_out)
+        Response histories, with the forces' records and samples.
+    dt : float
+        Sampling interval (s), > 0.
+    nperseg : int, optional
+        Samples per segment, 2 … r (default ``min(r, 256)``).
+    band_hz : tuple of float, optional
+        The lines kept, (lo, hi) in Hz; None keeps every line above 0 Hz.
+    window : str
+        A ``scipy.signal.get_window`` name (default ``"hann"``).
+
+    Returns
+    -------
+    omega : numpy.ndarray, (s,)
+        The lines (rad/s).
+    H : numpy.ndarray, complex, (s, n_out, n_in)
+        The FRF estimate.
+
+    Raises
+    ------
+    ValueError
+        For malformed histories, records or samples that differ, fewer averaged
+        segments than inputs, or a band outside (0, Nyquist) or without a line.
     """
     x = _records(forces, "forces")
     y = _records(responses, "responses")

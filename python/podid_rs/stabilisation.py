@@ -53,6 +53,18 @@ def is_physical(model: IdentificationResult, rtol: float = PHYSICAL_RTOL) -> boo
 
     Symmetric: ‖X − Xᵀ‖ ≤ rtol ‖X‖; definiteness from the eigenvalues of the
     symmetric parts (C's smallest may be −rtol × its largest magnitude).
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        The model (anything with dense ``M``, ``C``, ``K``).
+    rtol : float
+        The relative tolerance of both tests.
+
+    Returns
+    -------
+    bool
+        True for a physical model (then every pole is stable).
     """
     mats = (model.M, model.C, model.K)
     if any(np.linalg.norm(X - X.T) > rtol * np.linalg.norm(X) for X in mats):
@@ -66,10 +78,25 @@ def is_physical(model: IdentificationResult, rtol: float = PHYSICAL_RTOL) -> boo
 class StabilisationOrder:
     """One order of the chart: the model's modes and how each is marked.
 
-    ``model`` is what ``fit(m)`` returned; ``modes`` its
-    :func:`podid_rs.modal_parameters` (sorted by |λ|); ``stable``,
-    ``consistent_f``, ``consistent`` are ``(k,)`` flags per mode; ``physical``
-    the model's; ``notes`` the warnings its fit raised.
+    Attributes
+    ----------
+    m : int
+        The order.
+    model : IdentificationResult
+        What ``fit(m)`` returned.
+    modes : ModalParameters
+        Its :func:`podid_rs.modal_parameters` (sorted by |λ|).
+    physical : bool
+        Whether the model is physical (:func:`is_physical`).
+    consistent_f, consistent : numpy.ndarray of bool, (k,)
+        Per mode: the nearest pole of order m − 1 is within ``f_tol`` in frequency;
+        and also within ``zeta_tol`` in damping ratio.
+    notes : tuple of str
+        The warnings its fit raised.
+    stable : numpy.ndarray of bool, (k,)
+        Per mode: Re λ < 0.
+    oscillatory : numpy.ndarray of bool, (k,)
+        Per mode: a complex pole (a mode); real poles are overdamped roots.
     """
 
     m: int
@@ -94,9 +121,25 @@ class StabilisationOrder:
 class StabilisationChart:
     """Models of orders ``m_min … m_max`` and the data they were fitted to.
 
-    ``freq_hz`` and ``summed_frf`` (Σ |U| over measured DOFs and load cases, in
-    receptance) are the background of the plot; ``chosen_m`` the order a command
-    picked (marked on the chart) or None.
+    What :func:`stabilisation_chart` returns; :func:`podid_rs.plot_stabilisation`
+    draws it.
+
+    Attributes
+    ----------
+    orders : tuple of StabilisationOrder
+        Each order's model and marked poles.
+    freq_hz : numpy.ndarray, (s,)
+        The data's lines (Hz), the plot's abscissa.
+    summed_frf : numpy.ndarray, (s,)
+        Σ |U| over measured DOFs and load cases, in receptance: the plot's background.
+    is_frf : bool
+        Whether the data are FRFs.
+    f_tol, zeta_tol : float
+        The consistency tolerances (relative) in frequency and damping ratio.
+    chosen_m : int or None
+        The order a command picked (marked on the chart).
+    band_hz : tuple of float
+        The data's first and last line (Hz).
     """
 
     orders: tuple[StabilisationOrder, ...]
@@ -112,13 +155,38 @@ class StabilisationChart:
         return float(self.freq_hz[0]), float(self.freq_hz[-1])
 
     def order(self, m: int) -> StabilisationOrder:
+        """One order of the chart.
+
+        Parameters
+        ----------
+        m : int
+            The order.
+
+        Returns
+        -------
+        StabilisationOrder
+            Its model and marked poles.
+
+        Raises
+        ------
+        KeyError
+            When the chart has no order m.
+        """
         for o in self.orders:
             if o.m == m:
                 return o
         raise KeyError(f"the chart has no order m = {m}")
 
     def rows(self) -> list[dict[str, object]]:
-        """One row per pole: order, mode, f, ζ, λ and the marks (CSV-ready)."""
+        """One row per pole: order, mode, f, ζ, λ and the marks (CSV-ready).
+
+        Returns
+        -------
+        list of dict
+            Keys ``m``, ``mode``, ``f_hz``, ``zeta``, ``re_lambda``, ``im_lambda``,
+            ``stable``, ``physical``, ``consistent_f``, ``consistent``, ``real_pole``,
+            ``in_band``, ``chosen``.
+        """
         lo, hi = self.band_hz
         out: list[dict[str, object]] = []
         for o in self.orders:
@@ -142,7 +210,18 @@ class StabilisationChart:
         return out
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write :meth:`rows` to ``path`` (header first line, full precision)."""
+        """Write :meth:`rows` as CSV (header first line, full precision).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The file, replaced if it exists.
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+        """
         rows = self.rows()
         path = Path(path)
         with path.open("w", newline="") as fh:
@@ -201,11 +280,44 @@ def stabilisation_chart(
 ) -> StabilisationChart:
     """Fit models of order ``m_min … m_max`` to ``data`` and mark their poles.
 
-    ``fit(m)`` returns the order-m :class:`IdentificationResult`; default
-    :func:`pod_fit` (the paper's estimator, ``symmetric=True``, on the POD basis
-    of ``data``, so m ≤ n measured DOFs). ``chosen_m`` is only marked. Warnings a
-    fit raises are kept in that order's ``notes``; an error names the order.
-    ``progress`` shows a tqdm bar over the orders (on a terminal).
+    Each pole is marked stable (Re λ < 0), consistent with the nearest pole of the
+    previous order in frequency (``consistent_f``) and also in damping ratio
+    (``consistent``); each model physical or not (:func:`is_physical`).
+
+    Parameters
+    ----------
+    data : MeasuredData
+        The measurement.
+    m_max : int
+        The highest order, ≥ ``m_min`` (≤ n with the default ``fit``).
+    fit : callable, optional
+        ``fit(m)`` returns the order-m :class:`IdentificationResult`; default
+        :func:`pod_fit` (the paper's estimator, eq. 49, ``symmetric=True``, on the POD
+        basis of ``data``).
+    m_min : int
+        The lowest order, ≥ 1.
+    f_tol, zeta_tol : float
+        Consistency tolerances, relative (defaults 1 % and 5 %, the usual LSCF ones).
+    chosen_m : int, optional
+        An order to mark as chosen (only marked).
+    progress : bool
+        Show a tqdm bar over the orders (on a terminal).
+
+    Returns
+    -------
+    StabilisationChart
+        Every order's modes and marks; warnings a fit raised are in that order's
+        ``notes``.
+
+    Raises
+    ------
+    ValueError
+        For data that are not :class:`MeasuredData`, orders or tolerances out of
+        range, a ``fit`` that is not callable or returns something other than an
+        order-m result, and a ``ValueError`` of a fit (its message then names the
+        order).
+    MemoryError
+        A fit's, its message naming the order.
     """
     from ._progress import progress_bar  # tqdm, imported on first use
 

@@ -66,10 +66,28 @@ def _indices(idx: object, n: int, name: str) -> np.ndarray:
 class SecondOrderSystem:
     """A viscously damped linear system ``M ü + C u̇ + K u = f`` (paper eq. 1).
 
-    ``M``, ``C`` and ``K`` are real square matrices of equal shape, NumPy arrays
-    or scipy.sparse matrices; they need not be symmetric and the damping need not
-    be proportional. They are stored as copies: dense as float64 arrays, and as
+    The matrices need not be symmetric and the damping need not be proportional.
+    They are stored as copies: dense as float64 arrays, and as
     ``scipy.sparse.csr_array`` as soon as any of the three is sparse.
+
+    Parameters
+    ----------
+    M, C, K : array_like or scipy.sparse matrix, (n, n)
+        Mass, damping and stiffness: real, finite, square and of one shape.
+
+    Attributes
+    ----------
+    M, C, K : numpy.ndarray or scipy.sparse.csr_array
+        The stored copies.
+    n : int
+        Number of degrees of freedom.
+    is_sparse : bool
+        True when M, C, K are held as scipy.sparse matrices.
+
+    Raises
+    ------
+    ValueError
+        A matrix that is not real, finite and square, or shapes that differ.
     """
 
     def __init__(self, M: object, C: object, K: object) -> None:
@@ -101,7 +119,18 @@ class SecondOrderSystem:
         return f"SecondOrderSystem(n={self.n}{', sparse' if self.is_sparse else ''})"
 
     def todense(self) -> SecondOrderSystem:
-        """The same system with dense M, C, K (``MemoryError`` if 3n² doubles do not fit)."""
+        """The same system with dense M, C, K.
+
+        Returns
+        -------
+        SecondOrderSystem
+            A dense copy (a plain copy when the system is dense already).
+
+        Raises
+        ------
+        MemoryError
+            When the 3n² doubles of a sparse system's dense copy would not fit.
+        """
         if not self.is_sparse:
             return SecondOrderSystem(self.M, self.C, self.K)
         require_memory(3 * FLOAT_BYTES * self.n**2, f"a dense copy of a {self.n}-DOF system")
@@ -118,9 +147,26 @@ class SecondOrderSystem:
         return as_count(threads, "threads", 1, 1024)
 
     def dynamic_stiffness(self, omega: object) -> np.ndarray:
-        """``Z(ω) = −ω²M + iωC + K`` for each line, shape ``(s, n, n)`` complex (eq. 19).
+        """The dynamic stiffness ``Z(ω) = −ω²M + iωC + K`` on each line (eq. 19).
 
-        Dense even for a sparse system (``MemoryError`` if it does not fit).
+        Dense even for a sparse system.
+
+        Parameters
+        ----------
+        omega : array_like, (s,)
+            Angular frequencies in rad/s, all > 0.
+
+        Returns
+        -------
+        numpy.ndarray, complex, (s, n, n)
+            Z at each line.
+
+        Raises
+        ------
+        ValueError
+            For malformed ``omega``.
+        MemoryError
+            When the dense ``(s, n, n)`` array would not fit.
         """
         w = as_omega(omega)
         require_memory(
@@ -140,13 +186,33 @@ class SecondOrderSystem:
         *,
         threads: int | None = None,
     ) -> np.ndarray:
-        """Receptance ``H(ω) = Z(ω)⁻¹`` (the transfer matrix of eq. 4), ``(s, n_rows, n_cols)``.
+        """The receptance ``H(ω) = Z(ω)⁻¹`` (the transfer matrix of eq. 4), or some of its entries.
 
-        ``rows`` and ``cols`` (0-based DOF indices, default all) pick the entries:
-        only ``len(cols)`` unit loads are solved per line and only the ``rows``
-        kept, so a few entries of a 10⁵-DOF model cost O(n) per line. The full
-        ``(s, n, n)`` array is refused with ``MemoryError`` when it would not fit.
-        ``threads``: worker threads over lines (default: all cores for n ≥ 2000).
+        Only ``len(cols)`` unit loads are solved per line and only the ``rows`` kept, so
+        a few entries of a 10⁵-DOF model cost O(n) per line.
+
+        Parameters
+        ----------
+        omega : array_like, (s,)
+            Angular frequencies in rad/s, all > 0.
+        rows, cols : sequence of int, optional
+            0-based DOF indices of the entries wanted (default: all).
+        threads : int, optional
+            Worker threads over the lines of a sparse system (default: all cores for
+            n ≥ 2000, else 1).
+
+        Returns
+        -------
+        numpy.ndarray, complex, (s, len(rows), len(cols))
+            ``H[i, j, k]`` = response of DOF ``rows[j]`` to a unit force on DOF ``cols[k]``
+            at ``omega[i]``.
+
+        Raises
+        ------
+        ValueError
+            For malformed ``omega``, indices outside the DOFs, or a singular Z(ω) on a line.
+        MemoryError
+            When the result would not fit (ask for the entries you need).
         """
         w = as_omega(omega)
         r = _indices(rows, self.n, "rows")
@@ -185,11 +251,32 @@ class SecondOrderSystem:
         return [slice(i, min(i + step, s)) for i in range(0, s, step)]
 
     def response(self, omega: object, F: object, *, threads: int | None = None) -> np.ndarray:
-        """Steady-state response ``U = Z(ω)⁻¹ F`` per line (eq. 19).
+        """The steady-state response ``U = Z(ω)⁻¹ F`` on each line (eq. 19).
 
-        ``F`` is ``(s, n)`` or ``(s, n, p)`` (p load cases); ``U`` has the same shape.
         Lines are solved in chunks (dense) or one by one on ``threads`` threads
-        (sparse), so memory beyond U stays bounded.
+        (sparse), so the memory beyond U stays bounded.
+
+        Parameters
+        ----------
+        omega : array_like, (s,)
+            Angular frequencies in rad/s, all > 0.
+        F : array_like, (s, n) or (s, n, p)
+            Force amplitudes per line (p load cases).
+        threads : int, optional
+            Worker threads over the lines of a sparse system (default: all cores for
+            n ≥ 2000, else 1).
+
+        Returns
+        -------
+        numpy.ndarray, complex
+            U, of the shape of ``F``.
+
+        Raises
+        ------
+        ValueError
+            For malformed ``omega`` or ``F``, or a singular Z(ω) on a line.
+        MemoryError
+            When U would not fit.
         """
         w = as_omega(omega)
         shape = np.shape(F)
@@ -218,9 +305,22 @@ class SecondOrderSystem:
         return U[:, :, 0] if Fa.ndim == 2 else U
 
     def project(self, R: object) -> SecondOrderSystem:
-        """Reduced system ``(RᵀMR, RᵀCR, RᵀKR)`` on the basis ``R`` ``(n, m)`` (eqs. 14–16).
+        """The reduced system ``(RᵀMR, RᵀCR, RᵀKR)`` on a basis R (eqs. 14–16).
 
-        Dense m × m matrices; for a sparse system the products are sparse × dense.
+        Parameters
+        ----------
+        R : array_like, real, (n, m)
+            The basis, e.g. the first m POD modes.
+
+        Returns
+        -------
+        SecondOrderSystem
+            Dense m × m matrices (for a sparse system the products are sparse × dense).
+
+        Raises
+        ------
+        ValueError
+            When R is not a real, finite (n, m) array.
         """
         Ra = as_array(R, "R", real=True)
         if Ra.ndim != 2 or Ra.shape[0] != self.n or Ra.shape[1] == 0:
@@ -259,10 +359,34 @@ def mass_spring_chain(
 
     Masses ``m1`` for the first ``n // 2`` DOFs and ``m2`` for the rest (eq. 51),
     ``K = ku · tridiag(−1, 2, −1)`` (eq. 52), Rayleigh damping ``C = a0 M + a1 K``.
-    ``sparse=True``: M, C, K are ``scipy.sparse.csr_array`` and every line is one
-    O(n) tridiagonal solve; ``False``: dense arrays (3n² doubles); ``None``
-    (default): sparse above :data:`DENSE_CHAIN_MAX` DOFs. Both hold the same
-    entries, bit for bit.
+    Dense and sparse chains hold the same entries, bit for bit.
+
+    Parameters
+    ----------
+    n : int
+        Number of masses (DOFs), ≥ 1; the paper's is 100.
+    m1, m2 : float
+        The two masses, > 0.
+    ku : float
+        Spring stiffness, > 0.
+    a0, a1 : float
+        Rayleigh coefficients, ≥ 0.
+    sparse : bool, optional
+        True: ``scipy.sparse.csr_array`` matrices, each line one O(n) tridiagonal
+        solve; False: dense arrays (3n² doubles); None (default): sparse above
+        :data:`DENSE_CHAIN_MAX` DOFs.
+
+    Returns
+    -------
+    SecondOrderSystem
+        The chain.
+
+    Raises
+    ------
+    ValueError
+        For a count or a parameter out of range.
+    MemoryError
+        When the matrices would not fit.
     """
     n = as_count(n, "n", 1)
     m1, m2, ku, a0, a1 = _check_chain_parameters(m1, m2, ku, a0, a1)
@@ -303,10 +427,35 @@ def mass_spring_lattice(
     ``C = a0 M + a1 K`` (Rayleigh). With uniform properties the natural
     frequencies are ``√(k/mass) · 2 √(sin²(pπ/2(nx+1)) + sin²(qπ/2(ny+1)))`` —
     many close, often repeated, modes in any band: the mid-frequency regime.
-    ``mass_variation`` and ``stiffness_variation`` (fractions in [0, 1)) make
-    every mass and every spring independently uniform in ``(1 ± variation)``
-    times its nominal value (reproducibly with ``seed``), which splits the
-    repeated modes. Sparse (``scipy.sparse.csr_array``), five entries per row.
+
+    Parameters
+    ----------
+    nx, ny : int
+        Masses along x and y, ≥ 1 each.
+    mass : float
+        Nominal mass, > 0.
+    k : float
+        Nominal spring stiffness, > 0.
+    a0, a1 : float
+        Rayleigh coefficients, ≥ 0.
+    mass_variation, stiffness_variation : float
+        Fractions in [0, 1): every mass and every spring is drawn independently,
+        uniform in ``(1 ± variation)`` times its nominal value, which splits the
+        repeated modes.
+    seed : int, optional
+        Seed of those draws (reproducible lattices).
+
+    Returns
+    -------
+    SecondOrderSystem
+        The lattice, sparse (``scipy.sparse.csr_array``), five entries per row.
+
+    Raises
+    ------
+    ValueError
+        For a count or a parameter out of range.
+    MemoryError
+        When the matrices would not fit.
     """
     nx, ny = as_count(nx, "nx", 1), as_count(ny, "ny", 1)
     mass, k = as_scalar(mass, "mass"), as_scalar(k, "k")

@@ -36,19 +36,26 @@ def identify(
 
     Parameters
     ----------
-    U, F : complex arrays ``(s, m)`` or ``(s, m, p)``
+    U, F : array_like, complex, (s, m) or (s, m, p)
         Reduced responses and forces (eqs. 45–46), frequency-first, p load cases.
-    omega : ``(s,)`` angular frequencies in rad/s, all > 0.
-    lam : float, (λ_M, λ_C, λ_K), or a rule ``"lcurve"``, ``"gcv"``, ``"discrepancy"``
-        Symmetry regularisation in the paper's units (eq. 40); 0 = plain least squares.
-        A rule chooses one common λ (paper §4.2, :mod:`podid_rs.identification.regularisation`); the
-        result's ``lam`` holds it and ``info["lambda_curve"]`` the whole curve.
-    symmetric : solve the exact λ → ∞ limit (M, C, K exactly symmetric).
-    backend : ``"rust"`` (default) or ``"numpy"``, the same equations either way.
-    threads : worker threads for the Rust backend (None = all cores).
-    noise, snr_db : the noise on U for ``lam="discrepancy"`` (at most one): RMS σ per
-        entry, or 10 log10(mean |U|² / σ²).
-    solver : ``"direct"`` (dense normal matrix, Cholesky), ``"cg"`` (matrix-free
+    omega : array_like, (s,)
+        Angular frequencies in rad/s, all > 0.
+    lam : float, (λ_M, λ_C, λ_K), or {"lcurve", "gcv", "discrepancy"}
+        Symmetry regularisation in the paper's units (eq. 40); 0 = plain least
+        squares. A rule chooses one common λ (paper §4.2,
+        :mod:`podid_rs.identification.regularisation`); the result's ``lam`` holds
+        it and ``info["lambda_curve"]`` the whole curve.
+    symmetric : bool
+        Solve the exact λ → ∞ limit (M, C, K exactly symmetric).
+    backend : {"rust", "numpy"}
+        The same equations either way; ``"rust"`` (default) is faster.
+    threads : int, optional
+        Worker threads for the Rust backend (None = all cores).
+    noise, snr_db : float, optional
+        The noise on U for ``lam="discrepancy"`` (at most one): RMS σ per entry, or
+        10 log10(mean |U|² / σ²).
+    solver : {"auto", "direct", "cg"}
+        ``"direct"`` (dense normal matrix, Cholesky), ``"cg"`` (matrix-free
         preconditioned conjugate gradients, Rust backend only: O(m²) memory, about
         18m³ flops per iteration) or ``"auto"``: direct when the problem is
         unregularised (a 3m×3m system), or when it has at most
@@ -65,22 +72,43 @@ def identify(
         problem has at most ``AUTO_FALLBACK_MAX_UNKNOWNS`` = 4800 unknowns, ``auto``
         redoes it by the direct path (``info["stalled_cg"]`` then says what CG
         reached).
-    tol : CG stops when the relative residual of the scaled normal equations is
+    tol : float
+        CG stops when the relative residual of the scaled normal equations is
         ≤ ``tol`` (default ``CG_TOL`` = 1e-11, which matched the direct answer to
         3e-9 in our tests).
-    max_iter : CG iteration limit (default 10 000).
-    progress : CG only: ``True`` draws a tqdm progress bar (iterations, residual)
-        on stderr when it is a terminal; a callable is called as
-        ``progress(iteration, residual)`` about every 0.1 s and after the last
-        iteration (residual: the iteration's recursively updated one). Ctrl-C,
-        or an exception raised by the callable, stops the solve and propagates.
+    max_iter : int
+        CG iteration limit (default 10 000).
+    progress : bool or callable
+        CG only: ``True`` draws a tqdm progress bar (iterations, residual) on stderr
+        when it is a terminal; a callable is called as ``progress(iteration,
+        residual)`` about every 0.1 s and after the last iteration (residual: the
+        iteration's recursively updated one). Ctrl-C, or an exception raised by the
+        callable, stops the solve and propagates.
 
-    Raises ``ValueError`` for malformed data or options or a problem with fewer
-    equations than unknowns, ``MemoryError`` when the chosen solver's memory would
-    not fit. A numerically singular problem (direct path) gives the minimum-norm
-    answer and a :class:`RankDeficientWarning` stating the rank; CG that stops at
-    ``max_iter`` (or at its attainable accuracy) above ``tol`` returns its
-    answer with a :class:`ConvergenceWarning` stating the achieved residual.
+    Returns
+    -------
+    IdentificationResult
+        M, C, K and what the solver saw (method, rank, residual ‖Ax − y‖ of eq. 28).
+
+    Raises
+    ------
+    ValueError
+        For malformed data or options, a problem with fewer equations than
+        unknowns, ``noise``/``snr_db`` without ``lam="discrepancy"``, or a rule with
+        ``symmetric=True``.
+    MemoryError
+        When the chosen solver's memory would not fit.
+
+    Warns
+    -----
+    RankDeficientWarning
+        A numerically singular problem (direct path): the minimum-norm answer is
+        returned, and the warning states the rank.
+    ConvergenceWarning
+        CG stopped at ``max_iter`` (or at its attainable accuracy) above ``tol``: its
+        answer is returned, and the warning states the achieved residual.
+    LambdaSelectionWarning
+        A rule could not choose λ cleanly (:class:`NoCornerWarning` for the L-curve).
     """
     if isinstance(lam, str):
         return identify_with_rule(

@@ -70,10 +70,22 @@ TRIAL_ITER = 10
 class OrderFit:
     """One order of the sweep: its refined model (fitted on the training lines) and scores.
 
-    ``train_db``/``test_db`` are median |20 log10(|H_model|/|H_measured|)| over the
-    training / held-out lines and every measured DOF and input (physical
-    coordinates, R H_m Rᵀ); ``start`` says which start won ("continuation" or
-    "paper estimator"); ``stable`` whether every mode has Re λ < 0.
+    Attributes
+    ----------
+    m : int
+        The order.
+    model : IdentificationResult
+        The refined model of order m, fitted on the training lines.
+    train_db, test_db : float
+        Median |20 log10(|H_model|/|H_measured|)| over the training / held-out lines
+        and every measured DOF and input (physical coordinates, R H_m Rᵀ).
+    start : str
+        Which start won (``"continuation"``, ``"residual peak"``, ``"paper
+        estimator"``, …).
+    stable : bool
+        Whether every mode has Re λ < 0.
+    seconds : float
+        Wall time of the order.
     """
 
     m: int
@@ -87,8 +99,19 @@ class OrderFit:
 
 @dataclass(frozen=True)
 class OrderSweep:
-    """What :func:`sweep_orders` tried and chose: ``fits`` per order, the ``chosen`` m
-    and the ``reason`` in words, the held-out lines (a mask over the data's lines)."""
+    """What :func:`sweep_orders` tried and chose.
+
+    Attributes
+    ----------
+    fits : tuple of OrderFit
+        Every order fitted, ascending.
+    chosen : int
+        The chosen order m.
+    reason : str
+        Why, in words.
+    test_lines : numpy.ndarray of bool, (s,)
+        The held-out lines (a mask over the data's lines).
+    """
 
     fits: tuple[OrderFit, ...]
     chosen: int
@@ -96,13 +119,37 @@ class OrderSweep:
     test_lines: np.ndarray = field(repr=False)
 
     def fit(self, m: int) -> OrderFit:
+        """The fit of one order.
+
+        Parameters
+        ----------
+        m : int
+            The order.
+
+        Returns
+        -------
+        OrderFit
+            Its model and scores.
+
+        Raises
+        ------
+        KeyError
+            When order m was not fitted.
+        """
         for f in self.fits:
             if f.m == m:
                 return f
         raise KeyError(f"order {m} was not fitted (orders {[f.m for f in self.fits]})")
 
     def table(self) -> str:
-        """The sweep as a Markdown table."""
+        """The sweep as a Markdown table.
+
+        Returns
+        -------
+        str
+            One row per order (held-out and training median dB, start, stability, time),
+            the chosen one marked.
+        """
         lines = [
             "| m | held-out median dB | training median dB | start | stable | seconds |",
             "|---:|---:|---:|:---|:---|---:|",
@@ -252,13 +299,49 @@ def sweep_orders(
 ) -> OrderSweep:
     """Fit output-error models of order 1, 2, … and choose m by held-out lines.
 
-    ``U_n`` ``(s, n, p)`` are the measured responses on the n DOFs, ``F_n``
-    ``(s, n, p)`` the forces on them (zero off the driven DOFs), ``omega`` ``(s,)``
-    rad/s, ``pod_result`` the POD of the responses (its first m modes are the basis
-    of order m). With ``m`` given the sweep runs up to it and chooses it; else up to
-    ``m_max`` (default: the number of POD modes with energy, at most 40), stopping
-    early after ``patience`` orders without progress. ``progress(m, fit)`` is called
-    after every order.
+    Every ``holdout``-th line is left out of the fits (module docstring); order m
+    starts from order m − 1 by continuation, and the sweep stops early after
+    ``patience`` orders without progress (unless ``m`` is given).
+
+    Parameters
+    ----------
+    U_n : array_like, complex, (s, n, p)
+        The measured responses on the n DOFs.
+    F_n : array_like, complex, (s, n, p)
+        The forces on them, zero off the driven DOFs.
+    omega : array_like, (s,)
+        Angular frequencies (rad/s).
+    pod_result : PODResult
+        The POD of the responses: its first m modes are the basis of order m.
+    m : int, optional
+        The order to reach and choose; 1 ≤ m ≤ the POD modes with energy.
+    m_max : int, optional
+        Largest order tried without ``m`` (default: the number of POD modes with
+        energy, at most 40).
+    holdout : int
+        Every ``holdout``-th line is held out, ≥ 2.
+    tolerance : float
+        Orders within this fraction of the best held-out error count as equally
+        good: the smallest of them is chosen (0: the best).
+    patience : int
+        Orders in a row without a 3 % better held-out error before the sweep stops.
+    max_iter : int
+        Levenberg–Marquardt steps per order.
+    progress : callable, optional
+        Called as ``progress(m, fit)`` after every order.
+    threads : int, optional
+        Worker threads of the refinement (None = all cores).
+
+    Returns
+    -------
+    OrderSweep
+        Every order's fit and scores, the chosen m and why.
+
+    Raises
+    ------
+    ValueError
+        For ``holdout`` < 2, too few lines to hold some out, ``m`` out of range, or
+        when no order could be fitted.
     """
     s, n, p = U_n.shape
     if holdout < 2:
@@ -388,7 +471,7 @@ def final_fit(
     progress: bool | Callable[[int, float], object] = False,
     log_magnitude: bool = True,
 ) -> tuple[IdentificationResult, np.ndarray]:
-    """The chosen order refitted on every line from its held-out fit: (model, basis R).
+    """The chosen order refitted on every line from its held-out fit.
 
     Two passes, each kept only if it lowers the median |dB| error over every line:
 
@@ -401,7 +484,35 @@ def final_fit(
        every entry alike (the beam at 20–800 Hz: median 1.48 → 1.33 dB, 95th percentile
        8.7 → 6.2 dB).
 
-    ``info["refinement"]["final_refit"]`` says what was kept and why.
+    Parameters
+    ----------
+    sweep : OrderSweep
+        The sweep whose ``chosen`` order is refitted.
+    U_n, F_n, omega : array_like
+        The data the sweep saw (as for :func:`sweep_orders`).
+    pod_result : PODResult
+        The POD the sweep used.
+    max_iter : int
+        Levenberg–Marquardt steps per pass.
+    threads : int, optional
+        Worker threads of the refinement (None = all cores).
+    progress : bool or callable
+        As for :func:`podid_rs.refine`.
+    log_magnitude : bool
+        Run the second, log-magnitude pass.
+
+    Returns
+    -------
+    model : IdentificationResult
+        The refined model; ``info["refinement"]["final_refit"]`` says what was kept
+        and why.
+    R : numpy.ndarray, (n, m)
+        Its basis, the first m POD modes.
+
+    Raises
+    ------
+    ValueError
+        As for :func:`podid_rs.refine` (e.g. data that do not match the sweep's).
     """
     m = sweep.chosen
     R = pod_result.basis(m)

@@ -51,7 +51,13 @@ REFINE_FTOL = 1e-5
 
 
 class StartWarning(UserWarning):
-    """The start model of :func:`refine` had to be changed, or is of doubtful quality."""
+    """The start model of :func:`refine` had to be changed, or is of doubtful quality.
+
+    Parameters
+    ----------
+    message : str
+        What was changed (the eigenvalues raised), or why the start is doubtful.
+    """
 
 
 class _RefineBar:
@@ -286,77 +292,106 @@ def refine(
 
     Parameters
     ----------
-    model : the start — an :class:`IdentificationResult` (e.g. of
-        ``identify(U, F, omega, symmetric=True)``), a :class:`SecondOrderSystem` or
-        ``(M, C, K)``. One that is not physical is first made so, M, K ≻ 0 and
-        C ⪰ 0, by :func:`physical_start` (a :class:`StartWarning` says what it changed).
-    U, F : complex ``(s, m)`` or ``(s, m, p)`` reduced responses and forces (eqs.
-        45–46), frequency-first — or, with ``basis``, ``(s, n[, p])`` on the n
-        measured DOFs, projected here (``Rᵀ U``, ``Rᵀ F``).
-    omega : ``(s,)`` angular frequencies (rad/s), all > 0.
-    weights : ``"relative"`` (1/‖u‖ per column, default), ``"uniform"``, or an
-        array: ``(s,)`` per line, ``(s, p)`` per column, or with ``basis`` per
-        measured entry ``(s, n)``/``(s, n, p)``. Non-negative.
-    basis : R ``(n, m)`` with orthonormal columns (the POD modes), when U, F are
-        given on the measured DOFs.
-    max_iter, ftol : at most ``max_iter`` Levenberg–Marquardt steps; stop when ten
-        accepted steps together lower the cost by less than 10·``ftol`` relative.
-    log_diagonal : diagonals of L_M, L_K as exp(θ) (M, K ≻ 0 for every iterate).
-    progress : ``True`` draws a progress line on stderr; a callable is called as
+    model : IdentificationResult, SecondOrderSystem or tuple (M, C, K)
+        The start, e.g. ``identify(U, F, omega, symmetric=True)``. One that is not
+        physical is first made so, M, K ≻ 0 and C ⪰ 0, by :func:`physical_start`
+        (a :class:`StartWarning` says what it changed).
+    U, F : array_like, complex, (s, m) or (s, m, p)
+        Reduced responses and forces (eqs. 45–46), frequency-first — or, with
+        ``basis``, ``(s, n[, p])`` on the n measured DOFs, projected here
+        (``Rᵀ U``, ``Rᵀ F``).
+    omega : array_like, (s,)
+        Angular frequencies (rad/s), all > 0.
+    weights : {"relative", "uniform"} or array_like
+        ``"relative"`` (1/‖u‖ per column, default), ``"uniform"``, or an array:
+        ``(s,)`` per line, ``(s, p)`` per column, or with ``basis`` per measured
+        entry ``(s, n)``/``(s, n, p)``. Non-negative.
+    basis : array_like, (n, m), optional
+        R with orthonormal columns (the POD modes), when U, F are given on the
+        measured DOFs.
+    max_iter, ftol : int, float
+        At most ``max_iter`` Levenberg–Marquardt steps; stop when ten accepted
+        steps together lower the cost by less than 10·``ftol`` relative.
+    log_diagonal : bool
+        Diagonals of L_M, L_K as exp(θ) (M, K ≻ 0 for every iterate).
+    progress : bool or callable
+        ``True`` draws a progress line on stderr; a callable is called as
         ``progress(iteration, cost)``. Ctrl-C stops the refinement and propagates.
-    threads : worker threads (None = all cores).
-    solver : how each Gauss–Newton step is solved: ``"dense"`` forms and factors the
-        normal matrix (fastest for small m, but (3m(m+1)/2)² doubles), ``"matrix-free"``
-        runs preconditioned CG on products line by line (memory O(s·m²)), ``"auto"``
-        (default) dense up to m = 40, matrix-free beyond (measured:
-        ``benches/bench_refine.py --crossover``). Both reach the same model.
-    objective : ``"complex"`` (default) minimises Σ‖W(x − u)‖², the complex output
-        error; ``"log-magnitude"`` minimises Σ w² (ln|y| − ln|u|)² over the measured
+    threads : int, optional
+        Worker threads (None = all cores).
+    solver : {"auto", "dense", "matrix-free"}
+        How each Gauss–Newton step is solved: ``"dense"`` forms and factors the
+        normal matrix (fastest for small m, but (3m(m+1)/2)² doubles),
+        ``"matrix-free"`` runs preconditioned CG on products line by line (memory
+        O(s·m²)), ``"auto"`` (default) dense up to m = 40, matrix-free beyond
+        (measured: ``benches/bench_refine.py --crossover``). Both reach the same
+        model.
+    objective : {"complex", "log-magnitude"}
+        ``"complex"`` (default) minimises Σ‖W(x − u)‖², the complex output error;
+        ``"log-magnitude"`` minimises Σ w² (ln|y| − ln|u|)² over the measured
         entries y = R x (the reduced coordinates without ``basis``) — the dB error a
         person reads off an FRF plot, every entry alike whatever its level, phase
-        ignored. There ``"relative"`` and ``"uniform"`` both mean w = 1 per entry, an
-        array gives w per entry ``(s, n[, p])`` (or per line/column), and entries with
-        u = 0 are left out. Its Gauss–Newton step uses the Hermitian half of the
-        normal matrix (the fast paths; the exact gradient), so it takes more steps.
-    curvature : add the curvature of the parametrisation X = L Lᵀ to the Gauss–Newton
+        ignored. There ``"relative"`` and ``"uniform"`` both mean w = 1 per entry,
+        an array gives w per entry ``(s, n[, p])`` (or per line/column), and
+        entries with u = 0 are left out. Its Gauss–Newton step uses the Hermitian
+        half of the normal matrix (the fast paths; the exact gradient), so it takes
+        more steps.
+    curvature : bool
+        Add the curvature of the parametrisation X = L Lᵀ to the Gauss–Newton
         matrix (its positive part, O(m³) per step; left out right after a step that
         lowered the cost by 20 % or more). Gauss–Newton alone crawls where the
         optimum puts C on the edge of positive semidefiniteness — the usual case on
         measured data, for the damping of modes the band hardly sees: on the beam of
         ``benches/bench_measured.py`` it found models 0.82 → 0.39 dB (50–300 Hz) and
-        0.94 → 0.58 dB (20–800 Hz) off the measurement. Off by default: on noise-free
-        data from a start a few per cent off it can take more steps. The order sweep
-        and the final fit (:mod:`podid_rs.identification.order`) turn it on.
-    metric : the matrix-free step's LM damping and CG preconditioner. ``"diagonal"``:
-        μ·diag(N) and the 3×3 M–C–K blocks of N. ``"modal"``: the Gauss–Newton matrix's
-        blocks in the current model's undamped modes, pulled back through the factors
-        (O(m³) per use), as both — and each step taken in X = L Lᵀ itself (Cholesky of
-        X + δX; the step in the factors, with their curvature, where X + δX leaves the
-        cone); implies ``solver="matrix-free"``. ``"auto"`` (default): ``"modal"``
-        wherever the step is matrix-free (the dense step, m ≤ 40 with
-        ``solver="auto"``, damps by μ·diag(N) either way). Measured
-        (``benches/bench_refine.py --parts metric`` and ``--parts large``, chain with
-        0.1 % noise, whole calls; ninth session): m = 40 at 1000 lines 1.94 s in 33
-        steps (``"diagonal"`` 41.3 s and 200 steps; dense 16.9 s), m = 60 at 1200
-        lines 10.2 s against 176 s, m = 100 at 2000 lines 52–54 s, converged in
-        105–110 steps to 0.22324, against the diagonal metric's 776 s and 200 steps
-        (the cap) to 0.23281 (seventh session). The modal step works in the damping
-        modes of the start (an orthonormal basis: the same cost, better-placed factors).
+        0.94 → 0.58 dB (20–800 Hz) off the measurement. Off by default: on
+        noise-free data from a start a few per cent off it can take more steps. The
+        order sweep and the final fit (:mod:`podid_rs.identification.order`) turn it
+        on.
+    metric : {"auto", "diagonal", "modal"}
+        The matrix-free step's LM damping and CG preconditioner. ``"diagonal"``:
+        μ·diag(N) and the 3×3 M–C–K blocks of N. ``"modal"``: the Gauss–Newton
+        matrix's blocks in the current model's undamped modes, pulled back through
+        the factors (O(m³) per use), as both — and each step taken in X = L Lᵀ
+        itself (Cholesky of X + δX; the step in the factors, with their curvature,
+        where X + δX leaves the cone); implies ``solver="matrix-free"``. ``"auto"``
+        (default): ``"modal"`` wherever the step is matrix-free (the dense step,
+        m ≤ 40 with ``solver="auto"``, damps by μ·diag(N) either way). Measured
+        (``benches/bench_refine.py --parts metric`` and ``--parts large``, chain
+        with 0.1 % noise, whole calls; ninth session): m = 40 at 1000 lines 1.94 s
+        in 33 steps (``"diagonal"`` 41.3 s and 200 steps; dense 16.9 s), m = 60 at
+        1200 lines 10.2 s against 176 s, m = 100 at 2000 lines 52–54 s, converged
+        in 105–110 steps to 0.22324, against the diagonal metric's 776 s and 200
+        steps (the cap) to 0.23281 (seventh session). The modal step works in the
+        damping modes of the start (an orthonormal basis: the same cost,
+        better-placed factors).
 
-    Returns an :class:`IdentificationResult` with ``method="output-error"``,
-    ``symmetric=True``, ``iterations`` and, in ``info["refinement"]``: ``cost_start``,
-    ``cost`` (the weighted output error Σ‖W(x − u)‖², or the log-magnitude cost, before
-    and after), ``objective``, ``stop``,
-    ``converged``, ``accepted`` steps, ``history`` [(iteration, cost)], the median
-    and 95th-percentile |dB| error of the model's responses against ``U`` before and
-    after (``db_before``, ``db_after``: (median, p95)), the weights used, how the
-    start was made physical, and the step ``solver`` used with its ``solver_stats``
-    (CG products for the matrix-free step). ``residual_norm`` is the equation error ‖Ax − y‖ (eq.
-    28) of the refined model, for comparison with the paper's estimator.
+    Returns
+    -------
+    IdentificationResult
+        ``method="output-error"``, ``symmetric=True``, ``iterations`` and, in
+        ``info["refinement"]``: ``cost_start``, ``cost`` (the weighted output error
+        Σ‖W(x − u)‖², or the log-magnitude cost, before and after), ``objective``,
+        ``stop``, ``converged``, ``accepted`` steps, ``history`` [(iteration,
+        cost)], the median and 95th-percentile |dB| error of the model's responses
+        against ``U`` before and after (``db_before``, ``db_after``: (median,
+        p95)), the weights used, how the start was made physical, and the step
+        ``solver`` used with its ``solver_stats`` (CG products for the matrix-free
+        step). ``residual_norm`` is the equation error ‖Ax − y‖ (eq. 28) of the
+        refined model, for comparison with the paper's estimator.
 
-    Raises ``ValueError`` for malformed data, weights or options, a start that
-    cannot be made physical, or a start with a pole on a measured line; a
-    :class:`ConvergenceWarning` when ``max_iter`` ends the iteration.
+    Raises
+    ------
+    ValueError
+        For malformed data, weights or options, a start that cannot be made
+        physical, or a start with a pole on a measured line.
+
+    Warns
+    -----
+    StartWarning
+        When the start had to be made physical, or comes from a rank-deficient
+        identification.
+    ConvergenceWarning
+        When ``max_iter`` ends the iteration with the cost still falling.
     """
     from .. import _core
 

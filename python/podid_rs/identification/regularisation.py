@@ -74,27 +74,64 @@ _LN10 = math.log(10.0)
 
 
 class LambdaSelectionWarning(UserWarning):
-    """A rule could not choose λ cleanly; the message says why and what was returned."""
+    """A rule could not choose λ cleanly; the message says why and what was returned.
+
+    Parameters
+    ----------
+    message : str
+        The rule, the problem and the λ returned.
+    """
 
 
 class NoCornerWarning(LambdaSelectionWarning):
-    """The L-curve has no clear corner."""
+    """The L-curve has no clear corner.
+
+    Parameters
+    ----------
+    message : str
+        Why (curvature too small, or largest at an end of the λ range) and the λ returned.
+    """
 
 
 @dataclass(frozen=True)
 class LambdaCurve:
-    """The λ-curves on a grid and the λ chosen by each rule.
+    """The λ-curves on a grid and the λ chosen by each rule (paper §4.2).
 
-    ``lams`` ascending, paper units. ``residual_norms`` = ‖Ax − y‖ and
-    ``penalty_norms`` = ‖Lx‖ = (Σ_b ‖X_b − X_bᵀ‖²_F)^½ at each λ, exact (solves);
-    ``gcv`` = ‖Ax − y‖²/(rows − trace)² and ``curvature`` of the L-curve in
-    natural-log coordinates (NaN where the method cannot give them).
-    ``lam`` is the λ chosen by ``rule``; ``choices`` the λ of every rule that could
-    be evaluated, ``problems`` why a rule's choice is doubtful (the chosen rule's
-    are also issued as warnings). ``corner_curvature`` is the curvature at the
-    L-curve corner; ``target_residual`` the discrepancy δ, if one was given.
-    ``method`` is ``"spectral"`` or ``"repeated"``; ``n_rows`` = 2·N·m real
-    equations, ``n_unknowns`` = 3m².
+    What :func:`lambda_curve` returns; ``identify(..., lam=rule)`` keeps it in
+    ``info["lambda_curve"]``.
+
+    Attributes
+    ----------
+    lams : numpy.ndarray, (k,)
+        The grid of λ, ascending, paper units (eq. 40).
+    residual_norms : numpy.ndarray, (k,)
+        ‖Ax − y‖ (eq. 28) at each λ, exact (solves).
+    penalty_norms : numpy.ndarray, (k,)
+        ‖Lx‖ = (Σ_b ‖X_b − X_bᵀ‖²_F)^½ (eq. 30) at each λ, exact.
+    gcv : numpy.ndarray, (k,)
+        GCV(λ) = ‖Ax − y‖²/(rows − trace)² (eq. 34); NaN from repeated solves.
+    curvature : numpy.ndarray, (k,)
+        Curvature of the L-curve in natural-log coordinates; NaN from repeated solves.
+    lam : float
+        The λ chosen by ``rule``.
+    rule : str
+        ``"lcurve"``, ``"gcv"`` or ``"discrepancy"``.
+    choices : dict of str to float
+        The λ of every rule that could be evaluated.
+    problems : dict of str to list of str
+        Why a rule's choice is doubtful (the chosen rule's are also issued as warnings).
+    corner_curvature : float
+        The curvature at the L-curve corner (NaN when not searched).
+    target_residual : float or None
+        The discrepancy δ (eq. 33), if a noise level was given.
+    method : str
+        ``"spectral"`` or ``"repeated"``.
+    n_rows : int
+        2·N·m real equations.
+    n_unknowns : int
+        3m².
+    info : dict
+        Timings (spectral) or the number of solves (repeated).
     """
 
     lams: np.ndarray
@@ -524,28 +561,60 @@ def lambda_curve(
     solve: Callable[[float], IdentificationResult] | None = None,
     threads: int | None = None,
 ) -> LambdaCurve:
-    """The λ-curves of one common symmetry weight and the λ chosen by ``rule``.
+    """The λ-curves of one common symmetry weight and the λ chosen by ``rule`` (paper §4.2).
+
+    One λ = λ_M = λ_C = λ_K in the paper's units (eq. 40); the rules are described in
+    the module docstring.
 
     Parameters
     ----------
-    U, F, omega : as for :func:`~podid_rs.identify`.
-    lams : grid of λ (paper units) to report; by default ``n`` points (50 spectral,
-        12 repeated) spanning every skew direction from undamped to damped. The
-        rules search the continuous curve between its ends.
-    rule : ``"lcurve"``, ``"gcv"`` or ``"discrepancy"`` (module docstring).
-    noise, snr_db, delta : the noise level for the discrepancy principle (at most
-        one; module docstring); with another rule it adds ``choices["discrepancy"]``.
-    method : ``"spectral"`` (one eigendecomposition), ``"repeated"`` (one ``solve``
-        per point) or ``"auto"``: spectral unless its n_w² doubles would not fit in
+    U, F, omega : array_like
+        As for :func:`~podid_rs.identify`; the order m must be at least 2.
+    lams : array_like, optional
+        Grid of λ (paper units) to report, at least 3 distinct positive values; by
+        default ``n`` points spanning every skew direction from undamped to damped.
+        The rules search the continuous curve between its ends.
+    rule : {"lcurve", "gcv", "discrepancy"}
+        The rule whose λ is ``lam``.
+    n : int, optional
+        Points of the default grid, ≥ 3 (default 50 spectral, 12 repeated).
+    noise, snr_db, delta : float, optional
+        The noise level for the discrepancy principle (at most one): σ, the RMS
+        noise per entry of U; 10 log10(mean |U|² / σ²); or δ itself (eq. 33). With
+        another rule it adds ``choices["discrepancy"]``.
+    method : {"auto", "spectral", "repeated"}
+        ``"spectral"`` (one eigendecomposition), ``"repeated"`` (one ``solve`` per
+        point) or ``"auto"``: spectral unless its n_w² doubles would not fit in
         memory or the unregularised problem is rank deficient.
-    solve : ``solve(lam) -> IdentificationResult`` for the repeated path; default
-        ``identify(U, F, omega, lam)``. The direct solve needs four times the
-        sweep's memory, so where the sweep does not fit only an iterative solver
-        will: it plugs in here (and as the default in ``_evaluator``).
-    threads : worker threads for the Rust core (None = all cores).
+    solve : callable, optional
+        ``solve(lam) -> IdentificationResult`` for the repeated path; default the
+        fixed-λ solve of ``identify(U, F, omega, lam)``. The direct solve needs four
+        times the sweep's memory, so where the sweep does not fit only an iterative
+        solver will: it plugs in here.
+    threads : int, optional
+        Worker threads for the Rust core (None = all cores).
 
-    Warnings: :class:`NoCornerWarning` / :class:`LambdaSelectionWarning` when the
-    chosen rule has no clean answer (the λ returned is then its best effort).
+    Returns
+    -------
+    LambdaCurve
+        The curves and every rule's λ.
+
+    Raises
+    ------
+    ValueError
+        For malformed data or options, m = 1, an unknown rule, ``"discrepancy"``
+        without a noise level, more than one noise level, ``"gcv"`` on the
+        repeated path (it needs the sweep's trace), or ``method="spectral"`` on a
+        rank-deficient unregularised problem.
+    MemoryError
+        With ``method="spectral"``, when the sweep would not fit.
+
+    Warns
+    -----
+    LambdaSelectionWarning
+        When the chosen rule has no clean answer (:class:`NoCornerWarning` for the
+        L-curve); the λ returned is then its best effort. Also when ``"auto"`` falls
+        back to repeated solves on a rank-deficient problem.
     """
     data, rule, nthreads = _prepare(U, F, omega, rule, threads)
     target = _target_residual(data, noise, snr_db, delta)
@@ -557,7 +626,27 @@ def lambda_curve(
 def choose_lambda(
     U: np.ndarray, F: np.ndarray, omega: np.ndarray, rule: str = "lcurve", **kwargs
 ) -> float:
-    """The common λ (paper units) chosen by ``rule``; keywords as for :func:`lambda_curve`."""
+    """The common λ (paper units, eq. 40) chosen by ``rule``.
+
+    Parameters
+    ----------
+    U, F, omega : array_like
+        As for :func:`~podid_rs.identify`.
+    rule : {"lcurve", "gcv", "discrepancy"}
+        The rule (paper §4.2).
+    **kwargs
+        As for :func:`lambda_curve`.
+
+    Returns
+    -------
+    float
+        ``lambda_curve(U, F, omega, rule=rule, **kwargs).lam``.
+
+    Raises
+    ------
+    ValueError, MemoryError
+        As for :func:`lambda_curve`.
+    """
     return lambda_curve(U, F, omega, rule=rule, **kwargs).lam
 
 

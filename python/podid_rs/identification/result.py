@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+import scipy.signal
 
 from .._validation import FrequencyData, Triple
 from ..statespace import state_space
@@ -21,28 +22,72 @@ from ..systems import SecondOrderSystem
 
 
 class RankDeficientWarning(UserWarning):
-    """The normal equations were numerically singular; a minimum-norm answer was returned."""
+    """The normal equations were numerically singular; a minimum-norm answer was returned.
+
+    Parameters
+    ----------
+    message : str
+        The rank found and what would make the problem well posed.
+    """
 
 
 class ConvergenceWarning(UserWarning):
-    """The iterative solver stopped before reaching its tolerance; see the achieved residual."""
+    """An iterative solver stopped before reaching its tolerance; see the achieved residual.
+
+    Issued by the CG solver of :func:`podid_rs.identify` and by :func:`podid_rs.refine`.
+
+    Parameters
+    ----------
+    message : str
+        Where it stopped, and what to change.
+    """
 
 
 @dataclass(frozen=True)
 class IdentificationResult:
     """Identified reduced matrices and what the solver saw.
 
-    ``M, C, K`` are float64 (m, m) in the caller's units; ``lam`` is the
-    (λ_M, λ_C, λ_K) triple in the paper's units (eq. 40); ``symmetric`` marks the
-    exact λ → ∞ solution. ``residual_norm`` is ‖Ax − y‖ (eq. 28) over all
-    frequency lines and load cases; ``penalty_norms`` are ‖X − Xᵀ‖_F = ‖L_X x‖ for
-    X = M, C, K and ``penalty_norm`` their root sum of squares.
+    What :func:`podid_rs.identify`, :func:`podid_rs.refine` and the order sweep return.
 
-    ``method`` is ``"cholesky"`` or ``"eigen-min-norm"`` (direct) or ``"cg"``. For
-    ``"cg"``, ``iterations`` and ``relative_residual`` (‖b − Gx‖/‖b‖ of the scaled
-    normal equations) say what the iteration achieved; the rank is not measured
-    (``rank`` = ``n_unknowns``) and ``min_pivot_ratio`` is NaN. Both are None for
-    the direct path.
+    Attributes
+    ----------
+    M, C, K : numpy.ndarray, (m, m)
+        The identified matrices, float64, in the caller's units.
+    lam : tuple of float
+        (λ_M, λ_C, λ_K) in the paper's units (eq. 40); ∞ for a refined model.
+    symmetric : bool
+        True for the exact λ → ∞ solution (M, C, K exactly symmetric).
+    residual_norm : float
+        ‖Ax − y‖ (eq. 28) over all frequency lines and load cases.
+    penalty_norms : tuple of float
+        ‖X − Xᵀ‖_F = ‖L_X x‖ for X = M, C, K.
+    method : str
+        ``"cholesky"`` or ``"eigen-min-norm"`` (direct), ``"cg"``,
+        ``"spectral-sweep"`` (λ chosen by a rule) or ``"output-error"`` (refined).
+    rank : int
+        Rank of the normal matrix (for ``"cg"`` not measured: ``n_unknowns``).
+    n_unknowns : int
+        3m², or 3m(m+1)/2 for the exactly symmetric form.
+    min_pivot_ratio : float
+        How near singular the factorised matrix was: min L_ii²/G_ii of its Cholesky
+        factor, or for ``"eigen-min-norm"`` its smallest over its largest eigenvalue;
+        NaN for ``"cg"`` and ``"output-error"``.
+    backend : str
+        ``"rust"`` or ``"numpy"``.
+    info : dict
+        Scaling, timings and what each path adds (``"lambda_curve"``,
+        ``"refinement"``, ``"physical"``, ``"stalled_cg"``, …).
+    iterations : int or None
+        CG or Levenberg–Marquardt iterations; None for the direct path.
+    relative_residual : float or None
+        For ``"cg"``, ‖b − Gx‖/‖b‖ of the scaled normal equations; None for the
+        direct path.
+    penalty_norm : float
+        The root sum of squares of ``penalty_norms``.
+    m : int
+        The reduced order.
+    well_posed : bool
+        True when the normal matrix had full rank.
     """
 
     M: np.ndarray
@@ -75,25 +120,50 @@ class IdentificationResult:
         return self.rank == self.n_unknowns
 
     def symmetry_defect(self) -> Triple:
-        """‖X − Xᵀ‖_F / ‖X‖_F for X = M, C, K (0 for exactly symmetric matrices)."""
+        """The relative skew part of each matrix.
+
+        Returns
+        -------
+        tuple of float
+            ‖X − Xᵀ‖_F / ‖X‖_F for X = M, C, K (0 for exactly symmetric or zero matrices).
+        """
         out = []
         for X in (self.M, self.C, self.K):
             nx = _frobenius(X)
             out.append(_skew_norm(X) / nx if nx > 0 else 0.0)
         return (out[0], out[1], out[2])
 
-    def system(self):
-        """The identified model as a :class:`podid_rs.SecondOrderSystem`."""
+    def system(self) -> SecondOrderSystem:
+        """The identified model as a second-order system.
+
+        Returns
+        -------
+        SecondOrderSystem
+            ``(M, C, K)`` of this result.
+        """
         return SecondOrderSystem(self.M, self.C, self.K)
 
-    def to_state_space(self, basis: np.ndarray | None = None):
+    def to_state_space(self, basis: np.ndarray | None = None) -> scipy.signal.StateSpace:
         """The model as a continuous ``scipy.signal.StateSpace``, state x = [q; q̇].
 
-        With a basis R ``(n, m)`` the inputs are forces on the n measured DOFs and
-        the outputs their displacements R q, so the transfer function is
-        ``R H_m(ω) Rᵀ`` (eq. 19); without it, reduced forces and displacements q.
-        See :mod:`podid_rs.statespace`; ``ValueError`` for a basis of the wrong
-        shape or a singular M.
+        See :mod:`podid_rs.statespace`.
+
+        Parameters
+        ----------
+        basis : array_like, (n, m), optional
+            A basis R: the inputs are then forces on the n measured DOFs and the outputs
+            their displacements R q, so the transfer function is ``R H_m(ω) Rᵀ``
+            (eq. 19). Without it, reduced forces and displacements q.
+
+        Returns
+        -------
+        scipy.signal.StateSpace
+            The model.
+
+        Raises
+        ------
+        ValueError
+            For a basis of the wrong shape or a singular M.
         """
         return state_space(self.M, self.C, self.K, basis)
 

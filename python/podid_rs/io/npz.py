@@ -26,7 +26,27 @@ MODEL_FORMAT = "podid_rs.IdentificationResult/1"
 
 
 def save_data(path: str | Path, data: MeasuredData) -> Path:
-    """Write a :class:`MeasuredData` to an ``.npz`` file (the name is used as given)."""
+    """Write a :class:`MeasuredData` to an ``.npz`` file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file; the name is used as given (no suffix is added).
+    data : MeasuredData
+        The data.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        For data that are not a :class:`MeasuredData`.
+    OSError
+        When the file cannot be written.
+    """
     if not isinstance(data, MeasuredData):
         raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
     path = Path(path)
@@ -65,12 +85,32 @@ def _need(z: dict, keys: tuple[str, ...], path: str | Path, what: str) -> None:
 
 
 def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -> MeasuredData:
-    """Read measured data: a UFF file (``.uff``/``.unv``) or an ``.npz`` file.
+    """Read measured data: a UFF file (``.uff``/``.unv``/``.uf``) or an ``.npz`` file.
 
     An ``.npz`` is either a data set written by :func:`save_data`, or time
     histories with arrays ``forces``, ``responses``, ``dt`` and optionally
     ``inputs``, ``dofs``, ``quantity``, ``estimator``, ``nperseg``
-    (see :func:`from_time_histories`). ``band_hz`` keeps the lines in that band.
+    (see :func:`podid_rs.measured.from_time_histories`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file; its suffix says what it is.
+    band_hz : tuple of float, optional
+        Keep only the lines in (lo, hi) Hz.
+
+    Returns
+    -------
+    MeasuredData
+        The data.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    ValueError
+        For an unknown suffix, a file that is not readable as one, arrays missing or
+        malformed, or a band keeping fewer than 2 lines.
     """
     path = Path(path)
     if path.suffix.lower() in (".uff", ".unv", ".uf"):
@@ -117,10 +157,33 @@ def _tuples(x: object) -> object:
 
 
 def save_model(path: str | Path, result: IdentificationResult, **arrays: object) -> Path:
-    """Write an :class:`IdentificationResult` and extra named arrays (e.g. R) to ``.npz``.
+    """Write an :class:`IdentificationResult` and extra named arrays to ``.npz``.
 
     Array fields are stored as arrays, the rest (λ, norms, solver facts, ``info``)
     as JSON; :func:`load_model` restores them.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file; the name is used as given.
+    result : IdentificationResult
+        The model.
+    **arrays : array_like
+        Extra arrays to keep beside it (e.g. ``basis=R``, ``dofs=``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        For a result that is not an :class:`IdentificationResult`.
+    TypeError
+        For an ``info`` entry that JSON cannot hold.
+    OSError
+        When the file cannot be written.
     """
     if not isinstance(result, IdentificationResult):
         raise ValueError(f"result must be an IdentificationResult, got {type(result).__name__}")
@@ -141,7 +204,27 @@ def save_model(path: str | Path, result: IdentificationResult, **arrays: object)
 
 
 def load_model(path: str | Path) -> tuple[IdentificationResult, dict[str, np.ndarray]]:
-    """Read a model written by :func:`save_model`: the result and the extra arrays."""
+    """Read a model written by :func:`save_model`.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    result : IdentificationResult
+        The model (tuples restored where JSON made lists).
+    arrays : dict of str to numpy.ndarray
+        The extra arrays, by name.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    ValueError
+        For a file that is not a model written by :func:`save_model`, or lacks a field.
+    """
     z = _read_npz(path)
     if "format" not in z or str(z["format"]) != MODEL_FORMAT:
         raise ValueError(f"{path}: not a model file written by save_model ({MODEL_FORMAT})")

@@ -103,10 +103,34 @@ def read_uff(
     roving-hammer file (fixed response, roving references, the response among the
     references) is read by reciprocity as the FRF column of a force at the fixed
     DOF, and says so in ``notes``. Numerator type 8/11/12 (displacement, velocity,
-    acceleration; ``quantity`` overrides it) is converted to receptance; the
-    abscissa is frequency in Hz, shared by all records. Other records (coherence,
-    time data, other datasets) are ignored. The 0 Hz line is dropped, and lines
-    outside ``band_hz``.
+    acceleration) is converted to receptance; the abscissa is frequency in Hz,
+    shared by all records. Other records (coherence, time data, other datasets) are
+    ignored. The 0 Hz line is dropped.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file (``.uff``, ``.unv``, …).
+    quantity : {"displacement", "velocity", "acceleration"}, optional
+        Overrides the numerator type of the records.
+    band_hz : tuple of float, optional
+        Keep only the lines in (lo, hi) Hz.
+
+    Returns
+    -------
+    MeasuredData
+        The FRFs as unit load cases, with the (node, direction) labels.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    ValueError
+        Naming the file and record: no FRF records, unreadable or inconsistent
+        records (abscissa, denominator, numerator type, frequency lines, duplicates),
+        a reference that is not a response and cannot be made one by reciprocity,
+        a missing FRF of the response × reference grid, or a band keeping fewer than
+        2 lines.
     """
     path = Path(path)
     sets, _ = _read_sets(path, (58,))
@@ -207,7 +231,25 @@ def _driving_point_layout(entries: dict, path: Path) -> tuple[dict, tuple[str, .
 
 
 def read_uff_geometry(path: str | Path) -> np.ndarray | None:
-    """Node coordinates ``(k, 4)`` [node, x, y, z] from dataset 15 or 2411; None if absent."""
+    """Node coordinates from dataset 15 or 2411 of a Universal File.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    numpy.ndarray, (k, 4), or None
+        Rows [node, x, y, z] sorted by node; None when the file has no geometry.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    ValueError
+        When pyuff cannot read the sets.
+    """
     sets, _ = _read_sets(path, (15, 2411))
     rows: dict[int, tuple[float, float, float]] = {}
     for d in sets:
@@ -219,10 +261,25 @@ def read_uff_geometry(path: str | Path) -> np.ndarray | None:
 
 
 def uff_quantity(path: str | Path) -> str | None:
-    """The ordinate of the file's FRF records (dataset 58, func_type 4) when they agree.
+    """The ordinate of a file's FRF records (dataset 58, func_type 4) when they agree.
 
-    ``"displacement"``, ``"velocity"`` or ``"acceleration"`` (numerator type 8,
-    11, 12); None when the records disagree or have none of these.
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    str or None
+        ``"displacement"``, ``"velocity"`` or ``"acceleration"`` (numerator type 8,
+        11, 12); None when the records disagree or have none of these.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    ValueError
+        When pyuff cannot read the headers.
     """
     sets, _ = _read_sets(path, (58,), header_only=True)
     found = {UFF_QUANTITY.get(d.get("ordinate_spec_data_type")) for d in sets
@@ -231,13 +288,30 @@ def uff_quantity(path: str | Path) -> str | None:
 
 
 def read_uff_modes(path: str | Path) -> ModeShapes:
-    """Mode shapes from the dataset-55 sets of a UFF (normal or complex modes).
+    """Mode shapes from the dataset-55 sets of a Universal File (normal or complex modes).
 
     Normal modes (analysis type 2) give λ = ω(−ζ + i√(1 − ζ²)) from the frequency
     and viscous damping ratio; complex ones (3, 7) their eigenvalue. Modes keep the
     file's order; the DOFs are every (node, direction 1–6) that is non-zero in some
-    mode. Raises ``ValueError`` naming the file when it has no dataset 55 or none
-    holding modes.
+    mode.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    ModeShapes
+        The modes, with their numbers in the file and the DOF labels.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    ValueError
+        Naming the file, when it has no dataset 55, none holding modes, only zero
+        shapes, or sets pyuff cannot read.
     """
     sets, found = _read_sets(path, (55,))
     if not sets:
@@ -389,16 +463,53 @@ def write_uff(
 ) -> Path:
     """Write the identified model to a Universal File: datasets 15, 55 and 58.
 
-    ``basis`` R ``(n, m)`` maps the model to the n measured DOFs. ``data`` (the
-    :class:`MeasuredData` identified from) supplies their (node, direction)
-    labels, the driven DOFs and the frequency lines; without it give ``dofs``
-    ``(n, 2)``, and ``inputs`` (indices of the driven DOFs) with ``omega`` (rad/s)
-    for the FRFs — without ``omega`` no dataset 58 is written. ``quantity`` is the
-    58 ordinate (the test's: ``"acceleration"`` for accelerance); ``geometry``
-    ``(k, 4)`` [node, x, y, z] gives dataset 15. ``binary`` writes 58 ordinates as
-    exact doubles. Dataset 55 holds translations (directions 1–3) only: a
-    rotational DOF raises ``ValueError``. FRFs from data read by reciprocity (a
-    roving-hammer file) say so in their third ID line. The file is replaced if it exists.
+    Dataset 15 holds the geometry, 55 one set per mode (translations, directions
+    1–3, only), 58 the identified FRFs ``R H_m(ω) Rᵀ`` (module docstring). FRFs from
+    data read by reciprocity (a roving-hammer file) say so in their third ID line.
+    The file is replaced if it exists.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    model : IdentificationResult
+        The model, order m.
+    basis : array_like, (n, m)
+        R, which maps the model to the n measured DOFs.
+    data : MeasuredData, optional
+        The data identified from: supplies the (node, direction) labels, the driven
+        DOFs and the frequency lines.
+    dofs : array_like, (n, 2), optional
+        Without ``data``: the labels.
+    inputs : array_like, optional
+        Without ``data``: indices of the driven DOFs, needed with ``omega`` for the
+        FRFs.
+    omega : array_like, optional
+        Without ``data``: the lines (rad/s) of the FRFs; without it no dataset 58 is
+        written.
+    quantity : {"displacement", "velocity", "acceleration"}
+        The 58 ordinate (the test's: ``"acceleration"`` for accelerance).
+    geometry : array_like, (k, 4), optional
+        [node, x, y, z] rows for dataset 15.
+    binary : bool
+        Write 58 ordinates as exact doubles.
+    name : str
+        Written into the sets' ID lines.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        For a model that is not an :class:`IdentificationResult`, ``data`` together
+        with ``dofs``/``inputs``/``omega``, a missing basis or labels, a rotational
+        DOF, ``inputs`` without ``omega`` (or the reverse), malformed arguments, or
+        when pyuff cannot write the file.
+    OSError
+        When the file cannot be written.
     """
     if not isinstance(model, IdentificationResult):
         raise ValueError(f"model must be an IdentificationResult, got {type(model).__name__}")
