@@ -37,6 +37,7 @@ import numpy as np
 from .._arrays import as_array
 from .._validation import FrequencyData, check_frequency_data
 from ..systems import SecondOrderSystem
+from .latent import gauge_dimension, observation_matrix, observed_count
 from .result import ConvergenceWarning, IdentificationResult, _check_threads, residual_norm
 
 WeightSpec = Literal["relative", "uniform"] | np.ndarray
@@ -193,6 +194,18 @@ def _column_weights(
     if not np.any(w > 0):
         raise ValueError(f"{name} are all zero: there is nothing to fit")
     return w, "user"
+
+
+def _scalar_weights(w: np.ndarray, m: int, observed: int) -> dict[str, np.ndarray]:
+    """The core's weight argument for a scalar weight per column: the weights themselves,
+    or — with latent coordinates, whose response is not measured — the matrix w·S per
+    column, S = diag(1, …, 1, 0, …, 0) selecting the ``observed`` coordinates."""
+    if observed == m:
+        return {"weights": np.ascontiguousarray(w)}
+    T = np.zeros((w.size, m, m))
+    idx = np.arange(observed)
+    T[:, idx, idx] = w[:, None]
+    return {"weight_matrices": T.reshape(w.size, m * m)}
 
 
 def _log_magnitude_targets(
@@ -396,18 +409,22 @@ def refine(
     from .. import _core
 
     M0, C0, K0, start_note = _start_matrices(model)
+    m_model = M0.shape[0]
+    if basis is None and np.ndim(U) >= 2 and np.shape(U)[1] < m_model:
+        # reduced data of order k < m: the first k coordinates are observed, the rest latent
+        basis = np.eye(np.shape(U)[1])
     if basis is not None:
-        R = as_array(basis, "basis", real=True)
         Un, Fn = as_array(U, "U"), as_array(F, "F")
+        R = as_array(basis, "basis", real=True)
         if R.ndim != 2 or Un.ndim not in (2, 3) or Un.shape[1] != R.shape[0]:
             raise ValueError(
                 f"basis must be (n, m) with n = the measured DOFs of U (s, n[, p]); "
                 f"got basis {R.shape} and U {Un.shape}"
             )
+        # the observed columns, then a zero column per latent coordinate of the model
+        R = observation_matrix(R, max(m_model, observed_count(R)))
         if Fn.shape != Un.shape:
             raise ValueError(f"F must have the shape of U {Un.shape}, got {Fn.shape}")
-        if not np.allclose(R.T @ R, np.eye(R.shape[1]), atol=1e-8):
-            raise ValueError("basis must have orthonormal columns (RᵀR = I), as POD modes do")
         U3 = Un if Un.ndim == 3 else Un[:, :, None]
         F3 = Fn if Fn.ndim == 3 else Fn[:, :, None]
         data = check_frequency_data(
@@ -416,6 +433,8 @@ def refine(
     else:
         R, U3 = None, None
         data = check_frequency_data(U, F, omega)
+    observed = data.m if R is None else observed_count(R)
+    latent = data.m - observed
     m, p = data.m, data.p
     for X, name in ((M0, "M"), (C0, "C"), (K0, "K")):
         if X.shape != (m, m):
@@ -461,10 +480,10 @@ def refine(
             label = "user, per entry"
         else:
             w, label = _column_weights(Wa, data)
-            weight_kw = {"weights": np.ascontiguousarray(w)}
+            weight_kw = _scalar_weights(w, m, observed)
     else:
         w, label = _column_weights(weights, data, U3)
-        weight_kw = {"weights": np.ascontiguousarray(w)}
+        weight_kw = _scalar_weights(w, m, observed)
 
     (M1, C1, K1), start_report = physical_start(M0, C0, K0)
     changed = any(start_report["eigenvalues_raised"]) or any(
@@ -524,6 +543,8 @@ def refine(
         "db_after": summary(after),
         "weights": label,
         "objective": objective,
+        "coordinates": {"observed": observed, "latent": latent,
+                        "gauge": gauge_dimension(m, observed)},
         "start": start_report,
         "timings": dict(out["timings"]),
         "scaling": tuple(out["scaling"]),
@@ -549,10 +570,11 @@ def refine(
         K=K,
         lam=(math.inf, math.inf, math.inf),
         symmetric=True,
-        residual_norm=residual_norm(M, C, K, data),
+        # the equation error needs every coordinate's response: latent ones have none
+        residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,
         penalty_norms=(0.0, 0.0, 0.0),
         method="output-error",
-        rank=n_unk,
+        rank=n_unk - gauge_dimension(m, observed),
         n_unknowns=n_unk,
         min_pivot_ratio=math.nan,
         backend="rust",
