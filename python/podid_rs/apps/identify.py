@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ..identification.estimator import identify
+from ..identification.latent import observation_matrix
 from ..identification.order import OrderSweep, final_fit, sweep_orders
 from ..identification.refinement import db_errors
 from ..identification.result import IdentificationResult
@@ -85,7 +86,7 @@ class IdentifyRun:
     def frf_errors(self, model: IdentificationResult) -> tuple[float, float]:
         """Median and 95th percentile |dB| of ``model``'s responses (R H_m Rᵀ F) against
         the measured ones, over every line, measured DOF and load case."""
-        d, R = self.data, self.basis
+        d, R = self.data, self.basis[:, : model.m]  # [R_p, 0]: a lower order's basis leads it
         F_m = np.einsum("im,sip->smp", R[d.inputs], d.F)
         X = np.einsum("nm,smp->snp", R, model.system().response(d.omega, F_m))
         e = db_errors(X, d.U)
@@ -94,7 +95,7 @@ class IdentifyRun:
     def summary(self) -> str:
         """A few lines of Markdown describing the run."""
         d, r, ls = self.data, self.result, self.least_squares
-        f_m = np.einsum("im,sip->smp", self.basis[d.inputs], d.F)
+        f_m = np.einsum("im,sip->smp", self.basis[d.inputs, : ls.m], d.F)
         lam = (
             "exactly symmetric (λ → ∞)"
             if ls.symmetric
@@ -110,6 +111,13 @@ class IdentifyRun:
             lines.append(f"- order: {self.sweep.reason}")
         else:
             lines.append(f"- order: m = {r.m}")
+        latent = r.m - ls.m
+        if latent > 0:
+            lines.append(
+                f"- coordinates: {ls.m} observed (the POD modes of the {d.n} measured DOFs) and "
+                f"{latent} latent, which no sensor sees (docs/design.md §11); the paper's "
+                f"estimator needs every coordinate measured, so it is fitted at m = {ls.m}"
+            )
         ref = r.info.get("refinement")
         if ref is not None:
             lines.append(
@@ -130,6 +138,12 @@ class IdentifyRun:
             lines.append(
                 f"- equation-error residual ‖Ax − y‖ = {r.residual_norm:.4g} "
                 f"({r.residual_norm / y:.3g} of ‖y‖)"
+            )
+        elif latent > 0:
+            lines.append(
+                f"- equation-error residual ‖Ax − y‖ / ‖y‖ (what the paper's estimator "
+                f"minimises): paper's estimator {ls.residual_norm / y:.3g}; not defined for "
+                "the refined model (its latent coordinates have no measured response)"
             )
         else:
             lines.append(
@@ -195,7 +209,7 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
         rows = [col, far]
         curves = [Curve("measured", d.U[:, rows, k], kind="original")] if d.is_frf else []
         for label, r, style in models:
-            values = _model_frf(r, run.basis, d.omega, rows, col)
+            values = _model_frf(r, run.basis[:, : r.m], d.omega, rows, col)
             curves.append(Curve(label, values, kind="identified", style=style))
         driven = _dof_name(d.dofs[col])
         what = "measured and identified" if d.is_frf else "identified (the data are not FRFs)"
@@ -262,7 +276,8 @@ def run_identify(
         finally:
             bar.close()
         order = sweep.chosen
-    R = pod.basis(order)
+    # the paper's estimator needs every coordinate measured: at most the POD modes with energy
+    R = pod.basis(min(order, int(np.sum(pod.eigenvalues > 0)), data.n))
     U_m, F_m = data.project(R)
     ls = identify(U_m, F_m, data.omega, 0.0 if symmetric else lam, symmetric)
     if sweep is not None:
@@ -410,15 +425,17 @@ def write_identify_outputs(
     files.append(chart.to_csv(out / "stabilisation.csv"))
     files.append(plot_stabilisation(
         chart, out / "stabilisation.png", quantity=quantity,
-        title=f"Stabilisation chart over the POD order: {source.name}, "
+        title=f"Stabilisation chart over the model order: {source.name}, "
         f"{band_hz[0]:g}–{band_hz[1]:g} Hz",
     ))
     other = m + 1 if m < top else m - 1
     lo, hi = float(data.freq_hz[0]), float(data.freq_hz[-1])
     if other >= 1:
         shapes = mode_shapes(result, basis, data.dofs).in_band((lo, hi)).oscillatory()
+        # order `other`'s observation matrix: its POD modes, a zero column per latent DOF
+        observed = min(other, int(np.sum(pod.eigenvalues > 0)), data.n)
         neighbour = mode_shapes(
-            chart.order(other).model, pod.basis(other), data.dofs
+            chart.order(other).model, observation_matrix(pod.basis(observed), other), data.dofs
         ).in_band((lo, hi)).oscillatory()
         if shapes.n_modes and neighbour.n_modes:
             files.append(plot_mac(

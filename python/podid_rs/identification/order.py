@@ -47,6 +47,7 @@ import numpy as np
 from ..physical import modal_parameters
 from ..pod import PODResult
 from .estimator import identify
+from .latent import free_parameters, latent_starts, observation_matrix
 from .refinement import StartWarning, db_errors, refine
 from .result import ConvergenceWarning, IdentificationResult
 
@@ -81,11 +82,14 @@ class OrderFit:
         and every measured DOF and input (physical coordinates, R H_m Rᵀ).
     start : str
         Which start won (``"continuation"``, ``"residual peak"``, ``"paper
-        estimator"``, …).
+        estimator"``, ``"latent DOF at … Hz"``, …).
     stable : bool
         Whether every mode has Re λ < 0.
     seconds : float
         Wall time of the order.
+    observed : int
+        How many of the m coordinates are POD coordinates; the other m − observed
+        (``latent``) are latent coordinates (:mod:`podid_rs.identification.latent`).
     """
 
     m: int
@@ -95,6 +99,12 @@ class OrderFit:
     start: str
     stable: bool
     seconds: float
+    observed: int
+
+    @property
+    def latent(self) -> int:
+        """Latent coordinates of the order: m − observed."""
+        return self.m - self.observed
 
 
 @dataclass(frozen=True)
@@ -141,6 +151,11 @@ class OrderSweep:
                 return f
         raise KeyError(f"order {m} was not fitted (orders {[f.m for f in self.fits]})")
 
+    def basis(self, m: int, pod_result: PODResult) -> np.ndarray:
+        """The observation matrix ``[R_p, 0]`` ``(n, m)`` of order m: its POD modes of
+        ``pod_result``, then a zero column per latent coordinate."""
+        return observation_matrix(pod_result.basis(self.fit(m).observed), m)
+
     def table(self) -> str:
         """The sweep as a Markdown table.
 
@@ -151,14 +166,15 @@ class OrderSweep:
             the chosen one marked.
         """
         lines = [
-            "| m | held-out median dB | training median dB | start | stable | seconds |",
-            "|---:|---:|---:|:---|:---|---:|",
+            "| m | latent DOFs | held-out median dB | training median dB | start | stable "
+            "| seconds |",
+            "|---:|---:|---:|---:|:---|:---|---:|",
         ]
         for f in self.fits:
             mark = " **(chosen)**" if f.m == self.chosen else ""
             lines.append(
-                f"| {f.m}{mark} | {f.test_db:.3f} | {f.train_db:.3f} | {f.start} | "
-                f"{'yes' if f.stable else 'no'} | {f.seconds:.2f} |"
+                f"| {f.m}{mark} | {f.latent} | {f.test_db:.3f} | {f.train_db:.3f} | {f.start} "
+                f"| {'yes' if f.stable else 'no'} | {f.seconds:.2f} |"
             )
         return "\n".join(lines) + "\n"
 
@@ -282,6 +298,70 @@ def _refine_quietly(start, U_n, F_n, omega, R, max_iter, threads):
                       max_iter=max_iter, threads=threads, curvature=True)
 
 
+def _observed_starts(order, previous, fits, Ut, Ft, wt, w):
+    """Starts of an order whose new coordinate is the next POD mode (order ≤ the POD
+    modes with energy): the previous model continued by one decoupled DOF, the best
+    earlier order continued the same way, one mode at a residual peak, the paper's
+    estimator. Returns [(name, start)]."""
+    starts = []
+    dof = _decoupled_mode(Ut, Ft, wt, w)
+    if dof is not None:
+        starts.append(("continuation", _extend(previous, dof)))
+    if len(fits) > 1:
+        # an order that went astray does not drag the next ones with it: the best
+        # earlier order (on its training lines) is extended as well
+        best = min(fits[:-1], key=lambda f: f.train_db)
+        if best.train_db < fits[-1].train_db:
+            model = (best.model.M, best.model.C, best.model.K)
+            for j in range(best.m + 1, order + 1):
+                extra = _decoupled_mode(Ut[:, :j], Ft[:, :j], wt, w)
+                if extra is None:
+                    break
+                model = _extend(model, extra)
+            else:
+                starts.append((f"continuation from m = {best.m}", model))
+    if previous is not None:
+        peaks = _residual_modes(previous, Ut, Ft, wt, w)
+        if peaks:
+            starts.append(("residual peak", min(peaks, key=lambda c: c[0])[1]))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            starts.append(("paper estimator", identify(Ut, Ft, wt, symmetric=True)))
+    except ValueError:
+        pass
+    return starts
+
+
+def order_limit(lines: int, n: int, p: int, observed: int) -> int:
+    """The highest order m whose free parameters the data can determine.
+
+    An order-m model with k = min(m, ``observed``) observed coordinates has
+    :func:`~podid_rs.identification.latent.free_parameters` (3m(m+1)/2 less the gauge
+    of its m − k latent coordinates); ``lines`` frequency lines of ``n`` measured
+    DOFs and ``p`` load cases give 2·lines·n·p real equations.
+
+    Parameters
+    ----------
+    lines, n, p : int
+        Frequency lines fitted, measured DOFs, load cases.
+    observed : int
+        POD coordinates available (the POD modes with energy, at most n).
+
+    Returns
+    -------
+    int
+        The largest m with at most as many free parameters as equations (0 if none).
+    """
+    equations = 2 * lines * n * p
+    m = 0
+    while free_parameters(m + 1, min(m + 1, observed)) <= equations:
+        m += 1
+        if m >= 10 * DEFAULT_M_MAX:
+            break
+    return m
+
+
 def sweep_orders(
     U_n: np.ndarray,
     F_n: np.ndarray,
@@ -301,7 +381,10 @@ def sweep_orders(
 
     Every ``holdout``-th line is left out of the fits (module docstring); order m
     starts from order m − 1 by continuation, and the sweep stops early after
-    ``patience`` orders without progress (unless ``m`` is given).
+    ``patience`` orders without progress (unless ``m`` is given). Order m ≤ k (k the
+    POD modes with energy, at most n) is fitted on the first m POD modes; past k every
+    order adds a latent coordinate (:mod:`podid_rs.identification.latent`), started at
+    a peak of the previous order's residual.
 
     Parameters
     ----------
@@ -312,12 +395,12 @@ def sweep_orders(
     omega : array_like, (s,)
         Angular frequencies (rad/s).
     pod_result : PODResult
-        The POD of the responses: its first m modes are the basis of order m.
+        The POD of the responses: its first modes are the observed coordinates.
     m : int, optional
-        The order to reach and choose; 1 ≤ m ≤ the POD modes with energy.
+        The order to reach and choose; 1 ≤ m ≤ :func:`order_limit` (the data's
+        equations bound the free parameters, latent coordinates included).
     m_max : int, optional
-        Largest order tried without ``m`` (default: the number of POD modes with
-        energy, at most 40).
+        Largest order tried without ``m`` (default 40, at most :func:`order_limit`).
     holdout : int
         Every ``holdout``-th line is held out, ≥ 2.
     tolerance : float
@@ -340,8 +423,9 @@ def sweep_orders(
     Raises
     ------
     ValueError
-        For ``holdout`` < 2, too few lines to hold some out, ``m`` out of range, or
-        when no order could be fitted.
+        For ``holdout`` < 2, too few lines to hold some out, ``m`` out of range (an
+        order with more free parameters than the data's equations: the message names
+        the limit), or when no order could be fitted.
     """
     s, n, p = U_n.shape
     if holdout < 2:
@@ -352,16 +436,25 @@ def sweep_orders(
     train = ~test
     if train.sum() < 2 or test.sum() < 1:
         raise ValueError(f"{s} lines are too few to hold every {holdout}-th out")
-    available = int(np.sum(pod_result.eigenvalues > 0))
-    top = min(available, n)
+    observed = min(int(np.sum(pod_result.eigenvalues > 0)), n)
+    limit = order_limit(int(train.sum()), n, p, observed)
     if m is not None:
-        if not 1 <= m <= top:
-            raise ValueError(f"m must be in [1, {top}] (the POD modes with energy), got {m}")
+        if not 1 <= m <= limit:
+            k = min(m, observed)
+            raise ValueError(
+                f"m must be in [1, {limit}]: an order-{m} model with {k} observed "
+                f"(POD) and {m - k} latent coordinates has {free_parameters(m, k)} free "
+                f"parameters, more than the {2 * int(train.sum()) * n * p} real equations "
+                f"of the {int(train.sum())} fitted lines × {n} measured DOF(s) × {p} load "
+                f"case(s), got m = {m}"
+                if m > limit
+                else f"m must be in [1, {limit}], got {m}"
+            )
         m_max = m
     elif m_max is None:
-        m_max = min(top, DEFAULT_M_MAX)
+        m_max = min(limit, DEFAULT_M_MAX)
     else:
-        m_max = min(m_max, top)
+        m_max = min(m_max, limit)
     w_all = _column_weights(U_n)
     w = w_all[train]
     fits: list[OrderFit] = []
@@ -369,37 +462,17 @@ def sweep_orders(
     best_test, since_best = np.inf, 0
     for order in range(1, m_max + 1):
         t0 = time.perf_counter()
-        R = pod_result.basis(order)
+        k = min(order, observed)
+        R = observation_matrix(pod_result.basis(k), order)
         U = np.einsum("nm,snp->smp", R, U_n)
         F = np.einsum("nm,snp->smp", R, F_n)
         Ut, Ft, wt = U[train], F[train], omega[train]
-        starts = []
-        dof = _decoupled_mode(Ut, Ft, wt, w)
-        if dof is not None:
-            starts.append(("continuation", _extend(previous, dof)))
-        if len(fits) > 1:
-            # an order that went astray does not drag the next ones with it: the best
-            # earlier order (on its training lines) is extended as well
-            best = min(fits[:-1], key=lambda f: f.train_db)
-            if best.train_db < fits[-1].train_db:
-                model = (best.model.M, best.model.C, best.model.K)
-                for j in range(best.m + 1, order + 1):
-                    extra = _decoupled_mode(Ut[:, :j], Ft[:, :j], wt, w)
-                    if extra is None:
-                        break
-                    model = _extend(model, extra)
-                else:
-                    starts.append((f"continuation from m = {best.m}", model))
-        if previous is not None:
-            peaks = _residual_modes(previous, Ut, Ft, wt, w)
-            if peaks:
-                starts.append(("residual peak", min(peaks, key=lambda c: c[0])[1]))
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                starts.append(("paper estimator", identify(Ut, Ft, wt, symmetric=True)))
-        except ValueError:
-            pass
+        if order <= observed:
+            starts = _observed_starts(order, previous, fits, Ut, Ft, wt, w)
+        else:
+            R_previous = observation_matrix(pod_result.basis(k), order - 1)
+            starts = [(name, start) for _, start, name in latent_starts(
+                previous, U_n[train], F_n[train], wt, R_previous, w)]
         # every start gets a few steps, the best of them the rest of the budget
         trials = []
         for name, start in starts:
@@ -425,6 +498,7 @@ def sweep_orders(
             start=name,
             stable=modal_parameters(model).stable,
             seconds=time.perf_counter() - t0,
+            observed=k,
         )
         fits.append(fit)
         previous = (model.M, model.C, model.K)
@@ -441,8 +515,14 @@ def sweep_orders(
         raise ValueError("no order could be fitted: the data give no physical start")
     best_fit = min(fits, key=lambda f: f.test_db)
     if m is not None:
-        chosen = m if fits[-1].m == m else fits[-1].m
-        reason = f"m = {chosen} as asked"
+        chosen = fits[-1].m
+        reason = (
+            f"m = {chosen} as asked"
+            if chosen == m
+            else f"m = {chosen}: order {chosen + 1} could not be started (m = {m} was asked; "
+            "the model of order "
+            f"{chosen} leaves no residual a new degree of freedom can fit)"
+        )
     else:
         chosen = next(f.m for f in fits if f.test_db <= (1 + tolerance) * best_fit.test_db)
         f = next(f for f in fits if f.m == chosen)
@@ -515,7 +595,7 @@ def final_fit(
         As for :func:`podid_rs.refine` (e.g. data that do not match the sweep's).
     """
     m = sweep.chosen
-    R = pod_result.basis(m)
+    R = sweep.basis(m, pod_result)
     start = sweep.fit(m).model
 
     def refit(model: IdentificationResult, objective: str) -> IdentificationResult:
