@@ -37,6 +37,7 @@ from .identification import (
     final_fit,
     identify,
     lambda_curve,
+    observation_matrix,
     refine,
     sweep_orders,
 )
@@ -92,6 +93,7 @@ __all__ = [
     "mass_spring_chain",
     "mass_spring_lattice",
     "modal_parameters",
+    "observation_matrix",
     "mode_shapes",
     "plot_lambda_curve",
     "plot_mac",

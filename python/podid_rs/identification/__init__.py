@@ -8,12 +8,14 @@
   solvers, a rule's name to the regularisation;
 - :mod:`.reference` — the paper's literal Kronecker formulation (the oracle);
 - :mod:`.refinement` — output-error refinement: models that reproduce the data;
+- :mod:`.latent` — latent coordinates: models with more DOFs than measured points;
 - :mod:`.order` — the order on measured data, chosen on held-out lines.
 
 This package re-exports the public names of its modules that ``podid_rs`` offers.
 """
 
 from .estimator import identify
+from .latent import observation_matrix
 from .order import OrderSweep, final_fit, sweep_orders
 from .refinement import StartWarning, refine
 from .regularisation import (
@@ -38,6 +40,7 @@ __all__ = [
     "final_fit",
     "identify",
     "lambda_curve",
+    "observation_matrix",
     "refine",
     "sweep_orders",
 ]

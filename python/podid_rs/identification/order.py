@@ -152,8 +152,26 @@ class OrderSweep:
         raise KeyError(f"order {m} was not fitted (orders {[f.m for f in self.fits]})")
 
     def basis(self, m: int, pod_result: PODResult) -> np.ndarray:
-        """The observation matrix ``[R_p, 0]`` ``(n, m)`` of order m: its POD modes of
-        ``pod_result``, then a zero column per latent coordinate."""
+        """The observation matrix of order m: its POD modes, then a zero column per
+        latent coordinate.
+
+        Parameters
+        ----------
+        m : int
+            An order the sweep fitted.
+        pod_result : PODResult
+            The POD the sweep was given.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, m)``: ``[R_p, 0]`` with R_p the first ``fit(m).observed`` POD modes.
+
+        Raises
+        ------
+        KeyError
+            If order m was not fitted.
+        """
         return observation_matrix(pod_result.basis(self.fit(m).observed), m)
 
     def table(self) -> str:

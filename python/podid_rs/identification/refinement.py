@@ -319,9 +319,15 @@ def refine(
         ``"relative"`` (1/‖u‖ per column, default), ``"uniform"``, or an array:
         ``(s,)`` per line, ``(s, p)`` per column, or with ``basis`` per measured
         entry ``(s, n)``/``(s, n, p)``. Non-negative.
-    basis : array_like, (n, m), optional
+    basis : array_like, (n, k), optional
         R with orthonormal columns (the POD modes), when U, F are given on the
-        measured DOFs.
+        measured DOFs; it may end in zero columns (an observation matrix returned by
+        :func:`~podid_rs.final_fit`). A start of order m above its k orthonormal
+        columns has m − k **latent coordinates**: unobserved and unforced, the model's
+        responses on the measured DOFs are ``[R, 0] x``
+        (:mod:`podid_rs.identification.latent`, :func:`observation_matrix`). Without
+        ``basis``, reduced data of order k below the start's m mean the same with
+        R = I_k.
     max_iter, ftol : int, float
         At most ``max_iter`` Levenberg–Marquardt steps; stop when ten accepted
         steps together lower the cost by less than 10·``ftol`` relative.
@@ -389,8 +395,11 @@ def refine(
         against ``U`` before and after (``db_before``, ``db_after``: (median,
         p95)), the weights used, how the start was made physical, and the step
         ``solver`` used with its ``solver_stats`` (CG products for the matrix-free
-        step). ``residual_norm`` is the equation error ‖Ax − y‖ (eq. 28) of the
-        refined model, for comparison with the paper's estimator.
+        step), and the ``coordinates``: observed, latent and the dimension of the
+        latent coordinates' gauge (``rank`` is the number of factor parameters less
+        that gauge). ``residual_norm`` is the equation error ‖Ax − y‖ (eq. 28) of the
+        refined model, for comparison with the paper's estimator — NaN with latent
+        coordinates, whose responses are not measured.
 
     Raises
     ------

@@ -1,0 +1,194 @@
+"""Latent coordinates: models with more degrees of freedom than measured points
+(podid_rs.identification.latent, refine and the order sweep past the POD basis).
+
+Asserted: the observation matrix is [R_p, 0] and malformed bases are refused; the
+latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
+of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
+order sweep goes past the single sensor, recovers every in-band mode of a 6-mode chain
+from a noisy driving-point FRF (f within 0.1 %, ζ within 10 %); an order the data
+cannot determine is refused with the limit named; what is written downstream (mode
+shapes, state space, UFF) is the model's response on the measured DOFs.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+
+import numpy as np
+import pytest
+
+import podid_rs as pr
+from podid_rs.identification.latent import (
+    free_parameters,
+    gauge_dimension,
+    latent_starts,
+    observed_count,
+)
+from podid_rs.identification.order import order_limit, sweep_orders
+
+
+def chain_data(n_mass: int, points: list[int], f_hz: np.ndarray, noise: float = 0.0, seed=0):
+    """Receptances of a uniform chain (1 kg, 4e5 N/m) at ``points``, force at DOF 0."""
+    chain = pr.mass_spring_chain(n_mass, m1=1.0, m2=1.0)
+    w = 2 * np.pi * f_hz
+    F = np.zeros((w.size, n_mass, 1))
+    F[:, 0, 0] = 1.0
+    X = chain.response(w, F)[:, points, :]
+    if noise:
+        rng = np.random.default_rng(seed)
+        X = X * (1 + noise * (rng.standard_normal(X.shape) + 1j * rng.standard_normal(X.shape))
+                 / np.sqrt(2))
+    data = pr.MeasuredData(w, X, np.ones((w.size, 1, 1)), inputs=[points.index(0)])
+    return chain, data
+
+
+def test_observation_matrix_is_the_basis_then_zero_columns():
+    Q, _ = np.linalg.qr(np.random.default_rng(0).standard_normal((5, 3)))
+    R = pr.observation_matrix(Q, 7)
+    assert R.shape == (5, 7) and np.array_equal(R[:, :3], Q) and not np.any(R[:, 3:])
+    # an observation matrix given back keeps its observed columns
+    assert np.array_equal(pr.observation_matrix(R, 9)[:, :7], R)
+    assert observed_count(R) == 3
+    with pytest.raises(ValueError, match="below the 3 observed coordinates"):
+        pr.observation_matrix(Q, 2)
+    with pytest.raises(ValueError, match="orthonormal"):
+        pr.observation_matrix(2 * Q, 4)
+    bad = R.copy()
+    bad[:, [2, 4]] = bad[:, [4, 2]]  # a zero column among the observed ones
+    with pytest.raises(ValueError, match="zero \\(latent\\) columns last"):
+        pr.observation_matrix(bad, 7)
+
+
+def test_the_latent_gauge_leaves_the_measured_response_unchanged():
+    """Every q = T q' with T = [[I, 0], [T_lp, T_ll]] gives the same R H(ω) Rᵀ: the
+    gauge has l·k + l² directions."""
+    rng = np.random.default_rng(1)
+    m, k = 5, 2
+    A = [rng.standard_normal((m, m)) for _ in range(3)]
+    M, C, K = (a @ a.T + m * np.eye(m) for a in A)
+    R = pr.observation_matrix(np.linalg.qr(rng.standard_normal((4, k)))[0], m)
+    T = np.eye(m)
+    T[k:, :] += 0.5 * rng.standard_normal((m - k, m))
+    M2, C2, K2 = (T.T @ X @ T for X in (M, C, K))
+    w = np.linspace(0.5, 5.0, 40)
+    H1 = np.einsum("am,smk,bk->sab", R, pr.SecondOrderSystem(M, C, K).frf(w), R)
+    H2 = np.einsum("am,smk,bk->sab", R, pr.SecondOrderSystem(M2, C2, K2).frf(w), R)
+    assert np.max(np.abs(H1 - H2)) < 1e-12 * np.max(np.abs(H1))
+    assert gauge_dimension(m, k) == 3 * 2 + 3 * 3
+    assert free_parameters(m, k) == 3 * m * (m + 1) // 2 - 15
+
+
+def test_one_frf_determines_every_mode_of_a_four_mass_chain():
+    chain, data = chain_data(4, [0], np.linspace(5, 220, 400))
+    rng = np.random.default_rng(2)
+    T = np.eye(4)
+    T[1:, :] += 0.1 * rng.standard_normal((3, 4))  # a start in another gauge, 5 % off
+    start = tuple(1.05 * (T.T @ X @ T) for X in (chain.M, chain.C, chain.K))
+    fit = pr.refine(start, data.U, data.forces_on_dofs(), data.omega, basis=np.ones((1, 1)),
+                    max_iter=300)
+    ref = fit.info["refinement"]
+    assert ref["coordinates"] == {"observed": 1, "latent": 3, "gauge": 12}
+    assert fit.rank == 30 - 12 and np.isnan(fit.residual_norm)
+    truth, got = pr.modal_parameters(chain), pr.modal_parameters(fit)
+    np.testing.assert_allclose(got.frequencies_hz, truth.frequencies_hz, rtol=1e-6)
+    np.testing.assert_allclose(got.damping_ratios, truth.damping_ratios, rtol=1e-5)
+    assert ref["db_after"][0] < 1e-6 and pr.is_physical(fit)
+    # reduced data of order 1 below the start's order 4 mean the same (R = I_1)
+    same = pr.refine(start, data.U[:, :, 0], data.forces_on_dofs()[:, :, 0], data.omega,
+                     max_iter=300)
+    np.testing.assert_allclose(pr.modal_parameters(same).frequencies_hz,
+                               truth.frequencies_hz, rtol=1e-6)
+
+
+def test_latent_starts_add_the_mode_the_model_lacks():
+    """From the 3-mode fit of a 4-mode chain's driving point, the best latent start
+    puts its new mode at the missing resonance."""
+    chain, data = chain_data(4, [0], np.linspace(5, 220, 400))
+    truth = pr.modal_parameters(chain).frequencies_hz
+    # the chain without its third mode, as a modal model with the driving point observed
+    lam, V = np.linalg.eigh(np.linalg.solve(chain.M, chain.K))
+    keep = [0, 1, 3]
+    phi = V[:, keep] / np.sqrt(np.diag(V[:, keep].T @ chain.M @ V[:, keep]))
+    model3 = (np.eye(3), phi.T @ chain.C @ phi, np.diag(lam[keep]))
+    # observed coordinate: the driving point's displacement x_0 = φ_0ᵀ η; change to it
+    T = np.eye(3)
+    T[0] = phi[0]
+    Ti = np.linalg.inv(T)
+    model3 = tuple(Ti.T @ X @ Ti for X in model3)
+    R = pr.observation_matrix(np.ones((1, 1)), 3)
+    w = np.ones((data.s, 1))
+    starts = latent_starts(model3, data.U, data.forces_on_dofs(), data.omega, R, w)
+    best = min(starts, key=lambda c: c[0])
+    added = float(re.search(r"at ([0-9.]+) Hz", best[2]).group(1))
+    assert abs(added - truth[2]) < 0.01 * truth[2] and best[1][0].shape == (4, 4)
+    # nothing to add to a model that reproduces the data exactly
+    exact = tuple(np.asarray(X) for X in (chain.M, chain.C, chain.K))
+    R4 = pr.observation_matrix(np.ones((1, 1)), 4)
+    assert latent_starts(exact, data.U, data.forces_on_dofs(), data.omega, R4, w) == []
+
+
+def test_the_sweep_goes_past_one_sensor_and_finds_every_mode():
+    chain, data = chain_data(12, [0], np.arange(5.0, 150.25, 0.25), noise=0.02)
+    truth = pr.modal_parameters(chain)
+    band = (truth.frequencies_hz >= 5) & (truth.frequencies_hz <= 150)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model, R, sweep = data.fit()
+    assert sweep.chosen > 1 and sweep.fit(sweep.chosen).latent == sweep.chosen - 1
+    assert R.shape == (1, sweep.chosen) and np.count_nonzero(np.abs(R) > 0) == 1
+    got = pr.modal_parameters(model)
+    assert got.stable and pr.is_physical(model)
+    for f, z in zip(truth.frequencies_hz[band], truth.damping_ratios[band], strict=True):
+        j = int(np.argmin(np.abs(got.frequencies_hz - f)))
+        assert abs(got.frequencies_hz[j] - f) < 1e-3 * f
+        assert abs(got.damping_ratios[j] - z) < 0.1 * z
+    # the model's FRF is within the noise of the truth: 2 % noise is about 0.17 dB
+    X = data.predict(model.system(), R)
+    exact = chain.response(data.omega, np.eye(12)[None, :, [0]].repeat(data.s, 0))[:, [0], :]
+    err = np.abs(20 * np.log10(np.abs(X) / np.abs(exact)))
+    assert np.median(err) < 0.05
+
+
+def test_an_order_the_data_cannot_determine_is_refused():
+    _, data = chain_data(6, [0], np.linspace(5, 150, 40))
+    lines = int(np.sum(np.arange(40) % 4 != 2))
+    limit = order_limit(lines, 1, 1, 1)
+    assert free_parameters(limit, 1) <= 2 * lines < free_parameters(limit + 1, 1)
+    with pytest.raises(ValueError, match=rf"m must be in \[1, {limit}\]: an order-{limit + 1} "
+                       r"model with 1 observed \(POD\) and \d+ latent coordinates"):
+        sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m=limit + 1)
+
+
+def test_downstream_outputs_see_the_model_on_the_measured_dofs(tmp_path):
+    """Mode shapes, the state space and the UFF FRFs of a latent model are its
+    response on the measured DOFs, R H(ω) Rᵀ."""
+    chain, data = chain_data(4, [0, 2], np.linspace(5, 220, 300))
+    start = tuple(1.02 * np.asarray(X) for X in (chain.M, chain.C, chain.K))
+    P = data.pod()
+    Rp = P.basis(2)
+    # the chain in coordinates whose first two are the POD coordinates of DOFs 0 and 2
+    T = np.eye(4)
+    T[:2, :] = 0
+    T[np.ix_([0, 1], [0, 2])] = Rp.T
+    T[2:, [1, 3]] = np.eye(2)
+    Ti = np.linalg.inv(T)
+    start = tuple(Ti.T @ X @ Ti for X in start)
+    fit = pr.refine(start, data.U, data.forces_on_dofs(), data.omega, basis=Rp, max_iter=300)
+    R = pr.observation_matrix(Rp, 4)
+    H = data.predict(fit.system(), R)[:, :, 0]
+    assert np.median(np.abs(20 * np.log10(np.abs(H) / np.abs(data.U[:, :, 0])))) < 1e-6
+    shapes = pr.mode_shapes(fit, R, data.dofs)
+    assert shapes.shapes.shape == (2, 4)
+    truth = pr.mode_shapes(chain, np.eye(4)[[0, 2]])
+    mac = pr.mac(shapes.shapes, truth.shapes)
+    assert np.allclose(np.diag(mac), 1.0, atol=1e-6)
+    ss = fit.to_state_space(R)
+    s = 1j * data.omega[::50]
+    G = np.array([ss.C @ np.linalg.solve(x * np.eye(8) - ss.A, ss.B) for x in s])
+    F = np.zeros((2, 1))
+    F[data.inputs[0]] = 1
+    np.testing.assert_allclose((G @ F)[:, :, 0], H[::50], rtol=1e-8)
+    path = pr.write_uff(tmp_path / "latent.uff", fit, R, data)
+    back = pr.read_uff(path)
+    np.testing.assert_allclose(back.U[:, :, 0], H[data.omega > 0], rtol=1e-5)
