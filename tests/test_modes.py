@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from podid_rs import ModeShapes, mac, mass_spring_chain, modal_parameters, mode_shapes, shape_mac
+from podid_rs import (
+    ModeShapes,
+    SecondOrderSystem,
+    mac,
+    mass_spring_chain,
+    modal_parameters,
+    mode_shapes,
+    shape_mac,
+)
 from podid_rs.measured import from_frf
 from podid_rs.plotting import plot_mac
 
@@ -129,3 +137,39 @@ def test_plot_mac_against_another_model(full_order, tmp_path):
     upper = ident.in_band((30.0, 1e3))
     assert upper.mode_numbers[0] == 1 + np.sum(ident.frequencies_hz < 30.0)
     assert ident.oscillatory().n_modes == 6  # the chain has no overdamped root
+
+
+def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
+    """A modal model with known poles, seen at one sensor that is also the driving point:
+    in band and visible → structural; in band but its peak under 10 % of the data at the
+    sensor → weak; ζ ≥ 0.2, out of the band, or real → residual."""
+    from podid_rs.modes import mode_kinds
+
+    w = 2 * np.pi * np.linspace(20.0, 150.0, 1301)
+
+    def kinds_of(f_hz, zeta, shape, **kw):
+        wn = 2 * np.pi * np.asarray(f_hz)
+        zeta = np.asarray(zeta)
+        model = SecondOrderSystem(np.eye(wn.size), np.diag(2 * zeta * wn), np.diag(wn**2))
+        R = np.asarray([shape], dtype=float)
+        shapes = mode_shapes(model, R)
+        F = np.zeros((w.size, wn.size, 1))
+        F[:, :, 0] = R[0]
+        U = np.einsum("nm,smp->snp", R, model.response(w, F))
+        found = dict(zip(np.round(shapes.frequencies_hz, 6), mode_kinds(shapes, w, U, [0], **kw),
+                         strict=True))
+        return found, shapes, U
+
+    f = [30.0, 60.0, 90.0, 120.0, 200.0]
+    found, shapes, U = kinds_of(f, [0.01, 0.01, 0.25, 0.01, 0.01], [1, 1, 1, 0.02, 1])
+    assert [found[k] for k in sorted(found)] == [
+        "structural", "structural", "residual", "weak", "residual"]
+    # an overdamped DOF (a real pole pair) is a residual term too
+    found, _, _ = kinds_of([30.0, 60.0, 1.0], [0.01, 0.01, 3.0], [1, 1, 1])
+    assert sorted(found.values()) == ["residual", "residual", "structural", "structural"]
+    # without measured FRFs only band and damping decide: nothing is weak
+    assert "weak" not in mode_kinds(shapes, w)
+    # a high enough visibility threshold makes every in-band light pole weak
+    assert "structural" not in mode_kinds(shapes, w, U, [0], visible_fraction=1e6)
+    with pytest.raises(ValueError, match="U needs inputs"):
+        mode_kinds(shapes, w, U)

@@ -272,3 +272,91 @@ def shape_mac(a: ModeShapes, b: ModeShapes) -> tuple[np.ndarray, np.ndarray | No
         )
     ia, ib = (np.asarray(x) for x in zip(*rows, strict=True))
     return mac(a.shapes[ia], b.shapes[ib]), a.dofs[ia]
+
+
+#: kinds of pole in a fitted model, as :func:`mode_kinds` names them
+STRUCTURAL, WEAK, RESIDUAL = "structural", "weak", "residual"
+#: a pole with at least this damping ratio is a residual term: its half-power band,
+#: 2ζ·f, spans 40 % of its frequency — no resonance a test resolves
+RESIDUAL_ZETA = 0.2
+#: an in-band, lightly damped pole whose own peak stays below this fraction of the
+#: measured response at every measured DOF and input is a weak term of the fit
+VISIBLE_FRACTION = 0.1
+
+
+def mode_kinds(
+    shapes: ModeShapes,
+    omega: object,
+    U: object = None,
+    inputs: object = None,
+    *,
+    residual_zeta: float = RESIDUAL_ZETA,
+    visible_fraction: float = VISIBLE_FRACTION,
+) -> np.ndarray:
+    """Tell the structure's modes from the fit's other poles.
+
+    A fitted model's poles are not all modes of the structure: an output-error fit
+    (and a modal-fit tool alike) also places poles that shape the response — below or
+    above the band (residual terms, the role of LSFD's lower and upper residuals),
+    overdamped, or in band but too weak to be seen. Each pole of ``shapes`` gets a
+    kind:
+
+    * ``"residual"`` — a real (overdamped) pole, one outside the band of ``omega``, or
+      one with damping ratio ≥ ``residual_zeta``;
+    * ``"weak"`` — in band and lightly damped, but its own peak, |φ_i φ_d| / (|a| |Re λ|)
+      (the mode's receptance term at ω = Im λ, :attr:`ModeShapes.modal_a`), stays below
+      ``visible_fraction`` of the measured |U| at the nearest line at every measured
+      DOF i and input d: no resonance of the data is the mode's (judged only with
+      measured FRFs ``U`` and a symmetric model's ``modal_a``; otherwise no pole is
+      weak);
+    * ``"structural"`` — every other pole: a resonance of the measured data.
+
+    Parameters
+    ----------
+    shapes : ModeShapes
+        The model's modes on the measured DOFs (:func:`mode_shapes` of a symmetric
+        model, so that ``modal_a`` is known).
+    omega : array_like, (s,)
+        The measured lines (rad/s); their range is the band.
+    U : array_like, complex, (s, n, p), optional
+        The measured receptances for unit forces at ``inputs`` (FRF data).
+    inputs : array_like of int, (p,), optional
+        The driven DOF of each load case, as rows of ``shapes.shapes`` (with ``U``).
+    residual_zeta, visible_fraction : float
+        The thresholds above (defaults ``RESIDUAL_ZETA``, ``VISIBLE_FRACTION``).
+
+    Returns
+    -------
+    numpy.ndarray of str, (k,)
+        ``"structural"``, ``"weak"`` or ``"residual"`` per mode, in ``shapes``' order.
+
+    Raises
+    ------
+    ValueError
+        For ``U`` without ``inputs``, or arrays whose shapes do not match.
+    """
+    w = as_array(omega, "omega", real=True).reshape(-1)
+    lam = shapes.eigenvalues
+    kinds = np.full(lam.size, STRUCTURAL, dtype=object)
+    out_of_band = (lam.imag < w[0]) | (lam.imag > w[-1])
+    kinds[(lam.imag == 0) | out_of_band | (shapes.damping_ratios >= residual_zeta)] = RESIDUAL
+    if U is None or shapes.modal_a is None:
+        return kinds.astype(str)
+    if inputs is None:
+        raise ValueError("U needs inputs: the driven DOF of each load case")
+    Ua = as_array(U, "U")
+    idx = np.asarray(inputs, dtype=np.int64).reshape(-1)
+    if Ua.ndim != 3 or Ua.shape[0] != w.size or Ua.shape[1] != shapes.shapes.shape[0] or \
+            Ua.shape[2] != idx.size:
+        raise ValueError(
+            f"U must be (s, n, p) = ({w.size}, {shapes.shapes.shape[0]}, {idx.size}), "
+            f"got {Ua.shape}"
+        )
+    for k in np.flatnonzero(kinds == STRUCTURAL):
+        line = int(np.argmin(np.abs(w - lam[k].imag)))
+        phi = shapes.shapes[:, k]
+        peak = np.abs(np.outer(phi, phi[idx])) / (abs(shapes.modal_a[k]) * abs(lam[k].real))
+        measured = np.abs(Ua[line])
+        if not np.any(peak >= visible_fraction * measured):
+            kinds[k] = WEAK
+    return kinds.astype(str)

@@ -260,10 +260,14 @@ def compare_modes(identified: ModalParameters, truth: ModalParameters) -> list[d
 def modal_table(
     model: IdentificationResult | SecondOrderSystem,
     truth: SecondOrderSystem | None = None,
+    kinds: np.ndarray | None = None,
 ) -> list[dict[str, float | int | str]]:
-    """Rows of the modal report: mode, f (Hz), ζ, Re λ, stability; truth columns if given."""
+    """Rows of the modal report: mode, f (Hz), ζ, Re λ, stability; the kind of each
+    pole if given (:func:`podid_rs.modes.mode_kinds`); truth columns if given."""
     modes = modal_parameters(model)
     pairs = compare_modes(modes, modal_parameters(truth)) if truth is not None else None
+    if kinds is not None and len(kinds) != modes.eigenvalues.size:
+        raise ValueError(f"kinds has {len(kinds)} entries for {modes.eigenvalues.size} modes")
     rows: list[dict[str, float | int | str]] = []
     for k, lam in enumerate(modes.eigenvalues):
         row: dict[str, float | int | str] = {
@@ -273,6 +277,8 @@ def modal_table(
             "re_lambda": float(lam.real),
             "stable": "yes" if lam.real < 0 else "no",
         }
+        if kinds is not None:
+            row["kind"] = str(kinds[k])
         if pairs is not None:
             p = pairs[k]
             row.update(

@@ -18,21 +18,25 @@ Into the output folder go
   point of driven DOF k and at the measured DOF farthest from it (at most four),
   the refined model beside the paper's estimator;
 * ``modes.csv`` and ``modes.md`` — the modal table (natural frequencies, damping
-  ratios, stability), ``modes.md`` headed by a summary of the run: the order and
-  why, FRF errors of the paper's estimator and of the refined model, stability;
+  ratios, stability) with the kind of every pole (:func:`podid_rs.modes.mode_kinds`):
+  the structure's modes — in-band resonances of the data — apart from the fit's
+  residual terms (out of band, overdamped) and weak poles; ``modes.md`` headed by a
+  summary of the run: the order and why, FRF errors of the paper's estimator and of
+  the refined model, stability;
 * ``order.png`` and ``order.md`` — the held-out and training errors of every order
   tried (refined models only);
 * ``model.uff`` — the model for modal and FE-correlation software
   (:func:`podid_rs.io.uff.write_uff`): the input's geometry (dataset 15) when it had
-  one, the identified modes on the measured DOFs (55, one per row of
-  ``modes.csv``) and the identified FRFs (58) in the input's ordinate;
+  one, the structure's modes on the measured DOFs (55, one per ``structural`` row
+  of ``modes.csv``, with its number) and the identified FRFs (58) in the input's
+  ordinate;
 * ``stabilisation.png`` / ``stabilisation.csv`` — the stabilisation chart over
   the POD order (:mod:`podid_rs.stabilisation`), the evidence for the order: the
   sweep's models (every order it tried), or with ``paper_estimator`` models fitted
   as the command fits (λ or exactly symmetric, made physical with ``--physical``)
   of orders 1 … :func:`stabilisation_orders`; the chosen order marked;
-* ``mac.png`` — the MAC between the in-band complex modes of the chosen order m
-  and of order m + 1 (m − 1 at full order): shapes that persist are not artefacts
+* ``mac.png`` — the MAC between the structural modes of the chosen order m and
+  the in-band complex modes of order m + 1 (m − 1 at full order): shapes that persist are not artefacts
   of the order (not written when either order has no mode in the band).
 
 The last three are :func:`write_identify_outputs`'s.
@@ -54,7 +58,15 @@ from ..identification.result import IdentificationResult
 from ..io.npz import load_data, save_model
 from ..io.uff import read_uff_geometry, uff_quantity, write_uff
 from ..measured import MeasuredData
-from ..modes import mode_shapes
+from ..modes import (
+    RESIDUAL,
+    RESIDUAL_ZETA,
+    STRUCTURAL,
+    VISIBLE_FRACTION,
+    WEAK,
+    mode_kinds,
+    mode_shapes,
+)
 from ..physical import make_physical, modal_parameters, modal_table, table_csv, table_markdown
 from ..plotting import Curve, plot_frf_comparison, plot_mac, plot_order_sweep, plot_stabilisation
 from ..pod import PODResult
@@ -225,6 +237,36 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
     return paths
 
 
+def pole_kinds(result: IdentificationResult, R: np.ndarray, data: MeasuredData) -> np.ndarray:
+    """The kind of each pole of ``result`` (:func:`podid_rs.modes.mode_kinds`): the
+    structure's modes, weak poles and residual terms, judged against the measured FRFs
+    (FRF data) or by band and damping alone (other data)."""
+    shapes = mode_shapes(result, R, data.dofs)
+    if data.is_frf:
+        return mode_kinds(shapes, data.omega, data.U, data.inputs)
+    return mode_kinds(shapes, data.omega)
+
+
+def modes_markdown(summary: str, rows: list[dict]) -> str:
+    """``modes.md``: the run's summary, the structure's modes, then the fit's other poles."""
+    structural = [r for r in rows if r.get("kind", STRUCTURAL) == STRUCTURAL]
+    others = [r for r in rows if r.get("kind", STRUCTURAL) != STRUCTURAL]
+    text = (f"# podid-rs identify\n\n{summary}\n## Modes of the structure\n\n"
+            "In-band resonances of the measured data (the poles `modes.csv` marks "
+            f"`{STRUCTURAL}`); these go to `model.uff` (dataset 55).\n\n")
+    text += table_markdown(structural) if structural else "None.\n"
+    if others:
+        text += (
+            "\n## Other poles of the fit (not modes of the structure)\n\n"
+            f"`{RESIDUAL}`: a residual term — out of the band, overdamped or with ζ ≥ "
+            f"{RESIDUAL_ZETA:g}, standing in for modes outside the band; `{WEAK}`: in band but "
+            f"its own peak is under {100 * VISIBLE_FRACTION:g} % of the measured response at "
+            "every DOF. They shape the fit; they are not resonances of the data.\n\n"
+            + table_markdown(others)
+        )
+    return text
+
+
 def _dof_name(dof: np.ndarray) -> str:
     """A measured DOF as the file names it: node and direction, e.g. ``3Z`` or ``12-Y``."""
     node, direction = (int(v) for v in dof[:2])
@@ -300,12 +342,10 @@ def run_identify(
         )
     ]
     files += _overlays(run, out)
-    rows = modal_table(result)
+    kinds = pole_kinds(result, R, data)
+    rows = modal_table(result, kinds=kinds)
     (out / "modes.csv").write_text(table_csv(rows))
-    (out / "modes.md").write_text(
-        f"# podid-rs identify\n\n{run.summary()}\n## Modes of the identified model\n\n"
-        + table_markdown(rows)
-    )
+    (out / "modes.md").write_text(modes_markdown(run.summary(), rows))
     files += [out / "modes.csv", out / "modes.md"]
     if sweep is not None:
         files.append(plot_order_sweep(
@@ -321,11 +361,12 @@ def run_identify(
         files += write_identify_outputs(
             source, data, result, R, out, band_hz=band_hz, lam=lam, physical=physical,
             progress=progress, pod=pod, fit=lambda k: result if k == order else fits[k],
-            max_order=max(fits),
+            max_order=max(fits), kinds=kinds,
         )
     else:
         files += write_identify_outputs(source, data, result, R, out, band_hz=band_hz, lam=lam,
-                                        physical=physical, progress=progress, pod=pod)
+                                        physical=physical, progress=progress, pod=pod,
+                                        kinds=kinds)
     return IdentifyRun(source, data, ls, result, R, files, sweep)
 
 
@@ -404,6 +445,7 @@ def write_identify_outputs(
     pod: PODResult | None = None,
     fit: Callable[[int], IdentificationResult] | None = None,
     max_order: int | None = None,
+    kinds: np.ndarray | None = None,
 ) -> list[Path]:
     """Write ``model.uff``, ``stabilisation.png``/``.csv`` and ``mac.png`` to ``out``.
 
@@ -411,9 +453,11 @@ def write_identify_outputs(
     with ``fit`` (default: as the command's paper estimator, :func:`command_fit`).
     """
     quantity = source_ordinate(source)
+    kinds = pole_kinds(result, basis, data) if kinds is None else np.asarray(kinds)
     files = [
         write_uff(out / "model.uff", result, basis, data, quantity=quantity,
-                  geometry=source_geometry(source), name=source.name)
+                  geometry=source_geometry(source), name=source.name,
+                  modes=kinds == STRUCTURAL)
     ]
     m = result.m
     pod = data.pod() if pod is None else pod
@@ -431,7 +475,7 @@ def write_identify_outputs(
     other = m + 1 if m < top else m - 1
     lo, hi = float(data.freq_hz[0]), float(data.freq_hz[-1])
     if other >= 1:
-        shapes = mode_shapes(result, basis, data.dofs).in_band((lo, hi)).oscillatory()
+        shapes = mode_shapes(result, basis, data.dofs).select(kinds == STRUCTURAL)
         # order `other`'s observation matrix: its POD modes, a zero column per latent DOF
         observed = min(other, int(np.sum(pod.eigenvalues > 0)), data.n)
         neighbour = mode_shapes(

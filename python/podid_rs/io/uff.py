@@ -370,6 +370,7 @@ def _check_geometry(geometry: object) -> np.ndarray | None:
 
 def _set_55(j: int, modes: ModeShapes, nodes: list[int], name: str) -> dict:
     lam = complex(modes.eigenvalues[j])
+    number = int(modes.mode_numbers[j])  # the mode's number in the modal table
     a = 0j if modes.modal_a is None else complex(modes.modal_a[j])
     r = np.zeros((3, len(nodes)), dtype=np.complex128)
     for (node, direction), v in zip(modes.dofs.tolist(), modes.shapes[:, j], strict=True):
@@ -377,7 +378,7 @@ def _set_55(j: int, modes: ModeShapes, nodes: list[int], name: str) -> dict:
             r[abs(direction) - 1, nodes.index(node)] = np.sign(direction) * v
     f, zeta = modes.frequencies_hz[j], modes.damping_ratios[j]
     return _pyuff().prepare_55(
-        id1=f"{name}: identified mode {j + 1}"[:80],
+        id1=f"{name}: identified mode {number}"[:80],
         id2=f"f = {f:.6g} Hz, zeta = {zeta:.6g}"[:80],
         id3="NONE",
         id4="complex eigenvalue in rad/s; shape scaled to largest entry 1"[:80],
@@ -392,7 +393,7 @@ def _set_55(j: int, modes: ModeShapes, nodes: list[int], name: str) -> dict:
         r2=r[1],
         r3=r[2],
         load_case=1,
-        mode_n=j + 1,
+        mode_n=number,
         eig=lam,
         modal_a=a,
         modal_b=-lam * a,
@@ -460,6 +461,7 @@ def write_uff(
     geometry: object = None,
     binary: bool = False,
     name: str = "podid_rs",
+    modes: object = None,
 ) -> Path:
     """Write the identified model to a Universal File: datasets 15, 55 and 58.
 
@@ -495,6 +497,10 @@ def write_uff(
         Write 58 ordinates as exact doubles.
     name : str
         Written into the sets' ID lines.
+    modes : array_like of bool, (k,), optional
+        Which of the model's modes (in :func:`podid_rs.modal_parameters`' order) get a
+        dataset 55, e.g. only the structural ones (:func:`podid_rs.modes.mode_kinds`);
+        default all. Each keeps its number in the modal table.
 
     Returns
     -------
@@ -547,7 +553,15 @@ def write_uff(
         raise ValueError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
     geom = _check_geometry(geometry)
 
-    modes = mode_shapes(model, R, labels)
+    shapes = mode_shapes(model, R, labels)
+    if modes is not None:
+        keep = np.asarray(modes)
+        if keep.dtype != np.bool_ or keep.shape != (shapes.n_modes,):
+            raise ValueError(
+                f"modes must be a boolean mask over the model's {shapes.n_modes} modes, "
+                f"got {keep.dtype} {keep.shape}"
+            )
+        shapes = shapes.select(keep)
     nodes = sorted({int(n) for n in labels[:, 0]})
     sets = []
     if geom is not None:
@@ -556,7 +570,7 @@ def write_uff(
             def_cs=[0] * len(geom), disp_cs=[0] * len(geom), color=[1] * len(geom),
             x=geom[:, 1].tolist(), y=geom[:, 2].tolist(), z=geom[:, 3].tolist(),
         ))
-    sets += [_set_55(j, modes, nodes, name) for j in range(modes.n_modes)]
+    sets += [_set_55(j, shapes, nodes, name) for j in range(shapes.n_modes)]
     if omega is not None:
         sets += _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name,
                          _reciprocity_remark(data))
