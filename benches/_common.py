@@ -104,6 +104,36 @@ def first_touch_us_per_page(mib: int = 256) -> float:
     return max(first - again, 0.0) * 1e6 / (n * 8 / 4096)
 
 
+def cpu_model() -> str:
+    """The CPU as /proc/cpuinfo names it (model name, family, model), or the platform's."""
+    fields: dict[str, str] = {}
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                fields.setdefault(key.strip(), value.strip())
+    except OSError:
+        pass
+    if "model name" in fields:
+        return (f"{fields['model name']} (family {fields.get('cpu family', '?')}, "
+                f"model {fields.get('model', '?')})")
+    import platform
+
+    return platform.processor() or platform.machine()
+
+
+def host_line() -> str:
+    """One line for a benchmark table: CPU, cores, date (UTC) and the code's git commit."""
+    try:
+        commit = subprocess.run(["git", "-C", str(Path(__file__).parent), "rev-parse", "--short",
+                                 "HEAD"], capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = ""
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    return (f"Host: {cpu_model()}, {os.cpu_count()} logical CPUs; {when}"
+            + (f"; commit {commit}" if commit else ""))
+
+
 def load_average() -> float | None:
     """One-minute load average (other processes share the cores), or None."""
     try:
