@@ -14,16 +14,16 @@
 //! direct path's normal matrix (the penalty is 4λ̃² on skew coordinates), so the
 //! two paths solve the same equations. Memory is O(m²).
 
-use crate::data::Columns;
+use crate::data::{scaled, unscale, Columns};
 use crate::direct::Method;
 use crate::error::PodidError;
 use crate::gram::{gram_blocks, symmetrize, HBlocks};
-use crate::identify::{check_lam, scaled, unscale, Identified};
 use crate::normal::n_unknowns;
 use crate::pairs::Layout;
 use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
 use crate::residual::residual_norm_with;
 use crate::sgs::{Ends, Sgs, SgsWork};
+use crate::solution::{check_lam, CgReport, Identified};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use rayon::prelude::*;
@@ -36,15 +36,6 @@ pub struct CgOptions {
     /// stop when ‖b − A x‖ / ‖b‖ ≤ tol (scaled problem, true residual)
     pub tol: f64,
     pub max_iter: usize,
-}
-
-/// What the iteration achieved.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CgReport {
-    pub iterations: usize,
-    /// true relative residual ‖b − A x‖ / ‖b‖ of the returned answer (scaled problem)
-    pub relative_residual: f64,
-    pub converged: bool,
 }
 
 /// Called after every iteration with (iteration, recursively updated relative

@@ -7,7 +7,7 @@
 //! converted with [`Scaling`].
 
 use crate::error::PodidError;
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatRef};
 use rayon::prelude::*;
 
 /// Borrowed, validated measurement columns.
@@ -152,6 +152,21 @@ impl Stacked {
         let w = cols.omega.iter().map(|w| w / sc.omega0).collect();
         Stacked { y, g, w }
     }
+}
+
+/// Scale the columns ([`Scaling::of`]) and apply `products` (the Gram products:
+/// [`crate::gram::gram`], or [`crate::gram::gram_blocks`]) to the scaled, stacked data.
+pub(crate) fn scaled<T>(cols: &Columns, products: impl FnOnce(&Stacked) -> T) -> (Scaling, T) {
+    let scaling = Scaling::of(cols);
+    let out = products(&Stacked::new(cols, &scaling));
+    (scaling, out)
+}
+
+/// M, C, K in the caller's units from the scaled Z = [X_M X_C X_K] (m×3m).
+pub(crate) fn unscale(z: MatRef<f64>, scaling: &Scaling) -> [Mat<f64>; 3] {
+    let m = z.nrows();
+    let f = scaling.block_factors();
+    [0, 1, 2].map(|b| Mat::from_fn(m, m, |i, j| f[b] * z[(i, b * m + j)]))
 }
 
 #[cfg(test)]

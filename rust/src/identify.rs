@@ -2,62 +2,15 @@
 //! the symmetric/skew basis, solve, map back to M, C, K in the caller's units.
 
 use crate::buffer::DenseBuf;
-use crate::cg::CgReport;
-use crate::data::{Columns, Scaling, Stacked};
-use crate::direct::{cholesky_solve, eigen_min_norm_solve, Method, Solution};
+use crate::data::{scaled, unscale, Columns};
+use crate::direct::{cholesky_solve, eigen_min_norm_solve, Solution};
 use crate::error::PodidError;
 use crate::gram::{gram, Gram};
 use crate::normal::{n_unknowns, Basis};
 use crate::residual::residual_norm;
-use faer::{Mat, MatRef, Par};
+use crate::solution::{check_lam, Identified};
+use faer::{Mat, Par};
 use std::time::Instant;
-
-/// Identified M, C, K with what the solver saw.
-pub struct Identified {
-    /// [M, C, K], each m×m, in the caller's units
-    pub mck: [Mat<f64>; 3],
-    pub method: Method,
-    /// numerical rank of the normal matrix (= n_unknowns when well posed)
-    pub rank: usize,
-    pub n_unknowns: usize,
-    pub min_pivot_ratio: f64,
-    pub scaling: Scaling,
-    /// wall time per phase, seconds (direct: gram, form, factor, residual, total;
-    /// CG: gram, setup (basis: its share choosing Q), iterate, and within
-    /// iterate gemm (the double-precision operator of the residual checks) and
-    /// solves (the preconditioner's triangular solves), residual, total)
-    pub timings: Vec<(&'static str, f64)>,
-    /// iterations and final residual of the matrix-free solver (None for direct)
-    pub cg: Option<CgReport>,
-    /// the data misfit ‖Ax − y‖ of the answer (eq. 28, [`crate::residual`])
-    pub residual_norm: f64,
-}
-
-/// λ must be finite and non-negative.
-pub(crate) fn check_lam(lam: [f64; 3]) -> Result<(), PodidError> {
-    if lam.iter().all(|l| l.is_finite() && *l >= 0.0) {
-        Ok(())
-    } else {
-        Err(PodidError::Invalid(format!(
-            "lam must be finite and non-negative, got {lam:?}"
-        )))
-    }
-}
-
-/// Scale the columns (DESIGN §3) and apply `products` (the Gram products:
-/// [`gram`], or [`crate::gram::gram_blocks`]) to the scaled, stacked data.
-pub(crate) fn scaled<T>(cols: &Columns, products: impl FnOnce(&Stacked) -> T) -> (Scaling, T) {
-    let scaling = Scaling::of(cols);
-    let out = products(&Stacked::new(cols, &scaling));
-    (scaling, out)
-}
-
-/// M, C, K in the caller's units from the scaled Z = [X_M X_C X_K] (m×3m).
-pub(crate) fn unscale(z: MatRef<f64>, scaling: &Scaling) -> [Mat<f64>; 3] {
-    let m = z.nrows();
-    let f = scaling.block_factors();
-    [0, 1, 2].map(|b| Mat::from_fn(m, m, |i, j| f[b] * z[(i, b * m + j)]))
-}
 
 /// True when no block is penalised: the problem splits into m rows sharing H.
 fn unregularised(lam: [f64; 3], symmetric: bool) -> bool {
@@ -183,6 +136,7 @@ pub fn identify(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::direct::Method;
     use faer::c64;
     use faer::prelude::Solve;
 

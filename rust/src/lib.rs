@@ -7,6 +7,7 @@
 //! - [`normal`]: the normal equations in each block's symmetric/skew basis;
 //! - [`direct`]: in-place Cholesky with a rank-revealing fallback;
 //! - [`identify`]: the whole solve, scaled in and out;
+//! - [`solution`]: what both solvers give back ([`solution::Identified`]);
 //! - [`sweep`]: the λ-curves (L-curve, GCV, discrepancy) from one eigendecomposition;
 //! - [`tridiag`]: two-stage symmetric tridiagonalisation (for the sweep);
 //! - [`cg`]: the matrix-free alternative for large m — preconditioned CG on the
@@ -30,6 +31,7 @@ pub mod random;
 pub mod refine;
 pub mod residual;
 pub mod sgs;
+pub mod solution;
 pub mod sweep;
 pub mod tridiag;
 

@@ -5,7 +5,7 @@
 use crate::cg::{self, CgOptions};
 use crate::data::{Columns, Scaling, Stacked};
 use crate::error::PodidError;
-use crate::identify::Identified;
+use crate::solution::Identified;
 use crate::sweep::Sweep;
 use crate::{identify, with_threads};
 use faer::{Mat, Par};
