@@ -33,7 +33,7 @@
 //! ([`super::CURVATURE_SWITCH`]).
 
 use super::lines::theta_scale;
-use super::{n_per_block, tri, Params};
+use super::parametrisation::{n_per_block, tri, Params};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par, Side};
 use rayon::prelude::*;
@@ -214,7 +214,7 @@ mod tests {
                 let lf = params.unpack(th);
                 (0..3)
                     .map(|b| {
-                        let x = super::super::gram_lower(&lf[b]);
+                        let x = crate::refine::parametrisation::gram_lower(&lf[b]);
                         (0..m)
                             .flat_map(|i| (0..m).map(move |j| (i, j)))
                             .map(|(i, j)| gamma[b][(i, j)] * x[(i, j)])

@@ -12,8 +12,11 @@
 //! Memory: the moments (m(m+1)/2 × 5m(m+1)/2, twice), O(m⁴), and N_θ.
 
 use super::curvature::Curvature;
+use super::lines;
 use super::lines::{line_pieces, response_weight, terms_per_line};
-use super::{lines, n_per_block, tri, Evaluation, Params, Problem, StepSolver, CONDITION_FLOOR};
+use super::objective::{Evaluation, Problem};
+use super::parametrisation::{n_per_block, tri, Params, CONDITION_FLOOR};
+use super::step_solver::StepSolver;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt;
 use faer::linalg::matmul::matmul;

@@ -2,7 +2,10 @@
 //! the per-line Gram matrices G = Aᴴ A, the gradient, and the tangent map
 //! P: δθ ↦ δX = δL Lᵀ + L δLᵀ + 2ε⟨L, δL⟩ I with its adjoint.
 
-use super::{inverse_of, n_per_block, tri, Evaluation, Params, Problem, Weights, CONDITION_FLOOR};
+use super::input::Weights;
+use super::line_solves::inverse_of;
+use super::objective::{Evaluation, Problem};
+use super::parametrisation::{n_per_block, tri, Params, CONDITION_FLOOR};
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::BlockStructure;
 use faer::traits::Conjugate;

@@ -28,12 +28,13 @@
 //! O(ε) terms are left out of the damping), s_jk = L_jj on a logged diagonal.
 
 use super::curvature::Curvature;
+use super::input::Weights;
+use super::line_solves::{solve_lines, solve_lines_adjoint, solve_lines_single};
 use super::lines::{self, line_pieces, response_weight, terms_per_line};
 use super::modal::{add_line_sums, add_sums_y, ModalMetric};
-use super::{
-    n_per_block, solve_lines, solve_lines_adjoint, solve_lines_single, tri, Evaluation, Params,
-    Problem, StepSolver, Weights, CONDITION_FLOOR,
-};
+use super::objective::{Evaluation, Problem};
+use super::parametrisation::{gram_lower, n_per_block, tri, Params, CONDITION_FLOOR};
+use super::step_solver::StepSolver;
 use faer::linalg::matmul::matmul;
 use faer::{c32, c64, Accum, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
@@ -384,7 +385,7 @@ impl MatrixFree {
         let mut new_l = self.l.clone();
         for b in 0..3 {
             let dx = lines::tangent(&params, &self.l[b], &dth[b * nb..(b + 1) * nb]);
-            let x = super::gram_lower(&self.l[b]);
+            let x = gram_lower(&self.l[b]);
             let target = Mat::from_fn(m, m, |i, j| x[(i, j)] + dx[(i, j)]);
             let tr: f64 = (0..m).map(|i| target[(i, i)]).sum();
             let shift = CONDITION_FLOOR * tr / (1.0 + m as f64 * CONDITION_FLOOR);

@@ -29,7 +29,7 @@
 //! metric`.
 
 use super::lines::theta_scale;
-use super::{n_per_block, tri, Params};
+use super::parametrisation::{n_per_block, tri, Params};
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::BlockStructure;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
