@@ -24,10 +24,10 @@ use crate::precond::{basis_of, from_basis, to_basis, PairPrecond};
 use crate::residual::residual_norm_with;
 use crate::sgs::{Ends, Sgs, SgsWork};
 use crate::solution::{check_lam, CgReport, Identified};
+use crate::Progress;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use rayon::prelude::*;
-use std::ops::ControlFlow;
 use std::time::Instant;
 
 /// Stopping rule of the iteration.
@@ -37,10 +37,6 @@ pub struct CgOptions {
     pub tol: f64,
     pub max_iter: usize,
 }
-
-/// Called after every iteration with (iteration, recursively updated relative
-/// residual); returning `Break` stops the solve with [`PodidError::Interrupted`].
-pub type Progress<'a> = &'a mut (dyn FnMut(usize, f64) -> ControlFlow<()> + Send);
 
 /// Chunk length of the vector reductions: fixed, so sums do not depend on the
 /// number of threads.
@@ -509,6 +505,7 @@ mod tests {
     use crate::identify::identify;
     use crate::identify::tests::{data, rel_err, truth};
     use crate::normal::Basis;
+    use std::ops::ControlFlow;
 
     const OPTS: CgOptions = CgOptions {
         tol: 1e-13,

@@ -14,7 +14,7 @@
 //!   packed sym/skew coordinates of [`pairs`], preconditioned by symmetric
 //!   Gauss–Seidel ([`sgs`]) over the pair blocks of [`precond`].
 //!
-//! The Python bindings live in `python.rs` behind the `python` feature.
+//! The Python bindings live in `python/` behind the `python` feature.
 
 pub mod buffer;
 pub mod cg;
@@ -39,6 +39,12 @@ pub mod tridiag;
 mod python;
 
 pub use error::PodidError;
+
+/// The progress callback of the iterative solvers (CG, the refinement): called with
+/// (iteration, the solver's measure of progress — CG's recursively updated relative
+/// residual, the refinement's cost); returning `Break` stops the solve with
+/// [`PodidError::Interrupted`].
+pub type Progress<'a> = &'a mut (dyn FnMut(usize, f64) -> std::ops::ControlFlow<()> + Send);
 
 /// Most worker threads a caller may ask for: beyond this a count is a mistake.
 pub const MAX_THREADS: usize = 1024;

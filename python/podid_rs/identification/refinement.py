@@ -30,7 +30,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -39,6 +39,9 @@ from .._validation import FrequencyData, check_frequency_data
 from ..systems import SecondOrderSystem
 from .latent import gauge_dimension, observation_matrix, observed_count
 from .result import ConvergenceWarning, IdentificationResult, _check_threads, residual_norm
+
+if TYPE_CHECKING:
+    from .._core import ColumnWeights, LogMagnitudeWeights, MatrixWeights
 
 WeightSpec = Literal["relative", "uniform"] | np.ndarray
 
@@ -196,23 +199,27 @@ def _column_weights(
     return w, "user"
 
 
-def _scalar_weights(w: np.ndarray, m: int, observed: int) -> dict[str, np.ndarray]:
-    """The core's weight argument for a scalar weight per column: the weights themselves,
+def _scalar_weights(w: np.ndarray, m: int, observed: int) -> ColumnWeights | MatrixWeights:
+    """The core's weighting for a scalar weight per column: the weights themselves,
     or — with latent coordinates, whose response is not measured — the matrix w·S per
     column, S = diag(1, …, 1, 0, …, 0) selecting the ``observed`` coordinates."""
+    from .. import _core
+
     if observed == m:
-        return {"weights": np.ascontiguousarray(w)}
+        return _core.ColumnWeights(np.ascontiguousarray(w))
     T = np.zeros((w.size, m, m))
     idx = np.arange(observed)
     T[:, idx, idx] = w[:, None]
-    return {"weight_matrices": T.reshape(w.size, m * m)}
+    return _core.MatrixWeights(T.reshape(w.size, m * m))
 
 
 def _log_magnitude_targets(
     weights: object, data: FrequencyData, R: np.ndarray | None, U_n: np.ndarray | None
-) -> tuple[dict[str, object], str]:
-    """The core's ``log_magnitude`` argument: (R (n, m), targets (s·p, n), entry
-    weights (s·p, n)), line-major, and a label. Entries with u = 0 get weight 0."""
+) -> tuple[LogMagnitudeWeights, str]:
+    """The core's log-magnitude weighting: R (n, m), targets (s·p, n) and entry weights
+    (s·p, n), line-major, and a label. Entries with u = 0 get weight 0."""
+    from .. import _core
+
     s, m, p = data.s, data.m, data.p
     if R is None:
         R, U_n = np.eye(m), data.U
@@ -245,14 +252,12 @@ def _log_magnitude_targets(
     if not np.any(W > 0):
         raise ValueError("no weighted entry with a non-zero response: there is nothing to fit")
     line_major = lambda X: np.ascontiguousarray(X.transpose(0, 2, 1).reshape(s * p, n))  # noqa: E731
-    kw = {
-        "log_magnitude": (
-            np.ascontiguousarray(R, dtype=np.float64),
-            line_major(U_n.astype(np.complex128)),
-            line_major(W.astype(np.float64)),
-        )
-    }
-    return kw, label
+    weighting = _core.LogMagnitudeWeights(
+        np.ascontiguousarray(R, dtype=np.float64),
+        line_major(U_n.astype(np.complex128)),
+        line_major(W.astype(np.float64)),
+    )
+    return weighting, label
 
 
 def _entry_metric(
@@ -473,9 +478,9 @@ def refine(
     # weights: a scalar per column, or per-entry weights reduced to a metric per column
     const = 0.0
     targets = data
-    weight_kw: dict[str, object]
+    weighting: ColumnWeights | MatrixWeights | LogMagnitudeWeights
     if objective == "log-magnitude":
-        weight_kw, label = _log_magnitude_targets(weights, data, R, U3)
+        weighting, label = _log_magnitude_targets(weights, data, R, U3)
     elif R is not None and not isinstance(weights, str):
         Wa = as_array(weights, "weights", real=True)
         if Wa.ndim == 2 and Wa.shape == U3.shape[:2]:
@@ -485,14 +490,14 @@ def refine(
                 raise ValueError("weights must be non-negative and not all zero")
             T, Y, const = _entry_metric(Wa, R, U3.astype(np.complex128))
             targets = check_frequency_data(Y, data.F, data.omega)
-            weight_kw = {"weight_matrices": np.ascontiguousarray(T)}
+            weighting = _core.MatrixWeights(np.ascontiguousarray(T))
             label = "user, per entry"
         else:
             w, label = _column_weights(Wa, data)
-            weight_kw = _scalar_weights(w, m, observed)
+            weighting = _scalar_weights(w, m, observed)
     else:
         w, label = _column_weights(weights, data, U3)
-        weight_kw = _scalar_weights(w, m, observed)
+        weighting = _scalar_weights(w, m, observed)
 
     (M1, C1, K1), start_report = physical_start(M0, C0, K0)
     changed = any(start_report["eigenvalues_raised"]) or any(
@@ -512,42 +517,49 @@ def refine(
             stacklevel=2,
         )
 
+    options = _core.RefineOptions(
+        max_iter=int(max_iter),
+        ftol=ftol,
+        log_diagonal=bool(log_diagonal),
+        solver=solver,
+        curvature=bool(curvature),
+        modal_metric=metric != "diagonal",  # used only by a matrix-free step
+    )
     Uc, Fc, _ = targets.columns()
     bar = _RefineBar(int(max_iter)) if progress is True else None
     callback = bar if bar is not None else (progress if callable(progress) else None)
     try:
         out = _core.refine_output_error(
-            Uc, Fc, targets.omega, p, (M1, C1, K1), **weight_kw,
-            max_iter=int(max_iter), ftol=ftol, log_diagonal=bool(log_diagonal),
-            progress=callback, threads=threads, solver=solver, curvature=bool(curvature),
-            modal_metric=metric != "diagonal",  # used only by a matrix-free step
+            Uc, Fc, targets.omega, p, (M1, C1, K1), weighting, options,
+            progress=callback, threads=threads,
         )
     finally:
         if bar is not None:
             bar.close()
-    M, C, K = (np.asarray(out[k], dtype=np.float64) for k in ("M", "C", "K"))
+    M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))
     M, C, K = (0.5 * (X + X.T) for X in (M, C, K))
 
     def responses(Mx: np.ndarray, Cx: np.ndarray, Kx: np.ndarray) -> np.ndarray:
         X = SecondOrderSystem(Mx, Cx, Kx).response(data.omega, data.F)
         return X if R is None else np.einsum("nm,smp->snp", R, X)
 
-    def returned(key: str) -> np.ndarray:  # the core's (s·p, m) responses, as (s, m, p)
-        X = out[key].reshape(data.s, p, m).transpose(0, 2, 1)
+    def returned(rows: np.ndarray) -> np.ndarray:  # the core's (s·p, m) responses, as (s, m, p)
+        X = rows.reshape(data.s, p, m).transpose(0, 2, 1)
         return X if R is None else np.einsum("nm,smp->snp", R, X)
 
     measured = data.U if R is None else U3
-    X0 = returned("responses_start") if "responses_start" in out else responses(M1, C1, K1)
+    start_rows = out.responses_start
+    X0 = returned(start_rows) if start_rows is not None else responses(M1, C1, K1)
     before = db_errors(X0, measured)
-    after = db_errors(returned("responses"), measured)
+    after = db_errors(returned(out.responses), measured)
     summary = lambda e: (float(np.median(e)), float(np.percentile(e, 95)))  # noqa: E731
     report = {
-        "cost_start": float(out["cost_start"]) + const,
-        "cost": float(out["cost"]) + const,
-        "stop": str(out["stop"]),
-        "converged": bool(out["converged"]),
-        "accepted": int(out["accepted"]),
-        "history": [(int(i), float(c) + const) for i, c in out["history"]],
+        "cost_start": float(out.cost_start) + const,
+        "cost": float(out.cost) + const,
+        "stop": str(out.stop),
+        "converged": bool(out.converged),
+        "accepted": int(out.accepted),
+        "history": [(int(i), float(c) + const) for i, c in out.history],
         "db_before": summary(before),
         "db_after": summary(after),
         "weights": label,
@@ -555,15 +567,15 @@ def refine(
         "coordinates": {"observed": observed, "latent": latent,
                         "gauge": gauge_dimension(m, observed)},
         "start": start_report,
-        "timings": dict(out["timings"]),
-        "scaling": tuple(out["scaling"]),
-        "solver": str(out["solver"]),
+        "timings": dict(out.timings),
+        "scaling": tuple(out.scaling),
+        "solver": str(out.solver),
         "metric": ("diagonal" if metric == "diagonal" else "modal")
-        if str(out["solver"]) == "matrix-free"
+        if str(out.solver) == "matrix-free"
         else "dense",
-        "solver_stats": dict(out["solver_stats"]),
+        "solver_stats": dict(out.solver_stats),
     }
-    if out["stop"] == "max_iter reached":
+    if out.stop == "max_iter reached":
         warnings.warn(
             f"the output-error refinement stopped at max_iter = {max_iter} with the cost still "
             f"falling ({report['cost_start']:.4g} → {report['cost']:.4g}); raise max_iter",
@@ -590,9 +602,9 @@ def refine(
         info={
             **({} if base is None else {"start_method": base.method}),
             "refinement": report,
-            "timings": dict(out["timings"]),
+            "timings": dict(out.timings),
         },
-        iterations=int(out["iterations"]),
+        iterations=int(out.iterations),
         relative_residual=float(np.sqrt(report["cost"])) / ref_norm if ref_norm > 0 else 0.0,
     )
     return replace(result)

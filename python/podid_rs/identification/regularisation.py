@@ -49,7 +49,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
@@ -58,6 +58,9 @@ from .._memory import fits_in_memory, require_memory
 from .._validation import FrequencyData, check_frequency_data
 from .result import IdentificationResult, _check_threads, residual_norm
 from .solvers import identify_fixed
+
+if TYPE_CHECKING:
+    from .._core import LambdaCurvePoints, LambdaSweep
 
 RULES = ("lcurve", "gcv", "discrepancy")
 Method = Literal["auto", "spectral", "repeated"]
@@ -160,7 +163,7 @@ class _Spectral:
 
     method = "spectral"
 
-    def __init__(self, sweep, threads: int) -> None:
+    def __init__(self, sweep: LambdaSweep, threads: int) -> None:
         self.sweep = sweep
         self.threads = threads
         self.n_rows = int(sweep.n_rows)
@@ -175,14 +178,14 @@ class _Spectral:
         low = float(nu[nu > top * 1e-15].min())
         return 0.1 / math.sqrt(top), 10.0 / math.sqrt(low)
 
-    def fine(self, lams: np.ndarray) -> dict[str, np.ndarray]:
+    def fine(self, lams: np.ndarray) -> LambdaCurvePoints:
         return self.sweep.curve(np.ascontiguousarray(lams, dtype=float))
 
-    def at(self, key: str, t: float) -> float:
-        """One spectral value at λ = exp(t)."""
-        return float(self.sweep.curve(np.array([math.exp(t)]))[key][0])
+    def at(self, t: float) -> LambdaCurvePoints:
+        """The spectral curves at the one λ = exp(t)."""
+        return self.sweep.curve(np.array([math.exp(t)]))
 
-    def exact(self, lams: np.ndarray) -> dict[str, np.ndarray]:
+    def exact(self, lams: np.ndarray) -> LambdaCurvePoints:
         lams = np.ascontiguousarray(lams, dtype=float)
         return self.sweep.curve(lams, exact=True, threads=self.threads)
 
@@ -250,17 +253,17 @@ def _refine(f: Callable[[float], float], t: np.ndarray, i: int) -> float:
 def _corner_spectral(ev: _Spectral, lo: float, hi: float) -> tuple[float, float, list[str]]:
     lam = _fine_grid(lo, hi)
     t = np.log(lam)
-    kappa = ev.fine(lam)["curvature"]
+    kappa = ev.fine(lam).curvature
     if not np.any(np.isfinite(kappa)):
         return math.sqrt(lo * hi), math.nan, ["the L-curve is degenerate (zero penalty)"]
     i = int(np.nanargmax(kappa))
     problems = []
     if 0 < i < t.size - 1:
-        lc = math.exp(_refine(lambda x: -ev.at("curvature", x), t, i))
+        lc = math.exp(_refine(lambda x: -float(ev.at(x).curvature[0]), t, i))
     else:
         lc = float(lam[i])
         problems.append("the curvature is largest at an end of the λ range")
-    k = ev.at("curvature", math.log(lc))
+    k = float(ev.at(math.log(lc)).curvature[0])
     if not k >= CORNER_MIN_CURVATURE:
         problems.append(
             f"its largest curvature {k:.3g} is below {CORNER_MIN_CURVATURE:.3g} (natural-log "
@@ -273,10 +276,10 @@ def _corner_spectral(ev: _Spectral, lo: float, hi: float) -> tuple[float, float,
 def _gcv_spectral(ev: _Spectral, lo: float, hi: float) -> tuple[float, list[str]]:
     lam = _fine_grid(lo, hi)
     t = np.log(lam)
-    g = ev.fine(lam)["gcv"]
+    g = ev.fine(lam).gcv
     i = int(np.nanargmin(g))
     if 0 < i < t.size - 1:
-        return math.exp(_refine(lambda x: ev.at("gcv", x), t, i)), []
+        return math.exp(_refine(lambda x: float(ev.at(x).gcv[0]), t, i)), []
     return float(lam[i]), ["GCV is smallest at an end of the λ range (no interior minimum)"]
 
 
@@ -440,7 +443,7 @@ def _evaluator(
     elif not fits_in_memory(need):
         return _Repeated(solve, data)
     U, F, w = data.columns()
-    sweep = _core.lambda_sweep(U, F, w, threads)
+    sweep = _core.lambda_sweep(U, F, w, threads=threads)
     if sweep is None:
         if method == "spectral":
             raise ValueError(
@@ -487,11 +490,13 @@ def _curve(
         choices["gcv"], problems["gcv"] = _gcv_spectral(ev, lo, hi)
         if target is not None:
             choices["discrepancy"], problems["discrepancy"] = _discrepancy(
-                lambda lam: ev.at("residual_norm", math.log(lam)), _fine_grid(lo, hi), target
+                lambda lam: float(ev.at(math.log(lam)).residual_norm[0]),
+                _fine_grid(lo, hi),
+                target,
             )
         vals = ev.exact(grid)
-        res, pen = vals["residual_norm"], vals["penalty_norm"]
-        gcv, kappa = vals["gcv"], vals["curvature"]
+        res, pen = vals.residual_norm, vals.penalty_norm
+        gcv, kappa = vals.gcv, vals.curvature
     else:
         if rule == "gcv":
             raise ValueError(
@@ -686,7 +691,7 @@ def identify_with_rule(
     elif backend == "numpy":
         res = identify_fixed(data.U, data.F, data.omega, lam, backend="numpy")
     else:
-        M, C, K = ev.sweep.solve(lam, nthreads)
+        M, C, K = ev.sweep.solve(lam, threads=nthreads)
         pen = tuple(float(np.linalg.norm(X - X.T)) for X in (M, C, K))
         res = IdentificationResult(
             M=M,

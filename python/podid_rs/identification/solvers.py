@@ -21,7 +21,8 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
-from typing import Literal
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import scipy.linalg
@@ -37,6 +38,9 @@ from .result import (
     _skew_norm,
     residual_norm,
 )
+
+if TYPE_CHECKING:
+    from .._core import Identified
 
 Backend = Literal["rust", "numpy"]
 Solver = Literal["auto", "direct", "cg"]
@@ -150,7 +154,28 @@ def _solve_spd(G: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, str, int, floa
     return x, "eigen-min-norm", int(keep.sum()), ratio
 
 
-def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> dict:
+@dataclass(frozen=True)
+class _SolvedByNumpy:
+    """The NumPy backend's answer, with the attributes of the Rust core's
+    :class:`podid_rs._core.Identified` that it has: no timings and no CG; the
+    caller computes the residual norm."""
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    method: str
+    rank: int
+    n_unknowns: int
+    min_pivot_ratio: float
+    scaling: tuple[float, float, float]
+    residual_norm: float | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+    iterations: int | None = None
+    relative_residual: float | None = None
+    converged: bool | None = None
+
+
+def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> _SolvedByNumpy:
     """The structured normal equations of DESIGN §2–3 in NumPy/SciPy."""
     U, F, w = data.columns()
     m = data.m
@@ -173,7 +198,7 @@ def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> dict:
         x, method, rank, ratio = _solve_spd(G, T.T @ B.ravel())
         Z = (T @ x).reshape(m, 3 * m)
     M, C, K = (factors[b] * Z[:, b * m : (b + 1) * m] for b in range(3))
-    return dict(
+    return _SolvedByNumpy(
         M=M,
         C=C,
         K=K,
@@ -185,13 +210,15 @@ def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> dict:
     )
 
 
-def _identify_rust(data: FrequencyData, lam: Triple, symmetric: bool, threads: int) -> dict:
+def _identify_rust(
+    data: FrequencyData, lam: Triple, symmetric: bool, threads: int
+) -> Identified:
     from .. import _core
 
     need = int(_core.direct_memory_bytes(data.m, lam, symmetric))
     require_memory(need, "the direct solve", MEMORY_HINT)
     U, F, w = data.columns()
-    return _core.identify_direct(U, F, w, lam, symmetric, threads)
+    return _core.identify_direct(U, F, w, lam, symmetric, threads=threads)
 
 
 class _ProgressBar:
@@ -227,7 +254,7 @@ def _identify_cg(
     tol: float,
     max_iter: int,
     progress: bool | Callable[[int, float], object],
-) -> dict:
+) -> Identified:
     from .. import _core
 
     need = int(_core.cg_memory_bytes(data.m, symmetric))
@@ -236,13 +263,15 @@ def _identify_cg(
     bar = _ProgressBar(tol) if progress is True else None
     callback = bar if bar is not None else (progress if callable(progress) else None)
     try:
-        out = _core.identify_cg(U, F, w, lam, symmetric, tol, max_iter, callback, threads)
+        out = _core.identify_cg(
+            U, F, w, lam, symmetric, tol, max_iter, progress=callback, threads=threads
+        )
     except BaseException:
         if bar is not None:
             bar.bar.close()
         raise
     if bar is not None:
-        bar.close(out["iterations"], out["relative_residual"])
+        bar.close(out.iterations, out.relative_residual)
     return out
 
 
@@ -332,31 +361,32 @@ def identify_fixed(
     if auto:
         solver = choose_solver(data.m, lam_t, symmetric)
     stalled_cg = None
+    out: Identified | _SolvedByNumpy
     if solver == "cg":
         out = _identify_cg(data, lam_t, symmetric, threads, tol, max_iter, progress)
-        stalled = not out["converged"] and out["iterations"] < max_iter
+        stalled = not out.converged and out.iterations < max_iter
         if auto and stalled and _direct_fits(data.m, lam_t, symmetric, AUTO_FALLBACK_MAX_UNKNOWNS):
-            stalled_cg = {k: out[k] for k in ("iterations", "relative_residual")}
+            stalled_cg = {"iterations": out.iterations, "relative_residual": out.relative_residual}
             out = _identify_rust(data, lam_t, symmetric, threads)
     elif backend == "rust":
         out = _identify_rust(data, lam_t, symmetric, threads)
     else:
         out = _identify_numpy(data, lam_t, symmetric)
 
-    M, C, K = (np.asarray(out[k], dtype=np.float64) for k in ("M", "C", "K"))
-    if out["method"] == "cg" and not out["converged"]:
+    M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))
+    if out.method == "cg" and not out.converged:
         warnings.warn(
-            f"CG stopped after {out['iterations']} iterations at relative residual "
-            f"{out['relative_residual']:.2e}, above tol = {tol:.1e}; the answer is "
+            f"CG stopped after {out.iterations} iterations at relative residual "
+            f"{out.relative_residual:.2e}, above tol = {tol:.1e}; the answer is "
             "returned as it stands. Raise max_iter, loosen tol, or use solver='direct' "
             "where the dense system fits",
             ConvergenceWarning,
             stacklevel=stacklevel,
         )
-    if out["method"] == "eigen-min-norm":
+    if out.method == "eigen-min-norm":
         warnings.warn(
-            f"the normal equations are numerically singular (rank {out['rank']} of "
-            f"{out['n_unknowns']} unknowns); returned the minimum-norm solution. More "
+            f"the normal equations are numerically singular (rank {out.rank} of "
+            f"{out.n_unknowns} unknowns); returned the minimum-norm solution. More "
             "frequency lines or load cases, a lower order m, or symmetry regularisation "
             "would make the problem well posed",
             RankDeficientWarning,
@@ -370,20 +400,24 @@ def identify_fixed(
         lam=lam_t,
         symmetric=symmetric,
         residual_norm=(
-            float(out["residual_norm"]) if "residual_norm" in out else residual_norm(M, C, K, data)
+            float(out.residual_norm)
+            if out.residual_norm is not None
+            else residual_norm(M, C, K, data)
         ),
         penalty_norms=(pen[0], pen[1], pen[2]),
-        method=str(out["method"]),
-        rank=int(out["rank"]),
-        n_unknowns=int(out["n_unknowns"]),
-        min_pivot_ratio=float(out["min_pivot_ratio"]),
+        method=str(out.method),
+        rank=int(out.rank),
+        n_unknowns=int(out.n_unknowns),
+        min_pivot_ratio=float(out.min_pivot_ratio),
         backend=backend,
         info={
-            "scaling": tuple(out["scaling"]),
-            "timings": dict(out.get("timings", {})),
-            **({"converged": bool(out["converged"]), "tol": tol} if "converged" in out else {}),
+            "scaling": tuple(out.scaling),
+            "timings": dict(out.timings),
+            **({"converged": bool(out.converged), "tol": tol} if out.converged is not None else {}),
             **({"stalled_cg": stalled_cg} if stalled_cg else {}),
         },
-        iterations=int(out["iterations"]) if "iterations" in out else None,
-        relative_residual=float(out["relative_residual"]) if "iterations" in out else None,
+        iterations=int(out.iterations) if out.iterations is not None else None,
+        relative_residual=(
+            float(out.relative_residual) if out.iterations is not None else None
+        ),
     )

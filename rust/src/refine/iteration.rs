@@ -19,9 +19,9 @@ use super::parametrisation::{
 use super::report::{OeReport, Stop};
 use super::start::{check_start, scaled_start, scaling_of, start_factors};
 use super::step_solver::StepSolver;
-use crate::cg::Progress;
 use crate::data::Scaling;
 use crate::error::PodidError;
+use crate::Progress;
 use faer::{c64, Mat, MatRef, Par};
 use std::time::Instant;
 

@@ -36,7 +36,7 @@
 //! done on scaled data (ω by its RMS, u and f by theirs).
 //!
 //! The step (N_θ + μ diag N_θ) δ = −g is solved densely (`dense.rs`: N_θ formed and
-//! factored, (3m(m+1)/2)² doubles) or matrix-free (`matfree.rs`: preconditioned CG
+//! factored, (3m(m+1)/2)² doubles) or matrix-free (`matfree/`: preconditioned CG
 //! with N_θ v applied line by line through the LU factors, O(s·m²) memory);
 //! [`StepKind::Auto`] picks by m.
 

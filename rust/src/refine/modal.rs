@@ -21,7 +21,7 @@
 //! preconditioner of (N + μB_θ) δ = −g and as the LM damping itself: the damping is
 //! then proportional in every direction instead of μ·diag(N), which on a badly
 //! conditioned N damps the weak directions far more than the strong ones and makes LM
-//! crawl — and takes the step in X (`matfree.rs`). Measured in a NumPy prototype
+//! crawl — and takes the step in X (`matfree/`). Measured in a NumPy prototype
 //! (chain, m = 40, 1000 lines, 0.1 % noise): CG iterations to a relative residual of
 //! 1e-2 / 1e-4: 29 / 55 against 187 / 896 with the 3×3 blocks of N_θ (and diag
 //! damping); with exact solves LM converged in 13 steps (m = 20) where diag damping
