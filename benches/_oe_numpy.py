@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-#: X = L Lᵀ + CONDITION_FLOOR·tr(L Lᵀ)·I (refine/mod.rs)
+#: X = L Lᵀ + CONDITION_FLOOR·tr(L Lᵀ)·I (rust/src/refine/parametrisation.rs)
 CONDITION_FLOOR = 1e-10
-#: least damping ratio of the start's C (refine/mod.rs ``damping_floor``)
+#: least damping ratio of the start's C (rust/src/refine/start.rs ``damping_floor``)
 C_START_FLOOR = 1e-4
 
 

@@ -4,7 +4,7 @@ A dense NumPy model of the matrix-free solver at small m (exact-symmetric mode):
 the normal operator G in the pair coordinates of ``rust/src/pairs.rs`` (Q basis of
 the summed diagonal blocks of H, sym coordinates, pairs (j ≤ k) in column-major
 order), its pair blocks D and the symmetric Gauss–Seidel preconditioner
-M = (D + L) D⁻¹ (D + Lᵀ) of ``rust/src/sgs.rs``. Prints the spectrum of M⁻¹G
+M = (D + L) D⁻¹ (D + Lᵀ) of ``rust/src/sgs/``. Prints the spectrum of M⁻¹G
 (extremes, how many eigenvalues lie outside a central band), dense CG iterations
 to tol 1e-11 (random right-hand side), where the eigenvectors of the slowest
 eigenvalues live (their weight on each mode of Q), what exact deflation of the k
@@ -12,7 +12,7 @@ smallest eigenvectors would save (an upper bound for any deflation or coarse
 correction), how many iterations the operator without its skew blocks H̃_MC,
 H̃_CK would need (the couplings the pair blocks always drop), and block SGS with
 the pairs of each tile of t modes solved together (t = 4 is the leaf of
-``rust/src/sgs.rs``).
+``rust/src/sgs/leaf.rs``).
 
     python benches/cg_spectrum.py --m 60 --band narrow
     python benches/cg_spectrum.py --m 30 --tiles 2,4,8 --deflate ""

@@ -4,7 +4,7 @@ Dense NumPy models at small m, built like ``benches/cg_spectrum.py`` (the scaled
 of DESIGN §2–4, the exact-symmetric operator G in pair coordinates, dense CG to tol
 1e-11 on a random right-hand side), each printing CG iterations:
 
-- ``--part basis``: the pair-block symmetric Gauss–Seidel of ``rust/src/sgs.rs`` in
+- ``--part basis``: the pair-block symmetric Gauss–Seidel of ``rust/src/sgs/`` in
   other mode bases Q: the solver's (eigenvectors of the summed diagonal blocks,
   ascending), that basis descending or shuffled, each diagonal block's own
   eigenvectors, the sum of the blocks scaled to unit trace, and real Schur vectors
