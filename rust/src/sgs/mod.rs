@@ -2,8 +2,8 @@
 //! solver (DESIGN §4, issue 13), applied with Eisenstat's trick by [`crate::cg`].
 //!
 //! In the Q basis of [`crate::precond`] the normal operator splits as
-//! G = D + L + Lᵀ: D the pair blocks of [`PairPrecond`] (3×3 per diagonal entry,
-//! 3×3 or 6×6 per pair (j, k)), L the couplings of each pair to the pairs before
+//! G = D + L + Lᵀ: D the pair blocks of [`crate::precond::PairPrecond`] (3×3 per
+//! diagonal entry, 3×3 or 6×6 per pair (j, k)), L the couplings of each pair to the pairs before
 //! it in column-major pair order (larger index k first, then j). Every coupling
 //! outside D comes from the row operator Z ↦ Z H̃ with the mode-diagonal 3×3
 //! blocks of H̃ removed; written on the entry matrix Y (Y_ic ∈ ℝ³, one value per
