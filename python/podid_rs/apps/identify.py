@@ -36,8 +36,9 @@ Into the output folder go
   as the command fits (λ or exactly symmetric, made physical with ``--physical``)
   of orders 1 … :func:`stabilisation_orders`; the chosen order marked;
 * ``mac.png`` — the MAC between the structural modes of the chosen order m and
-  the in-band complex modes of order m + 1 (m − 1 at full order): shapes that persist are not artefacts
-  of the order (not written when either order has no mode in the band).
+  the in-band complex modes of order m + 1 (m − 1 at full order): shapes that
+  persist are not artefacts of the order (not written when either order has no mode
+  in the band).
 
 The last three are :func:`write_identify_outputs`'s.
 """

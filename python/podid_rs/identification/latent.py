@@ -44,9 +44,11 @@ PEAK_ZETAS = (0.002, 0.005, 0.01, 0.03)
 #: relative offsets of the natural frequency tried around a peak's line (between lines)
 PEAK_OFFSETS = (-0.003, 0.0, 0.003)
 #: no latent start when the weighted residual is below this fraction of the weighted
-#: data (round-off), and none from a mode that lowers it by less than MIN_GAIN
+#: data (round-off); none from a mode whose modal mass exceeds MAX_MASS_RATIO times the
+#: model's largest mass eigenvalue (it would explain next to nothing, and wreck the
+#: conditioning of M: the new mass enters the observed block as μφφᵀ)
 NOTHING_LEFT = 1e-20
-MIN_GAIN = 1e-3
+MAX_MASS_RATIO = 1e8
 #: a residual term: a mode at this factor below the band's lowest line and above its
 #: highest, with this damping ratio
 RESIDUAL_FACTOR = 2.0
@@ -184,7 +186,8 @@ def latent_starts(
     ``PEAK_ZETAS`` damping; its modal mass comes from linear least squares on the
     weighted residual. Beside those, a mode ``RESIDUAL_FACTOR`` below the band's
     lowest line and above its highest (a residual term) with the residual's shape at
-    the band's edge. Of each candidate frequency the best by that cost is kept.
+    the band's edge. Of each candidate frequency the best by that cost is kept (its
+    immediate gain may be small: Levenberg–Marquardt then moves the mode where it fits).
 
     Parameters
     ----------
@@ -203,9 +206,9 @@ def latent_starts(
     -------
     list of (float, tuple of numpy.ndarray, str)
         ``(cost, (M, C, K) of order m + 1, what was added)``, one per candidate
-        frequency; empty when no candidate fits with a positive modal mass and lowers the
-        weighted residual by at least ``MIN_GAIN``, or the model already reproduces the
-        data to round-off.
+        frequency; empty when no candidate fits with a positive modal mass of at most
+        ``MAX_MASS_RATIO`` times the model's largest, or the model already reproduces
+        the data to round-off.
     """
     s = omega.size
     k = observed_count(R)
@@ -220,6 +223,7 @@ def latent_starts(
     scale = float(np.sum(w2[:, None, :] * np.abs(np.einsum("nk,snp->skp", Rp, U_n)) ** 2))
     if base <= NOTHING_LEFT * scale:
         return []  # the model already reproduces the data to round-off: nothing to add
+    max_mass = MAX_MASS_RATIO * float(np.linalg.eigvalsh(0.5 * (model[0] + model[0].T))[-1])
     excess = np.sum(np.abs(residual) ** 2, axis=(1, 2)) / np.maximum(
         np.sum(np.abs(X) ** 2, axis=(1, 2)), np.finfo(float).tiny
     )
@@ -246,9 +250,9 @@ def latent_starts(
                 if den <= 0 or num <= 0:
                     continue  # no positive modal mass fits
                 a = num / den
+                if 1.0 / a > max_mass:
+                    continue  # the mode explains next to nothing
                 cost = float(np.sum(w2[:, None, :] * np.abs(a * g - r) ** 2))
-                if cost > (1 - MIN_GAIN) * base:
-                    continue  # the mode explains next to nothing (and its mass would be huge)
                 if best is None or cost < best[0]:
                     mu = 1.0 / a
                     name = (f"latent DOF at {wc / (2 * np.pi):.4g} Hz" if kind == "peak"

@@ -48,6 +48,7 @@ from ..physical import modal_parameters
 from ..pod import PODResult
 from .estimator import identify
 from .latent import free_parameters, latent_starts, observation_matrix
+from .lines import SWEEP_LINES, informative_lines
 from .refinement import StartWarning, db_errors, refine
 from .result import ConvergenceWarning, IdentificationResult
 
@@ -121,12 +122,16 @@ class OrderSweep:
         Why, in words.
     test_lines : numpy.ndarray of bool, (s,)
         The held-out lines (a mask over the data's lines).
+    lines : numpy.ndarray of bool, (s,)
+        The lines the sweep used, held-out ones included (every line, unless the data
+        had more than ``sweep_lines``: :func:`~.lines.informative_lines`).
     """
 
     fits: tuple[OrderFit, ...]
     chosen: int
     reason: str
     test_lines: np.ndarray = field(repr=False)
+    lines: np.ndarray = field(repr=False)
 
     def fit(self, m: int) -> OrderFit:
         """The fit of one order.
@@ -394,6 +399,7 @@ def sweep_orders(
     max_iter: int = SWEEP_MAX_ITER,
     progress: Callable[[int, OrderFit], object] | None = None,
     threads: int | None = None,
+    sweep_lines: int | None = SWEEP_LINES,
 ) -> OrderSweep:
     """Fit output-error models of order 1, 2, … and choose m by held-out lines.
 
@@ -432,6 +438,10 @@ def sweep_orders(
         Called as ``progress(m, fit)`` after every order.
     threads : int, optional
         Worker threads of the refinement (None = all cores).
+    sweep_lines : int or None
+        With more lines than this, the sweep fits and scores the lines that carry the
+        data's information (:func:`~.lines.informative_lines`; default
+        ``SWEEP_LINES`` = 4000); None: every line.
 
     Returns
     -------
@@ -450,8 +460,11 @@ def sweep_orders(
         raise ValueError(
             f"holdout must be at least 2 (every holdout-th line is left out), got {holdout}"
         )
-    test = (np.arange(s) % holdout) == holdout // 2
-    train = ~test
+    used = np.ones(s, dtype=bool) if sweep_lines is None else informative_lines(U_n, sweep_lines)
+    picked = np.flatnonzero(used)
+    test = np.zeros(s, dtype=bool)
+    test[picked[(np.arange(picked.size) % holdout) == holdout // 2]] = True
+    train = used & ~test
     if train.sum() < 2 or test.sum() < 1:
         raise ValueError(f"{s} lines are too few to hold every {holdout}-th out")
     observed = min(int(np.sum(pod_result.eigenvalues > 0)), n)
@@ -553,8 +566,10 @@ def sweep_orders(
         reason = (
             f"m = {chosen}: held-out median error {f.test_db:.2f} dB, {how} over "
             f"m = 1…{fits[-1].m}; every {holdout}-th line held out"
+            + ("" if picked.size == s else
+               f" of the {picked.size} of {s} lines that carry the data's information")
         )
-    return OrderSweep(tuple(fits), chosen, reason, test)
+    return OrderSweep(tuple(fits), chosen, reason, test, used)
 
 
 def final_fit(
