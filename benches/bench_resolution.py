@@ -107,7 +107,7 @@ def run_podid(path: Path, out: Path, profile: bool) -> dict:
         if prof is not None:
             prof.disable()
     seconds = time.perf_counter() - t0
-    phases = dict(run.timings) if hasattr(run, "timings") else {}
+    phases = dict(run.timings)
     top = ""
     if prof is not None:
         buf = io.StringIO()

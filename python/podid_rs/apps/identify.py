@@ -45,6 +45,7 @@ The last three are :func:`write_identify_outputs`'s.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -85,7 +86,8 @@ class IdentifyRun:
     ``result`` is the model written: the refined (output-error) model, or with
     ``paper_estimator`` the paper's (made physical when asked). ``least_squares`` is
     the paper's estimator at the same order (eq. 49); ``sweep`` the order sweep
-    (None with ``paper_estimator``).
+    (None with ``paper_estimator``); ``timings`` the wall time (s) of each phase, in
+    the order they ran (the summary's last line).
     """
 
     source: Path
@@ -95,6 +97,7 @@ class IdentifyRun:
     basis: np.ndarray
     files: list[Path] = field(default_factory=list)
     sweep: OrderSweep | None = None
+    timings: dict[str, float] = field(default_factory=dict)
 
     def frf_errors(self, model: IdentificationResult) -> tuple[float, float]:
         """Median and 95th percentile |dB| of ``model``'s responses (R H_m Rᵀ F) against
@@ -193,6 +196,9 @@ class IdentifyRun:
             f"- stable: {'yes' if modes.stable else 'no'} "
             f"(largest Re λ = {modes.max_real_part:.4g})"
         )
+        if self.timings:
+            lines.append("- wall time: " + ", ".join(
+                f"{name} {seconds:.1f} s" for name, seconds in self.timings.items()))
         return "\n".join(lines) + "\n"
 
 
@@ -302,11 +308,13 @@ def run_identify(
     """
     if m is not None and energy is not None:
         raise ValueError("give the reduced order m or the energy fraction, not both")
+    clock = _Clock()
     source = Path(path)
     data = load_data(source, band_hz=band_hz)
     symmetric = lam is None
     pod = data.pod()
     F_n = data.forces_on_dofs()
+    clock.lap("reading the data and its POD")
     sweep = None
     if paper_estimator:
         order = m if m is not None else pod.order_for_energy(0.99 if energy is None else energy)
@@ -319,19 +327,22 @@ def run_identify(
         finally:
             bar.close()
         order = sweep.chosen
+        clock.lap("order sweep")
     # the paper's estimator needs every coordinate measured: at most the POD modes with energy
     R = pod.basis(min(order, int(np.sum(pod.eigenvalues > 0)), data.n))
     U_m, F_m = data.project(R)
     ls = identify(U_m, F_m, data.omega, 0.0 if symmetric else lam, symmetric)
+    clock.lap("paper's estimator")
     if sweep is not None:
         result, R = final_fit(sweep, data.U, F_n, data.omega, pod, progress=progress)
+        clock.lap("final fit")
     elif physical:
         result = make_physical(ls, U_m, F_m, data.omega)
     else:
         result = ls
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    run = IdentifyRun(source, data, ls, result, R, sweep=sweep)
+    run = IdentifyRun(source, data, ls, result, R, sweep=sweep, timings=clock.laps)
     files = [
         save_model(
             out / "model.npz",
@@ -343,6 +354,7 @@ def run_identify(
         )
     ]
     files += _overlays(run, out)
+    clock.lap("FRF overlays")
     kinds = pole_kinds(result, R, data)
     rows = modal_table(result, kinds=kinds)
     (out / "modes.csv").write_text(table_csv(rows))
@@ -368,7 +380,21 @@ def run_identify(
         files += write_identify_outputs(source, data, result, R, out, band_hz=band_hz, lam=lam,
                                         physical=physical, progress=progress, pod=pod,
                                         kinds=kinds)
-    return IdentifyRun(source, data, ls, result, R, files, sweep)
+    clock.lap("modal table, model.uff, stabilisation chart, MAC")
+    return IdentifyRun(source, data, ls, result, R, files, sweep, clock.laps)
+
+
+class _Clock:
+    """Wall time of the phases of a run, in the order they ran."""
+
+    def __init__(self) -> None:
+        self.laps: dict[str, float] = {}
+        self._t = time.perf_counter()
+
+    def lap(self, name: str) -> None:
+        now = time.perf_counter()
+        self.laps[name] = now - self._t
+        self._t = now
 
 
 class _SweepBar:

@@ -46,6 +46,7 @@ import numpy as np
 
 from ..physical import modal_parameters
 from ..pod import PODResult
+from ..systems import SecondOrderSystem
 from .estimator import identify
 from .latent import free_parameters, latent_starts, observation_matrix
 from .lines import SWEEP_LINES, informative_lines
@@ -59,6 +60,11 @@ TOLERANCE = 0.0
 #: the sweep stops after PATIENCE orders without a PROGRESS_STEP better held-out error
 PATIENCE = 10
 PROGRESS_STEP = 0.03
+#: past the measured DOFs the sweep stops sooner: each latent order costs more than the
+#: last, and at the data's noise floor they only fit noise (on a 46 750-line test, ten
+#: latent orders past the last 3 % gain took 58 of the sweep's 64 s and moved the
+#: held-out error from 0.072 to 0.070 dB)
+LATENT_PATIENCE = 4
 #: Levenberg–Marquardt steps per order in the sweep, and for the final refit
 SWEEP_MAX_ITER = 40
 FINAL_MAX_ITER = 300
@@ -268,11 +274,8 @@ def _residual_modes(model, U, F, omega, w):
     and ``_PEAK_ZETAS``. Returns [(cost, (M, C, K))].
     """
     s, m, p = U.shape
-    M0, C0, K0 = model
-    X = np.zeros_like(U)
-    for i in range(s):  # the old model's response, zero in the new coordinate
-        D = -(omega[i] ** 2) * M0 + 1j * omega[i] * C0 + K0
-        X[i, : m - 1] = np.linalg.solve(D, F[i, : m - 1])
+    X = np.zeros_like(U)  # the old model's response, zero in the new coordinate
+    X[:, : m - 1] = SecondOrderSystem(*model).response(omega, F[:, : m - 1])
     r = U - X
     w2 = w**2
     energy = np.einsum("sp,smp->s", w2, np.abs(r) ** 2)
@@ -309,6 +312,13 @@ def _residual_modes(model, U, F, omega, w):
 def _median_db(model: IdentificationResult, R: np.ndarray, F: np.ndarray, omega, U_n, mask):
     X = model.system().response(omega[mask], F[mask])
     return float(np.median(db_errors(np.einsum("nm,smp->snp", R, X), U_n[mask])))
+
+
+def _all_lines_db(model: IdentificationResult, R: np.ndarray, U_n, F_n, omega) -> tuple:
+    """(median, 95th percentile) |dB| error of ``model`` over every line and entry."""
+    X = model.system().response(omega, np.einsum("nm,snp->smp", R, F_n))
+    e = db_errors(np.einsum("nm,smp->snp", R, X), U_n)
+    return float(np.median(e)), float(np.percentile(e, 95))
 
 
 def _refine_quietly(start, U_n, F_n, omega, R, max_iter, threads):
@@ -540,7 +550,8 @@ def sweep_orders(
         else:
             best_test = min(best_test, fit.test_db)
             since_best += 1
-            if m is None and since_best >= patience:
+            if m is None and since_best >= (patience if order <= observed
+                                            else min(patience, LATENT_PATIENCE)):
                 break
     if not fits:
         raise ValueError("no order could be fitted: the data give no physical start")
@@ -583,8 +594,15 @@ def final_fit(
     threads: int | None = None,
     progress: bool | Callable[[int, float], object] = False,
     log_magnitude: bool = True,
+    every_line: bool = False,
 ) -> tuple[IdentificationResult, np.ndarray]:
     """The chosen order refitted on every line from its held-out fit.
+
+    On a long test whose sweep used the informative lines (:attr:`OrderSweep.lines`)
+    the passes fit those lines too — on a 46 750-line test the all-line refit
+    changed the median by 4·10⁻⁵ dB for three times the time — and every decision
+    below is taken on the median error over every line; ``every_line=True`` fits
+    every line.
 
     Two passes, each kept only if it lowers the median |dB| error over every line:
 
@@ -613,6 +631,8 @@ def final_fit(
         As for :func:`podid_rs.refine`.
     log_magnitude : bool
         Run the second, log-magnitude pass.
+    every_line : bool
+        Fit every line even where the sweep used the informative ones.
 
     Returns
     -------
@@ -630,15 +650,24 @@ def final_fit(
     m = sweep.chosen
     R = sweep.basis(m, pod_result)
     start = sweep.fit(m).model
+    # the lines the sweep used: every line, or the informative ones of a long test
+    lines = np.ones(omega.shape[0], dtype=bool) if every_line else sweep.lines
+    thinned = not np.all(lines)
 
     def refit(model: IdentificationResult, objective: str) -> IdentificationResult:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", StartWarning)
             warnings.simplefilter("ignore", ConvergenceWarning)  # the summary states the stop
-            return refine(
-                model, U_n, F_n, omega, basis=R, weights="relative", objective=objective,
-                max_iter=max_iter, threads=threads, progress=progress, curvature=True,
+            fit = refine(
+                model, U_n[lines], F_n[lines], omega[lines], basis=R, weights="relative",
+                objective=objective, max_iter=max_iter, threads=threads, progress=progress,
+                curvature=True,
             )  # fmt: skip
+        if thinned:  # judge by every line, not the ones fitted
+            ref = fit.info["refinement"]
+            ref["db_before"] = _all_lines_db(model, R, U_n, F_n, omega)
+            ref["db_after"] = _all_lines_db(fit, R, U_n, F_n, omega)
+        return fit
 
     model = refit(start, "complex")
     ref = model.info["refinement"]
@@ -673,9 +702,13 @@ def final_fit(
                 f"; the log-magnitude refit did not lower it ({best_db[0]:.2f} → "
                 f"{lref['db_after'][0]:.2f} dB)"
             )
+    if thinned:
+        why += (f"; both passes fitted the {int(lines.sum())} informative lines of "
+                f"{lines.size} (the median is over every line)")
     kept = {
         "kept": kept_name,
         "reason": why,
+        "lines_fitted": int(lines.sum()),
         "db_all_lines": tuple(best_db),
         "passes": [
             {"pass": name, "db_before": tuple(b), "db_after": tuple(a), "iterations": it}
