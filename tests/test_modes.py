@@ -167,7 +167,17 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
     # an overdamped DOF (a real pole pair) is a residual term too
     found, _, _ = kinds_of([30.0, 60.0, 1.0], [0.01, 0.01, 3.0], [1, 1, 1])
     assert sorted(found.values()) == ["residual", "residual", "structural", "structural"]
-    # without measured FRFs only band and damping decide: nothing is weak
+    # a pole narrower than the lines (half-power band 2|Re λ| < the spacing) is not
+    # resolved by them, however large its term: weak, with or without measured FRFs
+    found, narrow, U2 = kinds_of([30.0, 60.05], [0.01, 1e-4], [1, 1])
+    spacing = 2 * np.pi * 0.1
+    assert 2 * 1e-4 * 2 * np.pi * 60.05 < spacing < 2 * 0.01 * 2 * np.pi * 30.0
+    assert [found[k] for k in sorted(found)] == ["structural", "weak"]
+    assert list(mode_kinds(narrow, w)) == ["structural", "weak"]
+    # a pole at the band's edge (half-power band not inside 20–150 Hz) is a residual term
+    found, _, _ = kinds_of([30.0, 20.1, 149.9], [0.01, 0.01, 0.01], [1, 1, 1])
+    assert [found[k] for k in sorted(found)] == ["residual", "structural", "residual"]
+    # without measured FRFs only band, damping and line spacing decide
     assert "weak" not in mode_kinds(shapes, w)
     # a high enough visibility threshold makes every in-band light pole weak
     assert "structural" not in mode_kinds(shapes, w, U, [0], visible_fraction=1e6)

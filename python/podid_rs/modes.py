@@ -301,14 +301,17 @@ def mode_kinds(
     overdamped, or in band but too weak to be seen. Each pole of ``shapes`` gets a
     kind:
 
-    * ``"residual"`` — a real (overdamped) pole, one outside the band of ``omega``, or
-      one with damping ratio ≥ ``residual_zeta``;
-    * ``"weak"`` — in band and lightly damped, but its own peak, |φ_i φ_d| / (|a| |Re λ|)
-      (the mode's receptance term at ω = Im λ, :attr:`ModeShapes.modal_a`), stays below
-      ``visible_fraction`` of the measured |U| at the nearest line at every measured
-      DOF i and input d: no resonance of the data is the mode's (judged only with
-      measured FRFs ``U`` and a symmetric model's ``modal_a``; otherwise no pole is
-      weak);
+    * ``"residual"`` — a real (overdamped) pole, one whose half-power band
+      Im λ ± |Re λ| is not inside the band of ``omega`` (a pole out of the band, or at
+      its edge, where the data show one flank of it), or one with damping ratio ≥
+      ``residual_zeta``;
+    * ``"weak"`` — in band and lightly damped, but not a resonance the data resolve:
+      narrower than the lines (its half-power band, 2|Re λ|, below the spacing of the
+      lines around it — a pole between two lines, which no measured line can pin
+      down), or its receptance term φ_i φ_d / (a (iω − λ)) (:attr:`ModeShapes.modal_a`)
+      at the measured line nearest its frequency stays below ``visible_fraction`` of
+      the measured |U| there at every measured DOF i and input d (the visibility is
+      judged only with measured FRFs ``U`` and a symmetric model's ``modal_a``);
     * ``"structural"`` — every other pole: a resonance of the measured data.
 
     Parameters
@@ -338,8 +341,12 @@ def mode_kinds(
     w = as_array(omega, "omega", real=True).reshape(-1)
     lam = shapes.eigenvalues
     kinds = np.full(lam.size, STRUCTURAL, dtype=object)
-    out_of_band = (lam.imag < w[0]) | (lam.imag > w[-1])
+    # its half-power band must lie in the band: a peak at an edge shows one flank only
+    out_of_band = (lam.imag - np.abs(lam.real) < w[0]) | (lam.imag + np.abs(lam.real) > w[-1])
     kinds[(lam.imag == 0) | out_of_band | (shapes.damping_ratios >= residual_zeta)] = RESIDUAL
+    nearest = np.clip(np.searchsorted(w, lam.imag), 1, w.size - 1)
+    spacing = w[nearest] - w[nearest - 1]  # the line spacing around each pole
+    kinds[(kinds == STRUCTURAL) & (2 * np.abs(lam.real) < spacing)] = WEAK
     if U is None or shapes.modal_a is None:
         return kinds.astype(str)
     if inputs is None:
@@ -355,8 +362,7 @@ def mode_kinds(
     for k in np.flatnonzero(kinds == STRUCTURAL):
         line = int(np.argmin(np.abs(w - lam[k].imag)))
         phi = shapes.shapes[:, k]
-        peak = np.abs(np.outer(phi, phi[idx])) / (abs(shapes.modal_a[k]) * abs(lam[k].real))
-        measured = np.abs(Ua[line])
-        if not np.any(peak >= visible_fraction * measured):
+        term = np.abs(np.outer(phi, phi[idx])) / abs(shapes.modal_a[k] * (1j * w[line] - lam[k]))
+        if not np.any(term >= visible_fraction * np.abs(Ua[line])):
             kinds[k] = WEAK
     return kinds.astype(str)

@@ -265,10 +265,12 @@ def modes_markdown(summary: str, rows: list[dict]) -> str:
     if others:
         text += (
             "\n## Other poles of the fit (not modes of the structure)\n\n"
-            f"`{RESIDUAL}`: a residual term — out of the band, overdamped or with ζ ≥ "
+            f"`{RESIDUAL}`: a residual term — out of the band or at its edge, overdamped or "
+            "with ζ ≥ "
             f"{RESIDUAL_ZETA:g}, standing in for modes outside the band; `{WEAK}`: in band but "
-            f"its own peak is under {100 * VISIBLE_FRACTION:g} % of the measured response at "
-            "every DOF. They shape the fit; they are not resonances of the data.\n\n"
+            "not a resonance the data resolve — narrower than the line spacing, or under "
+            f"{100 * VISIBLE_FRACTION:g} % of the measured response at every DOF at its "
+            "nearest line. They shape the fit; they are not resonances of the data.\n\n"
             + table_markdown(others)
         )
     return text

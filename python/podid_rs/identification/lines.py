@@ -6,8 +6,8 @@ anti-resonances, a smooth curve that a few lines pin down as well as thousands. 
 order sweep (:mod:`.order`) fits dozens of models; each of its Levenberg–Marquardt
 steps costs in proportion to the lines. :func:`informative_lines` keeps every line
 where the response changes quickly and thins the rest, so the sweep fits a few
-thousand lines that hold what the data say; the chosen order is then refitted on
-every line (:func:`.order.final_fit`).
+thousand lines that hold what the data say, and the final fit
+(:func:`.order.final_fit`) refits the chosen order on them, judged on every line.
 
 How a line earns its place: the band is cut into blocks of equal length; a block's
 *activity* is the range of ln|U| plus the range of the unwrapped phase over its lines,
@@ -25,8 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
-#: the order sweep fits at most this many lines (the final fit uses every line)
-SWEEP_LINES = 4000
+#: the order sweep (and the final fit) fit about this many lines of a longer test. Median
+#: error over every line with 1000 / 2000 / 4000 lines: 0.0669 / 0.0668 / 0.0668 dB on a
+#: 46 750-line, 4-mode test (sweep 3.8 / 10.8 / 18.1 s); 0.0416 / 0.0414 / 0.0414 dB on a
+#: 22 000-line, 12-mode lattice test, every mode found each time (sweep 11.9 / 21.3 / 40.8 s)
+SWEEP_LINES = 1000
 #: blocks per kept line of the budget: a quarter of the budget covers the band evenly
 BLOCKS_PER_LINE = 0.25
 

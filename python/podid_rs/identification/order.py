@@ -451,7 +451,7 @@ def sweep_orders(
     sweep_lines : int or None
         With more lines than this, the sweep fits and scores the lines that carry the
         data's information (:func:`~.lines.informative_lines`; default
-        ``SWEEP_LINES`` = 4000); None: every line.
+        ``SWEEP_LINES`` = 1000); None: every line.
 
     Returns
     -------
