@@ -224,8 +224,10 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> s
 
 
 def write_report(text: str, out: str | Path) -> Path:
-    """Print a benchmark's Markdown report and write it to ``out`` (folders created)."""
+    """Print a benchmark's Markdown report and write it to ``out`` (folders created),
+    with the host it ran on (:func:`host_line`) as its last line."""
     out = Path(out)
+    text = text.rstrip("\n") + "\n\n" + host_line() + "\n"
     print("\n" + text)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text.rstrip("\n") + "\n")

@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import (  # noqa: E402
     chain_problem,
     gemm_gflops,
+    host_line,
     markdown_table,
     ratio,
     run_worker,
@@ -119,7 +120,7 @@ def main() -> None:
     )
     print("\n" + text)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text + "\n")
+    args.out.write_text(text + "\n\n" + host_line() + "\n")
     print(f"\nwritten to {args.out}")
 
 

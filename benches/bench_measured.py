@@ -37,7 +37,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
-from _common import load_average, markdown_table  # noqa: E402
+from _common import host_line, load_average, markdown_table  # noqa: E402
 from podid_rs.identification.order import final_fit, sweep_orders  # noqa: E402
 from podid_rs.identification.refinement import db_errors  # noqa: E402
 
@@ -169,7 +169,7 @@ def main(argv=None) -> int:
               "time (s)", "notes"]
     loads = [v for v in load if v is not None]
     text = "\n".join([
-        f"# Measured FRFs: {Path(args.uff).name}", "",
+        f"# Measured FRFs: {Path(args.uff).name}", "", host_line(), "",
         "Errors: |20 log10(|H_model|/|H_measured|)| over every line of the band and every "
         "measured DOF. Command: `python3 benches/bench_measured.py`.", "",
         markdown_table(header, rows), "", *summary,

@@ -52,6 +52,9 @@ REFINE_MAX_ITER = 200
 #: dB error (on the beam, 700 more steps past it moved the median by 0.0001 dB); exact
 #: data still converge to round-off, because there each step gains orders of magnitude.
 REFINE_FTOL = 1e-5
+#: the log-magnitude objective leaves out entries below this fraction of the largest
+#: entry of their line and load case (240 dB: no measurement resolves them)
+LOG_DYNAMIC_RANGE = 1e-12
 
 
 class StartWarning(UserWarning):
@@ -85,7 +88,8 @@ def db_errors(X: np.ndarray, U: np.ndarray) -> np.ndarray:
     """|20 log10(|X| / |U|)| elementwise (dB), over the entries where both are non-zero."""
     a, b = np.abs(X), np.abs(U)
     keep = (a > 0) & (b > 0)
-    return np.abs(20.0 * np.log10(a[keep] / b[keep]))
+    # a difference of logarithms: the ratio of a model value to a 1e-300 one overflows
+    return np.abs(20.0 * (np.log10(a[keep]) - np.log10(b[keep])))
 
 
 def _start_matrices(model: object) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
@@ -217,7 +221,8 @@ def _log_magnitude_targets(
     weights: object, data: FrequencyData, R: np.ndarray | None, U_n: np.ndarray | None
 ) -> tuple[LogMagnitudeWeights, str]:
     """The core's log-magnitude weighting: R (n, m), targets (s·p, n) and entry weights
-    (s·p, n), line-major, and a label. Entries with u = 0 get weight 0."""
+    (s·p, n), line-major, and a label. Entries with u = 0, or below LOG_DYNAMIC_RANGE
+    of the largest of their line and load case, get weight 0."""
     from .. import _core
 
     s, m, p = data.s, data.m, data.p
@@ -248,7 +253,10 @@ def _log_magnitude_targets(
         if np.any(W < 0):
             raise ValueError(f"weights must be non-negative (found {W.min():.3g})")
         label = "log-magnitude, user per entry"
-    W = np.where(np.abs(U_n) > 0, W, 0.0)
+    # entries far below the largest of their line and load case — beyond any measurement's
+    # dynamic range (a far point of a long scan) — would make ln|y| meaningless: weight 0
+    A = np.abs(U_n)
+    W = np.where(A > LOG_DYNAMIC_RANGE * A.max(axis=1, keepdims=True), W, 0.0)
     if not np.any(W > 0):
         raise ValueError("no weighted entry with a non-zero response: there is nothing to fit")
     line_major = lambda X: np.ascontiguousarray(X.transpose(0, 2, 1).reshape(s * p, n))  # noqa: E731
@@ -357,7 +365,8 @@ def refine(
         person reads off an FRF plot, every entry alike whatever its level, phase
         ignored. There ``"relative"`` and ``"uniform"`` both mean w = 1 per entry,
         an array gives w per entry ``(s, n[, p])`` (or per line/column), and
-        entries with u = 0 are left out. Its Gauss–Newton step uses the Hermitian
+        entries with u = 0, or 240 dB below the largest of their line and load case
+        (``LOG_DYNAMIC_RANGE``), are left out. Its Gauss–Newton step uses the Hermitian
         half of the normal matrix (the fast paths; the exact gradient), so it takes
         more steps.
     curvature : bool

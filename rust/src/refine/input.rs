@@ -127,7 +127,8 @@ impl OeData<'_> {
                     .u
                     .iter()
                     .zip(lt.w)
-                    .any(|(z, w)| *w > 0.0 && z.norm_sqr() == 0.0)
+                    // |z| by hypot, as NumPy's abs: |z|² underflows to 0 below 1.5e-162
+                    .any(|(z, w)| *w > 0.0 && z.norm() == 0.0)
                 {
                     return bad(
                         "a weighted target entry is zero: its log-magnitude is undefined \

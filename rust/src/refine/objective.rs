@@ -56,14 +56,16 @@ fn log_column(
         }
         let row = &lt.basis[e * m..(e + 1) * m];
         let y: c64 = row.iter().zip(x).map(|(a, b)| b * *a).sum();
-        let y2 = y.norm_sqr();
-        if !(y2 > 0.0 && y2.is_finite()) {
+        // |y| by hypot: |y|² would underflow below 1.5e-162 and make a finite cost infinite
+        let ay = y.norm();
+        let inv = 1.0 / ay;
+        if !(ay > 0.0 && inv.is_finite() && (inv * inv).is_finite()) {
             return f64::INFINITY;
         }
-        let r = w * (0.5 * y2.ln() - log_u[col * n + e]);
+        let r = w * (ay.ln() - log_u[col * n + e]);
         cost += r * r;
-        let g = y * (w * r / y2); // w r / conj(y)
-        let h = 0.5 * w * w / y2;
+        let g = y * (w * r * inv * inv); // w r / conj(y)
+        let h = 0.5 * w * w * inv * inv;
         for a in 0..m {
             rho[a] += g * row[a];
             let ha = h * row[a];

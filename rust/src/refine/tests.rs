@@ -656,6 +656,14 @@ fn log_magnitude_gradient_and_metric_match_finite_differences() {
         ..data
     };
     ok.validate().unwrap();
+    // a tiny but non-zero weighted target is a value, not a zero: |z|² underflows to 0
+    // below 1.5e-162, |z| does not (a far point of a long scan)
+    t0[0] = c64::new(1e-170, -1e-171);
+    let tiny = OeData {
+        weights: Weights::LogMagnitude(LogTarget { u: &t0, ..lt }),
+        ..data
+    };
+    tiny.validate().unwrap();
     t0[0] = c64::new(0.0, 0.0);
     let bad = OeData {
         weights: Weights::LogMagnitude(LogTarget { u: &t0, ..lt }),
