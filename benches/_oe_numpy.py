@@ -1,7 +1,7 @@
 """The output-error problem of ``podid_rs.identification.refinement.refine`` written in NumPy.
 
 The same parametrisation as the Rust core (``rust/src/refine``): data scaled as in
-DESIGN §3 (ω by its RMS, u and f by their RMS), θ = the lower triangles of the
+docs/design.md §3 (ω by its RMS, u and f by their RMS), θ = the lower triangles of the
 Cholesky factors of M̃, C̃, K̃ (row by row, diagonals as log|L_jj| with
 ``log_diagonal``), X = L Lᵀ + 1e-10·‖L‖²_F·I, the start factored after raising its
 eigenvalues to the same floors, and the residual r = w·(D(ω)⁻¹ f − u) per column

@@ -1,4 +1,4 @@
-"""Matrix-free CG benchmark (issues 5 and 13): large reduced orders on the full-order chain.
+"""Matrix-free CG benchmark: large reduced orders on the full-order chain.
 
 Problem: ``mass_spring_chain(n)`` identified at full order (R = I, so m = n),
 noise-free, random complex forces on every DOF, s = 2n lines evenly spaced in a
@@ -6,7 +6,7 @@ band: the paper's 20 % band 102.8–122.8 Hz ("narrow") and 50–150 Hz ("wide")
 Modes: exact-symmetric (``symmetric=True``) and the penalty form at the paper's
 λ = 100. Every case runs in its own process (time and peak memory are its own).
 
-The ratios issue 13 asks for, each against a reference measured in the same run:
+The ratios it reports, each against a reference measured in the same run:
 
 - "× GEMM": the whole ``identify`` call over one NumPy GEMM of the operator's
   shape (m×3m by 3m×3m, float64, best of several), timed in the same process
@@ -122,7 +122,7 @@ def stall_case(case: dict) -> dict:
 def numpy_pcg(U, F, omega, lam: float, symmetric: bool, tol: float = TOL):
     """Identify M, C, K by a plain NumPy PCG on the scaled normal equations.
 
-    The formulation of DESIGN §2–4: ω, U, F scaled to O(1); H = Re(V Vᴴ),
+    The formulation of docs/design.md §2–4: ω, U, F scaled to O(1); H = Re(V Vᴴ),
     B = Re(F Vᴴ); Z̃ = [X̃_M X̃_C X̃_K] in the eigenbasis Q of H_MM + H_CC + H_KK;
     operator Z̃ ↦ Z̃ H̃ (block-symmetrised, or plus 2λ̃²(X̃ − X̃ᵀ) per block); the
     preconditioner keeps of every block of H̃ its diagonal, which decouples the
@@ -147,7 +147,7 @@ def numpy_pcg(U, F, omega, lam: float, symmetric: bool, tol: float = TOL):
             )
     Bt = np.concatenate([Q.T @ B[:, b * m : (b + 1) * m] @ Q for b in range(3)], axis=1)
     factors = sf / su * np.array([1 / w0**2, 1 / w0, 1.0])  # X_b = c_b X̃_b
-    pen = 4 * (lam * factors / sf) ** 2  # 4λ̃_b², λ̃_b = λ c_b / s_f (DESIGN §3)
+    pen = 4 * (lam * factors / sf) ** 2  # 4λ̃_b², λ̃_b = λ c_b / s_f (docs/design.md §3)
 
     # iterate on (S, K): the symmetric and skew parts of the blocks X̃_b, (3, m, m)
     # each; the penalty acts on K exactly (in plain entries it would swamp S)
@@ -332,7 +332,7 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         else ""
     )
     return (
-        "CG path (issue 13): full-order chain, noise-free, s = 2m lines, random forces on "
+        "CG path: full-order chain, noise-free, s = 2m lines, random forces on "
         "every DOF; bands narrow = 102.8–122.8 Hz, wide = 50–150 Hz; modes sym = "
         f"exact-symmetric, pen = penalty λ = 100; tol {TOL:g}. "
         f"NumPy GEMM (n = 4000) {args.numpy_gemm:.1f} GFLOP/s ({args.blas}). First write to "
@@ -341,7 +341,7 @@ def main_cg(args: argparse.Namespace, me: str) -> str:
         "freed memory back to its host).\n"
         "time = the whole identify() call (CPU s: its CPU time, all threads); × GEMM = "
         "time over one NumPy float64 GEMM of the operator's shape (m×3m by 3m×3m) timed "
-        "in the same process (the issue's reference), × faer GEMM the same over faer's "
+        "in the same process (the reference), × faer GEMM the same over faer's "
         "float64 GEMM of that shape (the library's own; the machine's f64 rate where "
         "NumPy's BLAS falls short of it); solves = the "
         "preconditioner's triangular solves (most of the iterations), residual = ‖Ax − y‖ "

@@ -1,4 +1,4 @@
-"""Direct path benchmark (issue 4): Rust vs NumPy structured vs the Kronecker oracle.
+"""Direct path benchmark: Rust vs NumPy structured vs the Kronecker oracle.
 
 Problem: the full-order chain ``mass_spring_chain(m)`` (R = I), random complex
 forces on every DOF, s = 400 lines over 5–200 Hz, λ = 100 (penalty mode, 3m²

@@ -1,6 +1,6 @@
 """Real measured FRFs: podid_rs (paper's estimator, refined) against sdypy-EMA (LSCF + LSFD).
 
-The issue-10 benchmark: on a real test file — by default the roving-hammer steel beam
+On a real test file — by default the roving-hammer steel beam
 of ``tests/data/ufsc_beam`` (30 points, force at point 3 by reciprocity) — and in each
 band, in one run:
 

@@ -1,4 +1,4 @@
-"""What limits the refined model under response noise: the POD basis or the fit (issue 10).
+"""What limits the refined model under response noise: the POD basis or the fit.
 
 On the paper's chain (Section 6 settings, one band, SNR 10 dB on the responses, the
 paper's order m), the same identification and refinement as ``podid-rs paper`` on the

@@ -1,4 +1,4 @@
-"""Output-error refinement benchmark (issue 10): podid_rs against SciPy, and large m.
+"""Output-error refinement benchmark: podid_rs against SciPy, and large m.
 
 Problem: ``mass_spring_chain(m)`` at full order (R = I), random complex forces on
 every DOF at s lines over 5–200 Hz, complex noise of 0.1 % RMS of |U| on the

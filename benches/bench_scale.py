@@ -1,4 +1,4 @@
-"""Mid-frequency scale (issue 11): sparse models of 10⁵ DOFs, measurements of 10⁴ points.
+"""Mid-frequency scale: sparse models of 10⁵ DOFs, measurements of 10⁴ points.
 
 Every case runs in its own process (time of the call, peak resident memory VmHWM):
 
@@ -188,7 +188,7 @@ def main() -> None:
     only = set(args.only.split(","))
     me = str(Path(__file__).resolve())
     work = Path(tempfile.mkdtemp(prefix="bench-scale-"))
-    lines = [f"# Scale benchmark (issue 11) — {time.strftime('%Y-%m-%d %H:%M')}", ""]
+    lines = [f"# Scale benchmark — {time.strftime('%Y-%m-%d %H:%M')}", ""]
     loads = []
 
     def run(case: dict) -> dict:

@@ -1,4 +1,4 @@
-"""How the triangular solves of CG's preconditioner share two threads (issue 13).
+"""How the triangular solves of CG's preconditioner share two threads.
 
 Times one preconditioner application (the two triangular solves of the
 Gauss–Seidel split, as each CG iteration runs them; `examples/sgs_apply.rs`) on 2

@@ -1,4 +1,4 @@
-"""Which start reaches a good output-error model on a wide band (issue 10, item 2).
+"""Which start reaches a good output-error model on a wide band.
 
 On the real beam at 20–800 Hz and a fixed order m, three starts for the same
 refinement (relative weights, the same step budget), in one run:

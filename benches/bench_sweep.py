@@ -1,4 +1,4 @@
-"""λ-sweep benchmark (issue 6): a whole 50-point λ-curve against one direct solve.
+"""λ-sweep benchmark: a whole 50-point λ-curve against one direct solve.
 
 Problem: the full-order chain ``mass_spring_chain(m)`` (R = I), random complex
 forces on every DOF, s = 400 lines over 5–200 Hz, 1 % noise on the responses (so

@@ -1,4 +1,4 @@
-"""Where CG's slow components live (issue 13): the spectrum of the preconditioned operator.
+"""Where CG's slow components live: the spectrum of the preconditioned operator.
 
 A dense NumPy model of the matrix-free solver at small m (exact-symmetric mode):
 the normal operator G in the pair coordinates of ``rust/src/pairs.rs`` (Q basis of
@@ -35,7 +35,7 @@ BANDS = {"narrow": (102.8, 122.8), "wide": (50.0, 150.0)}
 
 
 def scaled_blocks(U, F, omega):
-    """H̃ (3m×3m) in the Q basis and Q's eigenvalues, scaled as DESIGN §2–4."""
+    """H̃ (3m×3m) in the Q basis and Q's eigenvalues, scaled as docs/design.md §2–4."""
     w0 = np.sqrt(np.mean(omega**2))
     su = np.sqrt(np.mean(np.abs(U) ** 2))
     w, u = omega / w0, U / su

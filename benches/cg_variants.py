@@ -1,7 +1,7 @@
-"""Preconditioner variants for the matrix-free CG that did not help (issue 13).
+"""Preconditioner variants for the matrix-free CG that did not help.
 
 Dense NumPy models at small m, built like ``benches/cg_spectrum.py`` (the scaled H̃
-of DESIGN §2–4, the exact-symmetric operator G in pair coordinates, dense CG to tol
+of docs/design.md §2–4, the exact-symmetric operator G in pair coordinates, dense CG to tol
 1e-11 on a random right-hand side), each printing CG iterations:
 
 - ``--part basis``: the pair-block symmetric Gauss–Seidel of ``rust/src/sgs/`` in
@@ -25,7 +25,7 @@ of DESIGN §2–4, the exact-symmetric operator G in pair coordinates, dense CG 
 - ``--part rows``: the exact inverse of the row operator Z ↦ Z H̃ (one Cholesky of
   H̃, X ↦ X H̃⁻¹) as the preconditioner of the penalty mode (λ = 100 on every block)
   and, symmetrised, of the exact-symmetric mode; prints κ(H̃) and the scaled
-  penalties 4λ̃² of DESIGN §3.
+  penalties 4λ̃² of docs/design.md §3.
 
     python3 benches/cg_variants.py --m 30 --part basis
 """

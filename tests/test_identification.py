@@ -128,7 +128,7 @@ def test_matches_kronecker_oracle_on_random_noisy_cases(backend, case):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_matches_oracle_on_noisy_chain_with_paper_lambda(backend):
-    """DESIGN §3: here the plain-basis normal equations lose 10–60 %; ours must not."""
+    """docs/design.md §3: here the plain-basis normal equations lose 10–60 %; ours must not."""
     _, U, F, omega = chain_data(6, s=60, noise=0.05, seed=11)
     ref = identify_kronecker(U, F, omega, 100.0)
     res = identify(U, F, omega, 100.0, backend=backend)

@@ -105,12 +105,12 @@ def test_noise_free_identified_frfs_match_the_original(study, band):
 
 @pytest.mark.parametrize("band", [1, 2, 3, 4])
 def test_refined_model_at_10_db_is_near_the_noise_free_identification(study, band):
-    # Issue 10's criterion, in quick mode (20 s record, 400 lines, noisier than the
+    # The refinement's criterion, in quick mode (20 s record, 400 lines, noisier than the
     # default's 100 s): measured over seeds 0–5 the refined model (noise-corrected
     # basis) is at most 0.11 dB above the paper's estimator on the same row and at most
     # 1.23 dB above the noise-free paper's estimator (band 3, H(50,50)); the 100 s
-    # record gives ≤ 0.94 dB (README). Without the noise-corrected basis band 3 was
-    # 1.0–1.6 dB above it with the 100 s record already. Bounds: 0.5 and 1.5 dB.
+    # record gives ≤ 0.94 dB (docs/guide-paper-study.md). Without the noise-corrected basis
+    # band 3 was 1.0–1.6 dB above it with the 100 s record already. Bounds: 0.5 and 1.5 dB.
     noisy, free = study.row(band, 10.0), study.row(band)
     assert noisy.refined_stable
     for entry in ("h50_50", "h60_40"):

@@ -1,7 +1,7 @@
-"""Output-error refinement (podid_rs.identification.refinement.refine, DESIGN §6).
+"""Output-error refinement (podid_rs.identification.refinement.refine, docs/design.md §6).
 
 What is asserted and why the tolerances:
-- noise-free full-order data give the exact model back (1e-8 relative, the issue's
+- noise-free full-order data give the exact model back (1e-8 relative, the parity
   bound; measured 1e-12…1e-10): Gauss–Newton converges quadratically on a zero residual;
 - every refined model is exactly symmetric, M, C, K positive definite by Cholesky and
   the model stable (Re λ < 0), whatever the start and the data — by construction;

@@ -1,4 +1,4 @@
-"""Choosing λ (issue 6): the swept curves against individual solves, the three rules, fallbacks.
+"""Choosing λ: the swept curves against individual solves, the three rules, fallbacks.
 
 The case where a chosen λ must beat both limits (``skew_mass_case``): a random
 6-DOF system whose mass matrix has a real skew part (10 % of ‖M‖) while C and K

@@ -1,4 +1,4 @@
-"""Large-n machinery on small cases (issue 11): sparse systems, the lattice, simulation
+"""Large-n machinery on small cases: sparse systems, the lattice, simulation
 without histories, POD by the method of snapshots, memory refusals, and the paper's
 chain path against the dense one. The 10⁴–10⁵-DOF runs are in benches/bench_scale.py.
 

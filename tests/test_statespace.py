@@ -2,7 +2,7 @@
 
 Tolerance: the state-space transfer function C (iωI − A)⁻¹ B goes through M⁻¹,
 so it differs from the direct solve of (−ω²M + iωC + K) by a few units of
-cond(M)·eps (cond(M) ≈ 10 here); 1e-8 relative per line is the issue's bound
+cond(M)·eps (cond(M) ≈ 10 here); 1e-8 relative per line is the bound
 and leaves five orders of margin.
 """
 

@@ -405,7 +405,7 @@ class MeasuredData:
         progress: bool = False,
         threads: int | None = None,
     ) -> tuple[IdentificationResult, np.ndarray, OrderSweep]:
-        """Output-error models that reproduce these data (DESIGN §6).
+        """Output-error models that reproduce these data (docs/design.md §6).
 
         Orders 1, 2, … are fitted by continuation on the POD basis, m is chosen on
         held-out lines (or given), and that order is refitted on every line

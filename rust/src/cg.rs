@@ -1,5 +1,5 @@
 //! Matrix-free identification for large orders: preconditioned conjugate gradients
-//! on the normal equations, never forming the 3m²×3m² normal matrix (DESIGN §4).
+//! on the normal equations, never forming the 3m²×3m² normal matrix (docs/design.md §4).
 //!
 //! In the scaled problem the normal equations for Z = [X_M X_C X_K] (m×3m) are
 //!

@@ -1,4 +1,4 @@
-//! Measured columns (u_i, f_i, ω_i) and their scaling (DESIGN §3).
+//! Measured columns (u_i, f_i, ω_i) and their scaling (docs/design.md §3).
 //!
 //! The data are N = s·p complex response vectors u_i ∈ Cᵐ with forces f_i and
 //! angular frequencies ω_i, stored frequency-first (row i is column i of the

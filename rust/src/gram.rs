@@ -1,4 +1,4 @@
-//! The Gram products of DESIGN §2: H = Re(V Vᴴ) (3m×3m) and B = Re(F Vᴴ) (m×3m),
+//! The Gram products of docs/design.md §2: H = Re(V Vᴴ) (3m×3m) and B = Re(F Vᴴ) (m×3m),
 //! with v_i = [−ω_i² u_i; iω_i u_i; u_i]. The whole least-squares data term is
 //! tr(Z H Zᵀ) − 2 tr(Z Bᵀ) + ‖F‖² for Z = [M C K].
 //!

@@ -1,5 +1,5 @@
 //! Approximate joint diagonalisation of a few symmetric matrices by one orthogonal
-//! matrix, for the preconditioner's basis (DESIGN §4, [`crate::precond`]).
+//! matrix, for the preconditioner's basis (docs/design.md §4, [`crate::precond`]).
 //!
 //! The preconditioner keeps only the diagonal of every block Qᵀ H_bb' Q. One
 //! eigenbasis Q diagonalises one matrix (e.g. the sum of the diagonal blocks),

@@ -2,8 +2,8 @@
 //! (Khalil, Adhikari & Sarkar 2007) without ever forming the Kronecker matrix A.
 //!
 //! Pipeline of plain Rust functions (each testable with `cargo test`):
-//! - [`data`]: the measured columns (u_i, f_i, ω_i) and their scaling (DESIGN §3);
-//! - [`gram`]: H = Re(V Vᴴ) and B = Re(F Vᴴ) (DESIGN §2);
+//! - [`data`]: the measured columns (u_i, f_i, ω_i) and their scaling (docs/design.md §3);
+//! - [`gram`]: H = Re(V Vᴴ) and B = Re(F Vᴴ) (docs/design.md §2);
 //! - [`normal`]: the normal equations in each block's symmetric/skew basis;
 //! - [`direct`]: in-place Cholesky with a rank-revealing fallback;
 //! - [`identify`]: the whole solve, scaled in and out;

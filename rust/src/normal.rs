@@ -1,4 +1,4 @@
-//! The normal equations in each block's orthonormal symmetric/skew basis (DESIGN §3).
+//! The normal equations in each block's orthonormal symmetric/skew basis (docs/design.md §3).
 //!
 //! Unknowns are the coordinates of X_b (b = M, C, K) in the basis
 //! {E_jj} ∪ {(E_jk + E_kj)/√2} ∪ {(E_jk − E_kj)/√2}, j < k. The data term

@@ -1,4 +1,4 @@
-//! The preconditioner of the matrix-free solver (DESIGN §4), and the basis it lives in.
+//! The preconditioner of the matrix-free solver (docs/design.md §4), and the basis it lives in.
 //!
 //! Let Q be the eigenvectors of S = H_MM + H_CC + H_KK (m×m), refined to
 //! diagonalise the three blocks together ([`crate::joint`]). In the variables

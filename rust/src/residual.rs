@@ -2,7 +2,7 @@
 //! (−ω_i² M + iω_i C + K) u_i − f_i over all N columns.
 //!
 //! Computed from the per-line products, never from the Gram expansion
-//! xᵀHx − 2bᵀx + ‖y‖², which cancels when the residual is small (DESIGN §3).
+//! xᵀHx − 2bᵀx + ‖y‖², which cancels when the residual is small (docs/design.md §3).
 //! The lines are taken in chunks; each chunk stacks its scaled data
 //! [Re U; Im U] and does one GEMM with [X̃_Mᵀ X̃_Cᵀ X̃_Kᵀ] (2N·m·3m·2 flops in
 //! all), in parallel over chunks. In scaled units (ω̃ = ω/ω0, Ũ = U/s_u,

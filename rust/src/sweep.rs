@@ -1,5 +1,5 @@
 //! The λ-curves of one common symmetry weight λ = λ_M = λ_C = λ_K from one
-//! eigendecomposition (paper §4.2, DESIGN §4): residual ‖Ax − y‖, penalty ‖Lx‖,
+//! eigendecomposition (paper §4.2, docs/design.md §4): residual ‖Ax − y‖, penalty ‖Lx‖,
 //! the trace of the influence matrix, GCV and the L-curve's curvature at any λ
 //! for O(n_w) each, exact values and the identified M, C, K at any λ for O(n_w²).
 //!

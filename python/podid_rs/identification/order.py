@@ -1,4 +1,4 @@
-"""The reduced order m on measured data, chosen by what fits (issue 10, DESIGN §6).
+"""The reduced order m on measured data, chosen by what fits (docs/design.md §9).
 
 The paper picks m by the energy the POD modes capture (eq. 43). On a real test that
 says little about the model: it is the frequency response the model reproduces

@@ -4,7 +4,7 @@ The paper's estimator (eq. 49) minimises the *equation error*
 Σ‖(−ω²M + iωC + K)u − f‖²: it weighs each line by |D(ω)|² (off-resonance and
 high-frequency lines dominate), treats the measured u as exact (noise on u biases
 it), and guarantees nothing physical — on real data its models can be unstable
-and many dB off the measurement (DESIGN §6). :func:`refine` starts from such a
+and many dB off the measurement (docs/design.md §6). :func:`refine` starts from such a
 model and minimises the *output error*
 
     Σ_ij ‖W_ij (D(ω_i)⁻¹ f_ij − u_ij)‖²
@@ -314,7 +314,7 @@ def refine(
     curvature: bool = False,
     metric: Literal["auto", "diagonal", "modal"] = "auto",
 ) -> IdentificationResult:
-    """Refine ``model`` to the least output error on the data (DESIGN §6).
+    """Refine ``model`` to the least output error on the data (docs/design.md §6).
 
     Parameters
     ----------

@@ -4,15 +4,15 @@
 triple λ; the rules that choose λ (:mod:`.regularisation`) call it too, and
 nothing here knows them. It never forms the Kronecker matrix A of eq. 25:
 the least-squares data term only needs the Gram products H = Re(V Vᴴ) and
-B = Re(F Vᴴ) (DESIGN §2), and the normal equations are written in each block's
+B = Re(F Vᴴ) (docs/design.md §2), and the normal equations are written in each block's
 orthonormal symmetric/skew basis, where the symmetry penalty of eq. 40 is a
-diagonal 4λ² on the skew coordinates (DESIGN §3). Two backends solve the same
+diagonal 4λ² on the skew coordinates (docs/design.md §3). Two backends solve the same
 equations: ``"rust"`` (default: faer, parallel, in place) and ``"numpy"``
 (scipy.sparse + LAPACK, for comparison). :mod:`.reference` keeps the
 paper's literal Kronecker formulation as the oracle both are tested against.
 
 For large orders the Rust backend also solves the same equations matrix-free
-(``solver="cg"``, DESIGN §4): preconditioned conjugate gradients with O(m²)
+(``solver="cg"``, docs/design.md §4): preconditioned conjugate gradients with O(m²)
 memory and one m×3m by 3m×3m GEMM per iteration.
 """
 
@@ -58,7 +58,7 @@ AUTO_DIRECT_MAX_UNKNOWNS = 300
 #: a CG run of ``solver="auto"`` that stops by itself above ``tol`` (singular
 #: normal equations, e.g. too few load cases, or an unattainable tol) is redone by
 #: the direct path up to this many unknowns (m = 40 with a penalty: 0.7 s in the
-#: README's direct-path table), which reports the rank and returns the
+#: direct-path table of benches/README.md), which reports the rank and returns the
 #: minimum-norm answer where CG can only stall.
 AUTO_FALLBACK_MAX_UNKNOWNS = 4800
 #: what a ``MemoryError`` of the solvers suggests
@@ -70,7 +70,7 @@ MEMORY_HINT = "reduce the order m, or use symmetric=True (3m(m+1)/2 unknowns ins
 
 
 def gram_numpy(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """H = Re(V Vᴴ), B = Re(F Vᴴ) with v_i = [−ω_i² u_i; iω_i u_i; u_i] (DESIGN §2).
+    """H = Re(V Vᴴ), B = Re(F Vᴴ) with v_i = [−ω_i² u_i; iω_i u_i; u_i] (docs/design.md §2).
 
     U, F are (N, m) rows u_i, f_i; omega (N,). Literal, O(N·9m²); the Rust core
     computes the same by GEMMs on the real stacked data.
@@ -83,7 +83,7 @@ def gram_numpy(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[np.ndar
 
 
 def _scales(U: np.ndarray, F: np.ndarray, omega: np.ndarray) -> tuple[float, float, float]:
-    """ω0 = RMS ω, s_u = RMS |U|, s_f = RMS |F| (DESIGN §3); 1 where a scale is 0."""
+    """ω0 = RMS ω, s_u = RMS |U|, s_f = RMS |F| (docs/design.md §3); 1 where a scale is 0."""
 
     def nz(x: float) -> float:
         return x if x > 0 and np.isfinite(x) else 1.0
@@ -176,7 +176,7 @@ class _SolvedByNumpy:
 
 
 def _identify_numpy(data: FrequencyData, lam: Triple, symmetric: bool) -> _SolvedByNumpy:
-    """The structured normal equations of DESIGN §2–3 in NumPy/SciPy."""
+    """The structured normal equations of docs/design.md §2–3 in NumPy/SciPy."""
     U, F, w = data.columns()
     m = data.m
     w0, su, sf = _scales(U, F, w)

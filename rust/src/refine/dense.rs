@@ -1,4 +1,4 @@
-//! The dense Gauss–Newton step: N_θ formed explicitly (DESIGN §6), factored by
+//! The dense Gauss–Newton step: N_θ formed explicitly (docs/design.md §6), factored by
 //! Cholesky.
 //!
 //! In Z-coordinates N_Z[(r,c),(r',c')] = Re Σ_k G_k[r,r'] κ_bb'(ω_k) X̄_k[c,c'] for

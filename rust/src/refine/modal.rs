@@ -25,7 +25,7 @@
 //! (chain, m = 40, 1000 lines, 0.1 % noise): CG iterations to a relative residual of
 //! 1e-2 / 1e-4: 29 / 55 against 187 / 896 with the 3×3 blocks of N_θ (and diag
 //! damping); with exact solves LM converged in 13 steps (m = 20) where diag damping
-//! was still crawling at 22. The whole refinement: README, `bench_refine.py --parts
+//! was still crawling at 22. The whole refinement: benches/README.md, `bench_refine.py --parts
 //! metric`.
 
 use super::lines::theta_scale;

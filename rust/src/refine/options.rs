@@ -98,7 +98,8 @@ impl StepKind {
 /// above m = 40 the matrix-free step is chosen, with O(s·m²) memory. With the modal
 /// metric (Python's default for a matrix-free step) the chain's crossover moved to
 /// between m = 10 and 20 (m = 30: 1.18 s against 5.25 s), but on the measured beam (m ≤ 30, with
-/// curvature) that step fitted worse and slower, so the rule stays (README).
+/// curvature) that step fitted worse and slower, so the rule stays (benches/README.md,
+/// `bench_refine.py`).
 pub const AUTO_DENSE_MAX_M: usize = 40;
 
 /// Most CG iterations of one matrix-free step.

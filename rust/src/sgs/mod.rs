@@ -1,5 +1,5 @@
 //! Symmetric Gauss–Seidel over entry pairs: the preconditioner of the matrix-free
-//! solver (DESIGN §4, issue 13), applied with Eisenstat's trick by [`crate::cg`].
+//! solver (docs/design.md §4), applied with Eisenstat's trick by [`crate::cg`].
 //!
 //! In the Q basis of [`crate::precond`] the normal operator splits as
 //! G = D + L + Lᵀ: D the pair blocks of [`crate::precond::PairPrecond`] (3×3 per
