@@ -483,3 +483,15 @@ def test_to_receptance(X, quantity):
     out = checked(to_receptance, X, w, quantity)
     if isinstance(out, ValueError):
         refused(out, "omega|quantity|non-finite|X must")
+        # only what is wrong is refused: an unknown quantity, non-finite values, no lines
+        assert quantity == "x" or not np.all(np.isfinite(X)) or X.shape[0] == 0
+        return
+    assert quantity != "x", "an unknown quantity was accepted"
+    # a velocity spectrum is iω times the displacement, an acceleration −ω² times it:
+    # X / (iω) = −i X / ω and X / (−ω²) = −X / ω², both exact in floating point
+    x = np.asarray(X, dtype=np.complex128)
+    wb = w.reshape((-1,) + (1,) * (x.ndim - 1))
+    expected = {"displacement": x, "velocity": -1j * x / wb, "acceleration": -x / wb**2}
+    assert out.shape == x.shape and out.dtype == np.complex128
+    np.testing.assert_allclose(out, expected[quantity], rtol=1e-15, atol=0)
+    assert not np.shares_memory(out, X), "the result must be a fresh array"

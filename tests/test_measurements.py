@@ -114,6 +114,24 @@ def test_uff_round_trip_maps_dofs_and_converts_to_receptance(tmp_path, chain6, q
     assert rel(data.U, expected) < 1e-10
 
 
+@pytest.mark.parametrize(
+    ("rsp_sign", "ref_sign"), [(1, -1), (-1, -1)], ids=["-ref", "-rsp -ref"]
+)
+def test_uff_negative_reference_directions_flip_the_sign(tmp_path, chain6, rsp_sign, ref_sign):
+    """A −Z reference is the +Z force reversed: the FRF read back is in +Z over +Z."""
+    system, freq, H = chain6
+    ins = [1, 4]
+    out_dofs = [(k + 1, 3 * rsp_sign) for k in range(6)]
+    ref_dofs = [(k + 1, 3 * ref_sign) for k in ins]
+    data = read_uff(
+        write_uff(tmp_path / "frf.uff", freq, H[:, :, ins], out_dofs, ref_dofs)
+    )
+    assert data.dofs.tolist() == [[k + 1, 3] for k in range(6)]
+    assert data.inputs.tolist() == ins
+    # the file holds sign × H with sign = (−1)(−1) or (+1)(−1); read_uff undoes it
+    assert rel(data.U, H[1:][:, :, ins]) < 1e-10
+
+
 def test_uff_full_order_identification_needs_symmetry_with_two_inputs(tmp_path, chain6):
     """Unit forces on p < m DOFs leave Z → (I + Q) Z with Q F = 0 undetermined."""
     system, freq, H = chain6

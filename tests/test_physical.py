@@ -10,6 +10,7 @@ import pytest
 from podid_rs import SecondOrderSystem, add_noise, identify, mass_spring_chain, simulate_white_noise
 from podid_rs.measured import from_time_histories
 from podid_rs.physical import (
+    ModalParameters,
     compare_modes,
     make_physical,
     modal_parameters,
@@ -148,3 +149,39 @@ def test_modal_parameters_refuse_other_objects():
         modal_parameters(np.eye(2))
     with pytest.raises(ValueError, match="square"):
         nearest_psd(np.ones((2, 3)))
+
+
+def modes_with(eigenvalues, n_infinite: int = 0) -> ModalParameters:
+    lam = np.asarray(eigenvalues, dtype=complex)
+    mag = np.abs(lam)
+    return ModalParameters(lam, mag / (2 * np.pi), -lam.real / mag, n_infinite)
+
+
+def test_stability_boundary_is_strict():
+    # Re λ = 0 (an undamped mode) is not asymptotically stable; the smallest
+    # negative real part is
+    assert not modes_with([2j]).stable
+    assert not modes_with([-1.0 + 1j, 0.0 + 3j]).stable
+    assert modes_with([-5e-324 + 2j]).stable
+    assert modes_with([-1.0 + 1j, -1e-300 + 3j]).stable
+    assert not modes_with([-1.0 + 1j], n_infinite=1).stable
+    assert modes_with([-1.0 + 1j, -3.0 + 3j]).max_real_part == -1.0
+    # no finite eigenvalue: max Re λ is −inf; stable only without infinite ones
+    empty = modes_with(np.zeros(0))
+    assert empty.max_real_part == -np.inf and empty.stable
+
+
+def test_undamped_oscillator_sits_on_the_boundary():
+    # M = 1, C = 0, K = 4: λ = ±2i exactly (the companion form's eigenvalues are exact here)
+    undamped = SecondOrderSystem([[1.0]], [[0.0]], [[4.0]])
+    modes = modal_parameters(undamped)
+    assert modes.eigenvalues.shape == (1,)
+    assert modes.eigenvalues[0] == pytest.approx(2j, abs=1e-15)
+    assert modes.max_real_part == 0.0 and modes.damping_ratios[0] == 0.0
+    assert not modes.stable
+    assert modal_table(undamped)[0]["stable"] == "no"
+    # the least damping makes it stable, in the modes and in the table
+    damped = SecondOrderSystem([[1.0]], [[1e-9]], [[4.0]])
+    assert modal_parameters(damped).stable
+    assert modal_table(damped)[0]["stable"] == "yes"
+    assert modal_table(damped)[0]["re_lambda"] == pytest.approx(-0.5e-9, rel=1e-6)
