@@ -89,8 +89,17 @@ def test_rows_are_consistent(study):
         assert r.n_lines >= 100
         for name in ("sym_M", "sym_C", "sym_K"):
             assert 0 <= getattr(r, name) < 2
-        assert r.t_pod_s >= 0 and r.t_identify_s >= 0 and r.t_frf_s >= 0
+        # every phase did work: a positive, finite time (a phase timed from the wrong
+        # start, or never timed, breaks this or the sum below)
+        for name in TIME_COLUMNS - {"t_simulate_s"}:
+            assert 0 < getattr(r, name) < math.inf, (name, getattr(r, name))
         assert math.isnan(r.t_simulate_s) == (r.noise != "noise-free")
+        if r.noise == "noise-free":
+            assert 0 < r.t_simulate_s < math.inf
+    # the phases are disjoint intervals of the run: together they take less than all of it
+    spent = sum(getattr(r, name) for r in study.rows for name in TIME_COLUMNS
+                if not math.isnan(getattr(r, name)))
+    assert spent < study.elapsed_s
     # noise spreads energy over the discarded modes
     for b in range(1, 5):
         assert study.row(b).energy > study.row(b, 20.0).energy > study.row(b, 10.0).energy
