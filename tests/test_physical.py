@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -185,3 +186,57 @@ def test_undamped_oscillator_sits_on_the_boundary():
     assert modal_parameters(damped).stable
     assert modal_table(damped)[0]["stable"] == "yes"
     assert modal_table(damped)[0]["re_lambda"] == pytest.approx(-0.5e-9, rel=1e-6)
+
+
+def test_compare_modes_pairs_by_log_frequency_and_refuses_what_it_cannot_pair():
+    two_pi = 2 * np.pi
+    truth = modes_with([-0.01 + two_pi * 0.2j, -0.02 + two_pi * 0.5j])
+    # identified: a rigid-body mode (λ = 0, f = 0), then 0.45 Hz, then 0.21 Hz
+    identified = ModalParameters(
+        np.array([0.0, -0.03 + two_pi * 0.45j, -0.04 + two_pi * 0.21j]),
+        np.array([0.0, 0.45, 0.21]),
+        np.array([0.0, 0.011, 0.03]),
+        0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # f = 0 must not reach log(0)
+        rows = compare_modes(identified, truth)
+    assert [list(r) for r in rows] == [["f_hz", "zeta", "f_true_hz", "zeta_true",
+                                        "f_rel_error"]] * 3
+    # f = 0 pairs with the lowest true mode; the others with the nearest in log f
+    paired = truth.frequencies_hz[[0, 1, 0]]
+    assert [r["f_true_hz"] for r in rows] == list(paired)
+    assert [r["zeta_true"] for r in rows] == list(truth.damping_ratios[[0, 1, 0]])
+    f_id = np.array([0.0, 0.45, 0.21])
+    assert [r["f_rel_error"] for r in rows] == pytest.approx((f_id - paired) / paired, rel=1e-12)
+    assert [r["zeta"] for r in rows] == [0.0, 0.011, 0.03]
+    # one true mode is enough
+    single = compare_modes(identified, modes_with([-0.01 + two_pi * 0.2j]))
+    assert [r["f_true_hz"] for r in single] == [truth.frequencies_hz[0]] * 3
+
+    message = "^compare_modes takes two ModalParameters$"
+    with pytest.raises(ValueError, match=message):
+        compare_modes(identified, mass_spring_chain(3))
+    with pytest.raises(ValueError, match=message):
+        compare_modes(mass_spring_chain(3), truth)
+    no_frequency = "^the true system has no mode with a positive frequency to compare with$"
+    with pytest.raises(ValueError, match=no_frequency):
+        compare_modes(identified, modes_with(np.zeros(0)))
+    with pytest.raises(ValueError, match=no_frequency):
+        compare_modes(identified, identified)  # its first mode has f = 0
+
+
+def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
+    _, data, result, R = noisy_band3
+    U, F = data.project(R)
+    d, Q = np.linalg.eigh(result.K)
+    # K with its two smallest eigenvalues made negative: both land on rtol · max |eig|
+    bad = replace(result, K=(Q * np.r_[-d[:2], d[2:]]) @ Q.T)
+    rtol = 1e-6
+    phys = make_physical(bad, U, F, data.omega, rtol=rtol)
+    floor = rtol * np.abs(d).max()
+    got = np.linalg.eigvalsh(phys.K)
+    assert got[:2] == pytest.approx([floor, floor], rel=1e-6)
+    assert got[2:] == pytest.approx(d[2:], rel=1e-9)
+    assert phys.info["physical"]["eigenvalues_raised"][2] == 2
+    assert phys.info["physical"]["rtol"] == rtol

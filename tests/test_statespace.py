@@ -14,6 +14,7 @@ import scipy.signal
 
 from podid_rs import mass_spring_chain, modal_parameters
 from podid_rs.measured import from_frf
+from podid_rs.statespace import MAX_MASS_CONDITION, state_space_matrices
 
 
 @pytest.fixture(scope="module")
@@ -86,3 +87,50 @@ def test_bad_basis_and_singular_mass_are_named(reduced):
     singular = replace(result, M=np.zeros((4, 4)))
     with pytest.raises(ValueError, match="M is singular"):
         singular.to_state_space(R)
+
+
+def test_one_dof_oscillator_by_hand():
+    # 2 q̈ + 0.8 q̇ + 50 q = f:  q̈ = −25 q − 0.4 q̇ + f/2
+    A, B, C, D = state_space_matrices([[2.0]], [[0.8]], [[50.0]])
+    np.testing.assert_allclose(A, [[0.0, 1.0], [-25.0, -0.4]], rtol=1e-15, atol=0)
+    np.testing.assert_allclose(B, [[0.0], [0.5]], rtol=1e-15, atol=0)
+    assert C.tolist() == [[1.0, 0.0]]
+    assert isinstance(D, np.ndarray) and D.tolist() == [[0.0]]
+
+
+def test_basis_maps_inputs_and_outputs():
+    # R (3, 2): forces on 3 DOFs enter as Rᵀ f, outputs are R q; D is a (3, 3) zero
+    R = np.array([[1.0, 0.0], [0.5, 1.0], [0.0, 2.0]])
+    M, Cd, K = np.diag([1.0, 4.0]), np.diag([0.1, 0.2]), np.diag([9.0, 16.0])
+    A, B, C, D = state_space_matrices(M, Cd, K, R)
+    assert (A.shape, B.shape, C.shape, D.shape) == ((4, 4), (4, 3), (3, 4), (3, 3))
+    np.testing.assert_array_equal(B[:2], 0.0)
+    np.testing.assert_allclose(B[2:], np.linalg.solve(M, R.T), rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(C, np.hstack([R, np.zeros((3, 2))]))
+    np.testing.assert_array_equal(D, np.zeros((3, 3)))
+
+
+def test_malformed_matrices_are_named():
+    ok = np.eye(2)
+    for k, name in enumerate("MCK"):
+        mats = [ok, ok, ok]
+        mats[k] = ok + 1j
+        with pytest.raises(ValueError, match=f"^{name} must be real"):
+            state_space_matrices(*mats)
+    with pytest.raises(ValueError, match=r"^C must be a non-empty \(2, 2\) matrix, got \(3, 3\)$"):
+        state_space_matrices(ok, np.eye(3), ok)
+    with pytest.raises(ValueError, match=r"^M must be a non-empty \(2, 2\) matrix, got \(2, 3\)$"):
+        state_space_matrices(np.ones((2, 3)), ok, ok)
+    with pytest.raises(ValueError, match=r"^M must be a non-empty \(0, 0\) matrix, got \(0, 0\)$"):
+        state_space_matrices(np.zeros((0, 0)), np.zeros((0, 0)), np.zeros((0, 0)))
+
+
+def test_mass_condition_limit_is_inclusive():
+    # cond₂(diag(1e14, 1)) is exactly MAX_MASS_CONDITION: still accepted ("exceeds" refuses)
+    assert np.linalg.cond(np.diag([MAX_MASS_CONDITION, 1.0])) == MAX_MASS_CONDITION
+    A, *_ = state_space_matrices(np.diag([MAX_MASS_CONDITION, 1.0]), np.eye(2), np.eye(2))
+    assert A[3, 1] == -1.0 and A[2, 0] == -1.0 / MAX_MASS_CONDITION
+    message = (r"^M is singular \(condition number 1e\+14\): the model has no state-space "
+               r"form with state \[q; q̇\]$")
+    with pytest.raises(ValueError, match=message):
+        state_space_matrices(np.diag([1.0000001 * MAX_MASS_CONDITION, 1.0]), np.eye(2), np.eye(2))
