@@ -1,0 +1,111 @@
+"""MeasuredData's one-step methods: what they pass on, their defaults, their refusals.
+
+``identify`` and ``fit`` chain POD, projection and a fitter; these tests check that
+every argument reaches the fitter (a spy records the call and runs the real one) and
+that the answer is the fitter's own, on exact FRFs of a small chain.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import podid_rs.measured as measured
+from podid_rs import SecondOrderSystem, mass_spring_chain
+from podid_rs.identification.order import final_fit, sweep_orders
+from podid_rs.measured import from_frf
+
+
+@pytest.fixture(scope="module")
+def chain_frf():
+    """Exact FRFs of the 5-DOF chain driven at DOFs 1 and 4, 60 lines over 20–400 Hz."""
+    chain = mass_spring_chain(5)
+    omega = 2 * np.pi * np.linspace(20.0, 400.0, 60)
+    return from_frf(chain.frf(omega)[:, :, [0, 3]], omega, inputs=[0, 3])
+
+
+def spy(monkeypatch, name: str) -> list[tuple[tuple, dict, object]]:
+    """Replace ``podid_rs.measured.<name>`` by a wrapper recording (args, kwargs, result)."""
+    real = getattr(measured, name)
+    calls: list[tuple[tuple, dict, object]] = []
+
+    def wrapper(*args, **kwargs):
+        out = real(*args, **kwargs)
+        calls.append((args, kwargs, out))
+        return out
+
+    monkeypatch.setattr(measured, name, wrapper)
+    return calls
+
+
+def test_identify_passes_every_argument_to_the_estimator(chain_frf, monkeypatch):
+    calls = spy(monkeypatch, "identify")
+    result, R = chain_frf.identify(m=3, lam=(0.5, 0.0, 2.0), symmetric=True, backend="numpy",
+                                   threads=1)
+    (args, kwargs, out), = calls
+    assert out is result
+    U_m, F_m = chain_frf.project(R)
+    np.testing.assert_array_equal(args[0], U_m)
+    np.testing.assert_array_equal(args[1], F_m)
+    np.testing.assert_array_equal(args[2], chain_frf.omega)
+    assert args[3:] == ((0.5, 0.0, 2.0), True)
+    assert kwargs == {"backend": "numpy", "threads": 1}
+    np.testing.assert_array_equal(R, chain_frf.pod().basis(3))
+
+
+def test_identify_chooses_the_order_by_energy(chain_frf):
+    pod = chain_frf.pod()
+    _, R = chain_frf.identify(symmetric=True)  # neither m nor energy: 99 %
+    assert R.shape[1] == pod.order_for_energy(0.99)
+    _, R = chain_frf.identify(energy=0.9, symmetric=True)
+    assert R.shape[1] == pod.order_for_energy(0.9) < pod.order_for_energy(0.99)
+    with pytest.raises(ValueError, match="^give the reduced order m or the energy fraction, "
+                                         "not both$"):
+        chain_frf.identify(m=2, energy=0.9)
+
+
+def test_fit_is_the_order_sweep_and_the_final_fit(chain_frf, monkeypatch, capfd):
+    sweeps, finals = spy(monkeypatch, "sweep_orders"), spy(monkeypatch, "final_fit")
+    model, R, sweep = chain_frf.fit(2, threads=1)
+    (s_args, s_kwargs, s_out), = sweeps
+    (f_args, f_kwargs, f_out), = finals
+    assert sweep is s_out and (model, R) == f_out
+    F_n = chain_frf.forces_on_dofs()
+    for args in (s_args, f_args[1:]):
+        np.testing.assert_array_equal(args[0], chain_frf.U)
+        np.testing.assert_array_equal(args[1], F_n)
+        np.testing.assert_array_equal(args[2], chain_frf.omega)
+        np.testing.assert_array_equal(args[3].eigenvalues, chain_frf.pod().eigenvalues)
+    assert f_args[0] is sweep
+    assert s_kwargs == {"m": 2, "m_max": None, "threads": 1}
+    assert f_kwargs == {"threads": 1, "progress": False}
+    assert sweep.chosen == 2 and R.shape == (5, 2)
+    assert capfd.readouterr().err == ""  # no progress bar unless asked
+
+    sweeps.clear()
+    chain_frf.fit(m_max=1)
+    assert sweeps[0][1] == {"m": None, "m_max": 1, "threads": None}
+
+
+def test_fit_reproduces_exact_data_like_a_direct_sweep(chain_frf):
+    model, R, sweep = chain_frf.fit(2)
+    F_n = chain_frf.forces_on_dofs()
+    pod = chain_frf.pod()
+    direct = sweep_orders(chain_frf.U, F_n, chain_frf.omega, pod, m=2)
+    model_d, R_d = final_fit(direct, chain_frf.U, F_n, chain_frf.omega, pod)
+    np.testing.assert_array_equal(R, R_d)
+    for a, b in ((model.M, model_d.M), (model.C, model_d.C), (model.K, model_d.K)):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max())
+
+
+def test_predict_is_the_models_frf_and_refuses_a_mismatch(chain_frf):
+    result, R = chain_frf.identify(m=3, symmetric=True)
+    H = chain_frf.predict(result.system(), R)
+    F_m = chain_frf.project(R)[1]
+    expected = np.einsum("nm,smp->snp", R, result.system().response(chain_frf.omega, F_m))
+    np.testing.assert_allclose(H, expected, rtol=1e-13, atol=0)
+    with pytest.raises(ValueError, match="^system must be a SecondOrderSystem, got ndarray$"):
+        chain_frf.predict(result.M, R)
+    three = SecondOrderSystem(np.eye(3), np.eye(3), np.eye(3))
+    with pytest.raises(ValueError, match="^the model has 3 DOFs but R has 2 columns$"):
+        chain_frf.predict(three, R[:, :2])
