@@ -1,3 +1,5 @@
+import re
+
 import numpy as np
 import pytest
 
@@ -316,3 +318,28 @@ def test_noise_corrected_snapshots_are_the_rayleigh_ritz_pairs_on_the_data_span(
                                rtol=1e-9, atol=1e-12 * P.eigenvalues[0])
     off = T - np.diag(np.diag(T))
     assert np.abs(off).max() < 1e-10 * P.eigenvalues[0]
+
+
+def test_repr_says_the_side_and_the_noise_correction():
+    X = snapshots()
+    r, n = X.shape
+    plain = pod(X, method="correlation")
+    assert repr(plain) == f"PODResult(n={n}, n_modes={plain.n_modes}, from the correlation)"
+    corrected = pod(X, method="snapshots", noise_variance=0.0)
+    assert repr(corrected) == (
+        f"PODResult(n={n}, n_modes={corrected.n_modes}, from the snapshots, noise-corrected)"
+    )
+
+
+def test_pod_takes_one_snapshot_or_one_channel_and_refuses_empty_or_complex():
+    one = pod(np.array([[3.0, 4.0]]))  # a single snapshot: one mode, along it
+    assert one.eigenvalues[0] == pytest.approx(25.0) and one.order_for_energy(1.0) == 1
+    np.testing.assert_allclose(np.abs(one.basis(1)[:, 0]), [0.6, 0.8], rtol=1e-12)
+    single = pod(np.array([[1.0], [-3.0]]))  # one channel: ⟨u²⟩ = 5
+    assert single.eigenvalues.tolist() == pytest.approx([5.0]) and single.n == 1
+    for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3)):
+        message = f"snapshots must have shape (r, n), time first, got {bad.shape}"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            pod(bad)
+    with pytest.raises(ValueError, match="^snapshots must be real"):
+        pod(np.ones((3, 2)) + 1j)

@@ -1,3 +1,5 @@
+import re
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -230,3 +232,26 @@ def test_non_reciprocal_system_simulates():
     sim = simulate_white_noise(system, BAND, DT, 50.0, seed=0)
     expected = np.einsum("sij,sj->si", system.frf(sim.omega), sim.force_spectrum)
     assert np.linalg.norm(sim.response_spectrum - expected) < 1e-10 * np.linalg.norm(expected)
+
+
+def test_spectra_edge_shapes_and_refusals():
+    # the smallest records: two samples, one channel
+    omega, X = spectra(np.array([[1.0], [-1.0]]), 0.5)
+    assert omega.tolist() == [2 * np.pi * 1.0] and X.tolist() == [[2.0 + 0j]]
+    for bad in (np.ones((1, 3)), np.ones((4, 0)), np.ones(4)):
+        message = f"x must have shape (r, n) with r >= 2 samples, got {bad.shape}"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            spectra(bad, 0.1)
+    with pytest.raises(ValueError, match="^x must be real"):
+        spectra(np.ones((4, 2)) + 1j, 0.1)
+    with pytest.raises(ValueError, match="^dt must be a positive number"):
+        spectra(np.ones((4, 2)), 0.0)
+
+
+def test_simulation_pod_passes_the_method_on():
+    sim = simulate_white_noise(mass_spring_chain(4), band_hz=(5.0, 60.0), dt=1 / 256,
+                               duration=4.0, seed=0)
+    assert sim.pod().method == "correlation"  # auto: n = 4 ≪ r
+    snap = sim.pod(method="snapshots")
+    assert snap.method == "snapshots"
+    np.testing.assert_allclose(snap.eigenvalues[:4], sim.pod().eigenvalues, rtol=1e-10)
