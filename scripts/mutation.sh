@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Mutation testing of the pipeline's Python modules with mutmut 3 (docs/testing.md).
+#
+#   pip install "mutmut>=3.8,<4" && maturin develop --release
+#   scripts/mutation.sh                 # every mutant not yet decided (resumes)
+#   scripts/mutation.sh 'podid_rs.physical.*'   # only these mutants
+#   scripts/mutation.sh --results       # the survivors of the last run
+#
+# mutmut imports the mutated package from mutants/src/, so it runs in a staging
+# directory, build/mutation/, where src/ is this repository's python/ (the compiled
+# _core module is copied along with the sources) and tests/ and pyproject.toml are
+# the repository's. The modules to mutate are [tool.mutmut] in pyproject.toml.
+# Each mutant runs only the tests that called the mutated function when the suite
+# ran once under mutmut's trampolines, fastest first, stopping at the first failure.
+set -euo pipefail
+repo="$(cd "$(dirname "$0")/.." && pwd)"
+stage="$repo/build/mutation"
+mkdir -p "$stage"
+ln -sfn "$repo/python" "$stage/src"
+ln -sfn "$repo/tests" "$stage/tests"
+ln -sfn "$repo/pyproject.toml" "$stage/pyproject.toml"
+cd "$stage"
+# one BLAS thread per mutant worker; the machine is shared, so run at the lowest priority
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1
+if [[ "${1:-}" == "--results" ]]; then
+    exec python -m mutmut results
+fi
+exec nice -n 19 python -m mutmut run --max-children "${MUTATION_JOBS:-2}" "$@"
