@@ -1,4 +1,5 @@
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -343,3 +344,122 @@ def test_pod_takes_one_snapshot_or_one_channel_and_refuses_empty_or_complex():
             pod(bad)
     with pytest.raises(ValueError, match="^snapshots must be real"):
         pod(np.ones((3, 2)) + 1j)
+
+
+# --- noise_variance against the measured mean squares: exact limits and messages -----
+
+
+def diagonal_pod(mean_squares) -> PODResult:
+    """A POD whose modes are the unit vectors: diag(Ruu) is exactly ``mean_squares``."""
+    lam = np.asarray(mean_squares, dtype=float)
+    return PODResult(eigenvalues=lam, modes=np.eye(lam.size))
+
+
+def too_noisy(j: int, d: float, measured: float) -> str:
+    return "^" + re.escape(
+        f"noise_variance of DOF {j} ({d:.3g}) is more than twice the measured mean square of "
+        f"that channel ({measured:.3g}): check its units (the variance of the noise in the "
+        "history, in the correlation's units)"
+    ) + "$"
+
+
+def test_noise_variance_limits_are_the_mean_square_and_twice_it():
+    P = diagonal_pod([4.0, 1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        exact = P.without_noise([4.0, 0.0])  # equal to a channel's mean square: no warning
+    assert exact.noise_variance.tolist() == [4.0, 0.0]
+    with pytest.warns(UserWarning) as caught:
+        twice = P.without_noise([8.0, 0.0])  # twice it: clipped to it, not refused
+    assert str(caught[0].message) == (
+        "noise_variance reaches the measured mean square on 1 DOF(s) (DOF 0: 8 against 4; "
+        "sampling error in a channel with little signal): taken as all noise there"
+    )
+    assert twice.noise_variance.tolist() == [4.0, 0.0]
+    assert twice.eigenvalues.tolist() == [1.0, 0.0]
+    with pytest.raises(ValueError, match=too_noisy(1, 2.5, 1.0)):
+        P.without_noise([0.0, 2.5])
+
+
+@pytest.mark.parametrize(
+    ("mean_squares", "d"),
+    # the offending DOF is 1 in both; DOF 0 is within twice its mean square
+    [([100.0, 1.0], [150.0, 3.0]), ([1.0, 100.0], [2.0, 201.0])],
+)
+def test_the_dof_named_is_the_one_over_twice_its_mean_square(mean_squares, d):
+    with pytest.raises(ValueError, match=too_noisy(1, d[1], mean_squares[1])):
+        diagonal_pod(mean_squares).without_noise(d)
+
+
+def test_negative_or_complex_noise_variance_is_named():
+    P = diagonal_pod([1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="^noise_variance must be non-negative, DOF 2 has -1$"):
+        P.without_noise([0.0, 0.5, -1.0])
+    with pytest.raises(ValueError, match="^noise_variance must be real"):
+        P.without_noise([0.1, 0.1, 0.1 + 0j])
+    with pytest.raises(ValueError, match="^this POD is already noise-corrected$"):
+        P.without_noise(0.0).without_noise(0.0)
+
+
+@pytest.mark.parametrize("method", ["correlation", "snapshots"])
+def test_the_measured_mean_square_in_the_refusal_is_the_channels(method):
+    X = snapshots(r=5, n=8) if method == "snapshots" else snapshots(r=50, n=4)
+    measured = np.mean(X**2, axis=0)
+    d = np.zeros(X.shape[1])
+    d[2] = 3 * measured[2]
+    with pytest.raises(ValueError, match=too_noisy(2, d[2], measured[2])):
+        pod(X, method=method, noise_variance=d)
+
+
+def test_the_warning_points_at_the_callers_line():
+    X = snapshots()
+    var = np.zeros(6)
+    var[1] = 1.5 * np.mean(X[:, 1] ** 2)
+    with pytest.warns(UserWarning, match="1 DOF") as caught:
+        pod(X, noise_variance=var)
+    assert caught[0].filename == __file__
+
+
+def test_noise_correction_over_many_column_blocks_is_the_rayleigh_ritz_on_the_data_span():
+    # 5000 DOFs, 6 snapshots: the snapshot side forms Aᵀ D A block by block of columns.
+    # The oracle: an orthonormal basis Q of the data's span, the eigenvalues of
+    # Qᵀ (Ruu − D) Q = Qᵀ Ruu Q − (Q·d)ᵀ Q.
+    rng = np.random.default_rng(3)
+    X = rng.standard_normal((6, 5000))
+    d = np.where(np.arange(5000) < 2500, 0.05, 0.4) * np.mean(X**2, axis=0)
+    P = pod(X, method="snapshots", noise_variance=d)
+    Q = np.linalg.qr(X.T)[0]
+    XQ = X @ Q
+    T = XQ.T @ XQ / X.shape[0] - (Q * d[:, None]).T @ Q
+    expected = np.clip(np.sort(np.linalg.eigvalsh(T))[::-1], 0.0, None)
+    np.testing.assert_allclose(P.eigenvalues[:6], expected, rtol=1e-10,
+                               atol=1e-12 * expected[0])
+
+
+# --- pod_from_spectra: shapes, the side it takes ----------------------------------------
+
+
+def test_pod_from_spectra_shapes_and_the_side_auto_takes():
+    rng = np.random.default_rng(4)
+
+    def X(s, n, p):
+        return rng.standard_normal((s, n, p)) + 1j * rng.standard_normal((s, n, p))
+
+    # auto: the snapshot side when its 2·s·p real rows are fewer than the n DOFs
+    assert pod_from_spectra(X(2, 12, 3), 100).method == "correlation"  # 12 rows, 12 DOFs
+    assert pod_from_spectra(X(2, 13, 3), 100).method == "snapshots"
+    # the smallest record, r = 2: ⟨u uᵀ⟩ = (2/r²) Σ Re(X Xᴴ)
+    Y = X(3, 2, 1)
+    P = pod_from_spectra(Y, 2)
+    R = 0.5 * np.einsum("snp,smp->nm", Y, Y.conj()).real
+    np.testing.assert_allclose(P.eigenvalues, np.linalg.eigvalsh(R)[::-1], rtol=1e-12)
+    with pytest.raises(ValueError, match="^n_samples must be >= 2, got 1$"):
+        pod_from_spectra(Y, 1)
+    # (s, n) is read as (s, n, 1): the message gives the shape it checked
+    for bad, shape in ((np.ones(5), (5,)), (np.ones((0, 3)), (0, 3, 1)),
+                       (np.ones((4, 2, 0)), (4, 2, 0)), (np.ones((2, 2, 2, 2)), (2, 2, 2, 2))):
+        message = f"X must have shape (s, n) or (s, n, p), got {shape}"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            pod_from_spectra(bad, 10)
+    with pytest.raises(ValueError, match="^X contains non-finite"):
+        pod_from_spectra(np.full((3, 2), np.nan), 10)
