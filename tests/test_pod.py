@@ -463,3 +463,25 @@ def test_pod_from_spectra_shapes_and_the_side_auto_takes():
             pod_from_spectra(bad, 10)
     with pytest.raises(ValueError, match="^X contains non-finite"):
         pod_from_spectra(np.full((3, 2), np.nan), 10)
+
+
+def test_rank_one_snapshots_give_one_mode_and_no_negative_energy():
+    # 20 multiples of one vector: the Gram matrix has rank 1; its other 19 eigenvalues
+    # are round-off of either sign, which is neither a mode nor negative energy
+    v = np.random.default_rng(1).standard_normal(40)
+    X = np.outer(np.arange(1.0, 21.0), v)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        P = pod(X, method="snapshots")
+    assert P.method == "snapshots" and P.n_modes == 1
+    assert P.eigenvalues[0] == pytest.approx(np.sum(np.arange(1.0, 21.0) ** 2) / 20 * v @ v,
+                                             rel=1e-12)
+    assert np.all(P.eigenvalues >= 0)
+    np.testing.assert_allclose(np.abs(P.basis(1)[:, 0]), np.abs(v) / np.linalg.norm(v),
+                               rtol=1e-10)
+    # two snapshots, one of them zero: exactly rank 1, the zero eigenvalue is not refused
+    two = pod(np.vstack([v, np.zeros(40)]), method="snapshots")
+    assert two.n_modes == 1 and two.eigenvalues[0] == pytest.approx(v @ v / 2, rel=1e-12)
+    with pytest.raises(ValueError, match="^the snapshots are identically zero: there is no "
+                                         "energy to decompose$"):
+        pod(np.zeros((3, 40)), method="snapshots")

@@ -255,3 +255,28 @@ def test_simulation_pod_passes_the_method_on():
     snap = sim.pod(method="snapshots")
     assert snap.method == "snapshots"
     np.testing.assert_allclose(snap.eigenvalues[:4], sim.pod().eigenvalues, rtol=1e-10)
+
+
+def test_add_noise_axis_limits_and_refusals():
+    x = np.random.default_rng(0).standard_normal((50, 3, 2))
+    add_noise(x, 10.0, seed=1, axis=-3)  # the first axis counted from the end
+    for axis in (3, -4, True, 1.0):
+        message = f"axis {axis!r} is out of range for x of shape (50, 3, 2)"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            add_noise(x, 10.0, axis=axis)
+    with pytest.raises(ValueError, match="^snr_db must be real"):
+        add_noise(x, 10.0 + 1j)
+    with pytest.raises(ValueError, match="^x contains non-finite"):
+        add_noise(np.array([1.0, np.nan]), 10.0)
+
+
+def test_add_noise_on_complex_spectra_of_any_rank():
+    rng = np.random.default_rng(2)
+    X = rng.standard_normal((4000, 2, 3)) * np.array([1.0, 10.0, 100.0]) * (1 + 1j)
+    noisy = add_noise(X, 20.0, seed=3)
+    assert noisy.shape == X.shape and np.iscomplexobj(noisy)
+    ratio = np.var(noisy - X, axis=0) / np.var(X, axis=0)  # 10^(−20/10) per channel
+    np.testing.assert_allclose(ratio, 0.01, rtol=0.1)
+    # one line: no variance along the axis, so no noise
+    one = X[:1]
+    np.testing.assert_array_equal(add_noise(one, 20.0, seed=3), one)
