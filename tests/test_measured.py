@@ -107,5 +107,6 @@ def test_predict_is_the_models_frf_and_refuses_a_mismatch(chain_frf):
     with pytest.raises(ValueError, match="^system must be a SecondOrderSystem, got ndarray$"):
         chain_frf.predict(result.M, R)
     three = SecondOrderSystem(np.eye(3), np.eye(3), np.eye(3))
-    with pytest.raises(ValueError, match="^the model has 3 DOFs but R has 2 columns$"):
-        chain_frf.predict(three, R[:, :2])
+    # (two load cases: the count must be R's columns, not the load cases)
+    with pytest.raises(ValueError, match="^the model has 3 DOFs but R has 1 columns$"):
+        chain_frf.predict(three, R[:, :1])

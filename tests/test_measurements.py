@@ -411,3 +411,14 @@ def test_band_must_keep_two_lines_and_order_or_energy(chain6):
         data.identify(m=2, energy=0.9)
     with pytest.raises(ValueError, match=r"m must be in \[1, 6\]"):
         data.identify(m=7)
+
+
+def test_saved_data_carry_their_format_and_refuse_other_objects(tmp_path, chain6):
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :1], 2 * np.pi * freq[1:], inputs=[2])
+    path = save_data(tmp_path / "data.npz", data)
+    with np.load(path, allow_pickle=False) as z:
+        assert str(z["format"]) == "podid_rs.MeasuredData/1"
+        assert z["notes"].dtype.kind == "U" and z["notes"].shape == (0,)
+    with pytest.raises(ValueError, match="^data must be a MeasuredData, got ndarray$"):
+        save_data(tmp_path / "x.npz", H)

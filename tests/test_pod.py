@@ -485,3 +485,13 @@ def test_rank_one_snapshots_give_one_mode_and_no_negative_energy():
     with pytest.raises(ValueError, match="^the snapshots are identically zero: there is no "
                                          "energy to decompose$"):
         pod(np.zeros((3, 40)), method="snapshots")
+
+
+def test_project_names_a_bad_x():
+    P = pod(snapshots(r=50, n=4))
+    np.testing.assert_allclose(P.project(np.eye(4)[None], 2)[0], P.basis(2).T, rtol=1e-15)
+    with pytest.raises(ValueError, match="^X contains non-finite"):
+        P.project(np.full((3, 4), np.nan), 2)
+    with pytest.raises(ValueError, match=r"^X must have shape \(s, n\) or \(s, n, p\) with n = 4, "
+                                         r"got \(3, 5\)$"):
+        P.project(np.ones((3, 5)), 2)
