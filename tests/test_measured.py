@@ -7,13 +7,15 @@ that the answer is the fitter's own, on exact FRFs of a small chain.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
 import podid_rs.measured as measured
-from podid_rs import SecondOrderSystem, mass_spring_chain
+from podid_rs import SecondOrderSystem, mass_spring_chain, simulate_white_noise
 from podid_rs.identification.order import final_fit, sweep_orders
-from podid_rs.measured import from_frf
+from podid_rs.measured import from_frf, from_time_histories
 
 
 @pytest.fixture(scope="module")
@@ -110,3 +112,46 @@ def test_predict_is_the_models_frf_and_refuses_a_mismatch(chain_frf):
     # (two load cases: the count must be R's columns, not the load cases)
     with pytest.raises(ValueError, match="^the model has 3 DOFs but R has 1 columns$"):
         chain_frf.predict(three, R[:, :1])
+
+
+# --- from_time_histories: both estimators keep the labels, the band, and name what is wrong
+
+
+@pytest.fixture(scope="module")
+def shaker_records():
+    """Forces on DOFs 0 and 2 of the 3-DOF chain, 4096 samples at 1/256 s (seeded)."""
+    sim = simulate_white_noise(mass_spring_chain(3), band_hz=(2.0, 100.0), dt=1 / 256,
+                               duration=16.0, seed=4)
+    return sim.forces[:, [0, 2]], sim.response, sim.dt
+
+
+@pytest.mark.parametrize("estimator", ["h1", "spectra"])
+def test_time_histories_keep_labels_inputs_and_band(shaker_records, estimator):
+    forces, responses, dt = shaker_records
+    dofs = [(7, 1), (8, -2), (9, 3)]
+    data = from_time_histories(forces, responses, dt, inputs=[0, 2], dofs=dofs,
+                               estimator=estimator, band_hz=(10.0, 40.0))
+    assert data.dofs.tolist() == [[7, 1], [8, -2], [9, 3]]
+    assert data.inputs.tolist() == [0, 2]
+    assert 10.0 <= data.freq_hz[0] < data.freq_hz[-1] <= 40.0
+    assert data.freq_hz[0] < 10.5 and data.freq_hz[-1] > 39.5
+
+
+def test_time_histories_name_what_is_wrong(shaker_records):
+    forces, responses, dt = shaker_records
+
+    def refused(message: str, *args, **kwargs) -> None:
+        with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+            from_time_histories(*args, **kwargs)
+
+    refused("estimator must be 'h1' or 'spectra', got 'welch'",
+            forces, responses, dt, inputs=[0, 2], estimator="welch")
+    refused("nperseg applies to estimator='h1' only (Welch segments)",
+            forces, responses, dt, inputs=[0, 2], estimator="spectra", nperseg=256)
+    refused("forces must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, got (5,)",
+            np.ones(5), responses, dt, estimator="spectra")
+    refused("responses must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, got (5,)",
+            forces, np.ones(5), dt, estimator="spectra")
+    refused("forces and responses must have the same number of records and samples, "
+            "got (1, 4096, 2) and (1, 4000, 3)",
+            forces, responses[:4000], dt, inputs=[0, 2], estimator="spectra")

@@ -240,3 +240,41 @@ def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
     assert got[2:] == pytest.approx(d[2:], rel=1e-9)
     assert phys.info["physical"]["eigenvalues_raised"][2] == 2
     assert phys.info["physical"]["rtol"] == rtol
+
+
+def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):
+    _, data, result, R = noisy_band3
+    U, F = data.project(R)
+    m = result.m
+    # a penalised fit (penalty norms ≠ 0) whose C has one exactly zero eigenvalue and
+    # one negative one: only the negative one is raised, and the penalties are gone
+    # with the penalised objective
+    penalised = replace(result, C=np.diag(np.r_[np.ones(m - 2), 0.0, -1.0]),
+                        penalty_norms=(1.0, 2.0, 3.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        phys = make_physical(penalised, U, F, data.omega)
+    rep = phys.info["physical"]
+    assert rep["eigenvalues_raised"][1] == 1
+    assert phys.penalty_norms == (0.0, 0.0, 0.0)
+    changes = [np.linalg.norm(a - b) / np.linalg.norm(b) for a, b in
+               ((phys.M, result.M), (phys.C, penalised.C), (phys.K, result.K))]
+    assert rep["relative_change"] == pytest.approx(changes, rel=1e-12, abs=1e-300)
+    assert rep["relative_change"][1] == pytest.approx(1 / np.sqrt(m - 1), rel=1e-12)
+
+    with pytest.raises(ValueError, match="^K is zero: there is no positive definite matrix "
+                                         "near it$"):
+        make_physical(replace(result, K=np.zeros((m, m))), U, F, data.omega)
+    with pytest.raises(ValueError, match="^rtol must be a positive number, got 0$"):
+        make_physical(result, U, F, data.omega, rtol=0)
+    with pytest.raises(ValueError, match="^result must be an IdentificationResult, got "
+                                         "SecondOrderSystem$"):
+        make_physical(result.system(), U, F, data.omega)
+
+
+def test_nearest_psd_names_its_argument():
+    square = r"must be a non-empty square matrix, got shape"
+    with pytest.raises(ValueError, match=rf"^A {square} \(2, 3\)$"):
+        nearest_psd(np.ones((2, 3)))
+    with pytest.raises(ValueError, match=rf"^K {square} \(0, 0\)$"):
+        nearest_psd(np.zeros((0, 0)), name="K")

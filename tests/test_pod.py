@@ -495,3 +495,14 @@ def test_project_names_a_bad_x():
     with pytest.raises(ValueError, match=r"^X must have shape \(s, n\) or \(s, n, p\) with n = 4, "
                                          r"got \(3, 5\)$"):
         P.project(np.ones((3, 5)), 2)
+
+
+def test_order_for_energy_names_a_bad_fraction():
+    P = pod(snapshots(r=50, n=4))
+    assert P.order_for_energy(1.0) == 4 and P.order_for_energy(1e-12) == 1
+    for k in (0.0, 1.5, [0.5, 0.9]):
+        message = f"the energy fraction k must satisfy 0 < k <= 1, got {k!r}"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            P.order_for_energy(k)
+    with pytest.raises(ValueError, match="^k must be real"):
+        P.order_for_energy(0.5 + 0j)
