@@ -1,0 +1,97 @@
+"""read_uff_modes on files other programs write: normal modes (dataset 55, analysis type 2)
+with their frequency and damping ratio, mode numbers, and the files it must refuse.
+
+The model files podid_rs writes hold complex modes (analysis type 3, tested with
+write_uff); a modal-analysis program typically writes normal modes, whose eigenvalue
+is λ = ω(−ζ + i√(1 − ζ²)) (real, −ζω, for ζ ≥ 1). Frequencies and damping ratios
+here have at most 6 significant digits, which the format's E13.5 fields hold exactly.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+pyuff = pytest.importorskip("pyuff")
+
+from podid_rs.io.uff import read_uff_modes  # noqa: E402
+
+
+def normal_mode(mode_n: int, freq: float, zeta: float, r1, r2, nodes, analysis_type: int = 2):
+    return pyuff.prepare_55(
+        id1="a modal-analysis program", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
+        model_type=1, analysis_type=analysis_type, data_ch=2, spec_data_type=8, data_type=2,
+        n_data_per_node=3, r1=np.asarray(r1, float), r2=np.asarray(r2, float),
+        r3=np.zeros(len(nodes)), load_case=1, mode_n=mode_n, freq=freq, modal_m=1.0,
+        modal_damp_vis=zeta, modal_damp_his=0.0, node_nums=list(nodes),
+        **({"freq_step_n": 1} if analysis_type == 5 else {}),
+    )
+
+
+def write(path, *sets):
+    uff = pyuff.UFF(str(path))
+    for d in sets:
+        uff.write_sets(d, "add")
+    return path
+
+
+def test_normal_modes_give_their_eigenvalue_number_and_dofs(tmp_path):
+    path = write(
+        tmp_path / "normal.uff",
+        normal_mode(3, 12.5, 0.02, [1.0, 0.0], [0.0, 0.0], [5, 6]),
+        normal_mode(4, 40.0, 0.0, [1.0, 0.0], [0.0, -0.5], [5, 6]),
+        normal_mode(7, 2.0, 1.5, [0.0, 0.25], [0.0, 0.0], [5, 6]),  # overdamped
+    )
+    modes = read_uff_modes(path)
+    w = 2 * np.pi * np.array([12.5, 40.0, 2.0])
+    expected = w * np.array([complex(-0.02, np.sqrt(1 - 0.02**2)), 1j, -1.5])
+    np.testing.assert_allclose(modes.eigenvalues, expected, rtol=1e-14)
+    assert modes.mode_numbers.tolist() == [3, 4, 7]
+    # DOFs: every (node, direction) non-zero in some mode, sorted; the file's order of modes
+    assert modes.dofs.tolist() == [[5, 1], [6, 1], [6, 2]]
+    np.testing.assert_array_equal(modes.shapes, [[1, 1, 0], [0, 0, 0.25], [0, -0.5, 0]])
+
+
+def exactly(text: str) -> str:
+    return "^" + re.escape(text) + "$"
+
+
+def test_files_without_modes_are_refused_naming_what_they_hold(tmp_path):
+    empty = tmp_path / "empty.uff"
+    empty.write_text("")
+    with pytest.raises(ValueError, match=exactly(
+            f"{empty}: no dataset 55 (mode shapes) in the file; it holds dataset(s) none")):
+        read_uff_modes(empty)
+
+    other = write(
+        tmp_path / "other.uff",
+        pyuff.prepare_15(node_nums=[1, 2], def_cs=[0, 0], disp_cs=[0, 0], color=[1, 1],
+                         x=[0.0, 1.0], y=[0.0, 0.0], z=[0.0, 0.0]),
+        pyuff.prepare_58(binary=0, func_type=4, rsp_node=1, rsp_dir=1, ref_node=1, ref_dir=1,
+                         data=np.ones(3, complex), x=np.arange(3.0), abscissa_spacing=1,
+                         abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                         orddenom_spec_data_type=13),
+    )
+    with pytest.raises(ValueError, match=exactly(
+            f"{other}: no dataset 55 (mode shapes) in the file; it holds dataset(s) 15, 58")):
+        read_uff_modes(other)
+
+    # two sets of analysis type 5 (frequency response); pyuff writes no type 1 (static),
+    # so the first set's analysis-type field (record 6, second I10) is rewritten to 1
+    path = write(tmp_path / "response.uff",
+                 *(normal_mode(1, 3.0, 0.0, [1.0], [0.0], [5], analysis_type=5)
+                   for _ in range(2)))
+    text = path.read_text()
+    record6 = "         1         5         2         8         2         3"
+    assert text.count(record6) == 2
+    path.write_text(text.replace(record6, record6[:10] + "         1" + record6[20:], 1))
+    with pytest.raises(ValueError, match=exactly(
+            f"{path}: its dataset-55 sets are not modes (analysis type 1, 5; "
+            "modes are 2, 3 or 7)")):
+        read_uff_modes(path)
+
+    zero = write(tmp_path / "zero.uff", normal_mode(1, 10.0, 0.01, [0.0], [0.0], [5]))
+    with pytest.raises(ValueError, match=exactly(f"{zero}: every dataset-55 mode shape is zero")):
+        read_uff_modes(zero)
