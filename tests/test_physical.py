@@ -278,3 +278,10 @@ def test_nearest_psd_names_its_argument():
         nearest_psd(np.ones((2, 3)))
     with pytest.raises(ValueError, match=rf"^K {square} \(0, 0\)$"):
         nearest_psd(np.zeros((0, 0)), name="K")
+
+
+def test_nearest_psd_refuses_a_complex_matrix_or_a_negative_floor():
+    with pytest.raises(ValueError, match="^A must be real"):
+        nearest_psd(np.eye(2) + 0j)
+    with pytest.raises(ValueError, match="^floor must be a non-negative number, got -1$"):
+        nearest_psd(np.eye(2), floor=-1)

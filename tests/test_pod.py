@@ -506,3 +506,14 @@ def test_order_for_energy_names_a_bad_fraction():
             P.order_for_energy(k)
     with pytest.raises(ValueError, match="^k must be real"):
         P.order_for_energy(0.5 + 0j)
+
+
+def test_correlation_from_snapshots_refusals():
+    for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3)):
+        message = f"snapshots must have shape (r, n), time first, got {bad.shape}"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            correlation_from_snapshots(bad)
+    with pytest.raises(ValueError, match="^snapshots must be real"):
+        correlation_from_snapshots(np.ones((3, 2)) + 1j)
+    np.testing.assert_array_equal(correlation_from_snapshots(np.array([[1.0, 2.0]])),
+                                  [[1.0, 2.0], [2.0, 4.0]])

@@ -280,3 +280,93 @@ def test_add_noise_on_complex_spectra_of_any_rank():
     # one line: no variance along the axis, so no noise
     one = X[:1]
     np.testing.assert_array_equal(add_noise(one, 20.0, seed=3), one)
+
+
+def exactly(text: str) -> str:
+    return "^" + re.escape(text) + "$"
+
+
+def test_simulation_refusals_word_for_word():
+    def refused(message, *args, **kwargs):
+        with pytest.raises(ValueError, match=exactly(message)):
+            simulate_white_noise(*args, **kwargs)
+
+    refused("system must be a SecondOrderSystem, got ndarray", np.eye(2), BAND, DT, 10.0)
+    refused("band_hz is required: the (lo, hi) band of the forcing in Hz", SYSTEM, None, DT, 10.0)
+    refused("dt must be a positive number, got 0", SYSTEM, BAND, 0, 10.0)
+    refused("duration must be a positive number, got 0", SYSTEM, BAND, DT, 0)
+    refused("intensity must be a positive number, got -1", SYSTEM, BAND, DT, 10.0, -1)
+    refused("duration / dt gives 1 samples; at least 2 are needed", SYSTEM, BAND, DT, 0.012)
+    # two samples pass the count; their only positive line is Nyquist, outside any band
+    refused("band_hz (0.5, 20.0) contains no frequency line; the resolution is 50 Hz "
+            "(lengthen the record or widen the band)", SYSTEM, BAND, DT, 0.02)
+
+
+def test_default_intensity_is_one():
+    a = simulate_white_noise(SYSTEM, BAND, DT, 20.0, seed=5)
+    b = simulate_white_noise(SYSTEM, BAND, DT, 20.0, intensity=1.0, seed=5)
+    np.testing.assert_array_equal(a.forces, b.forces)
+
+
+@pytest.mark.parametrize("histories", [True, False])
+def test_odd_records_up_to_nyquist_with_or_without_histories(histories):
+    # 1023 samples (odd) at 1/256 s: lines every 256/1023 Hz; the band reaches the last
+    # line below Nyquist (127.87 Hz), index r // 2
+    r, dt, band = 1023, 1 / 256, (5.0, 127.9)
+    sim = simulate_white_noise(SYSTEM, band, dt, r * dt, seed=2, histories=histories)
+    assert sim.n_samples == r and sim.dt == dt and sim.band_hz == band
+    np.testing.assert_array_equal(sim.t, dt * np.arange(r))
+    assert sim.omega[-1] == pytest.approx(2 * np.pi * (r // 2) / (r * dt), rel=1e-15)
+    np.testing.assert_allclose(sim.response_spectrum,
+                               SYSTEM.response(sim.omega, sim.force_spectrum), rtol=1e-10)
+    if histories:
+        assert sim.forces.shape == sim.response.shape == (r, 4)
+        # the histories are the spectra's: their FFT gives them back on the band's lines
+        np.testing.assert_allclose(spectra(sim.response, dt, band)[1], sim.response_spectrum,
+                                   rtol=1e-9, atol=1e-12 * np.abs(sim.response_spectrum).max())
+
+
+def test_histories_are_kept_up_to_one_gib(monkeypatch):
+    # histories=None keeps them when the r × n forces and responses take at most
+    # HISTORY_BYTES = 2³⁰ bytes (2 · 8 · r · n); the memory guard's message tells
+    import podid_rs._memory as memory
+    from podid_rs.simulation import HISTORY_BYTES
+
+    n = 64
+    chain = mass_spring_chain(n)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 1)
+    r = HISTORY_BYTES // (16 * n)  # exactly 1 GiB of histories
+    for samples, kept in ((r, True), (r + 2, False)):
+        with pytest.raises(MemoryError) as err:
+            simulate_white_noise(chain, (1.0, 2.0), 1 / 256, samples / 256)
+        assert (f"with {samples}-sample histories" in str(err.value)) == kept
+
+
+def test_h1_removes_each_segments_mean_and_takes_its_limits():
+    # offsets (different per channel) change nothing: each segment's mean is removed
+    rng = np.random.default_rng(6)
+    x = rng.standard_normal((2048, 2))
+    y = np.stack([np.convolve(x[:, 0], [1.0, 0.5], "same"), x[:, 1] - x[:, 0]], axis=1)
+    w, H = frf_h1(x, y, DT, nperseg=128)
+    w2, H2 = frf_h1(x + [3.0, -7.0], y + [100.0, 0.25], DT, nperseg=128)
+    np.testing.assert_array_equal(w2, w)
+    np.testing.assert_allclose(H2, H, rtol=1e-9, atol=1e-12)
+    # one segment resolves one input; two samples are the smallest record and segment
+    assert frf_h1(x[:128, :1], y[:128], DT, nperseg=128)[1].shape == (64, 2, 1)
+    assert frf_h1(x[:2, :1], y[:2, :1], DT)[1].shape == (1, 1, 1)
+    with pytest.raises(ValueError, match=exactly("nperseg must be in [2, 2048], got 2049")):
+        frf_h1(x, y, DT, nperseg=2049)
+    with pytest.raises(ValueError, match=exactly(
+            "1 averaged segments cannot resolve 2 inputs (S_xx would be singular); use longer "
+            "or more records or a smaller nperseg")):
+        frf_h1(x[:128], y[:128], DT, nperseg=128)
+    # (r, n) is read as one record (1, r, n): the message gives the shape it checked
+    for name, args in (("forces", (x[:1], y)), ("responses", (x, y[:1]))):
+        message = (f"{name} must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, "
+                   "got (1, 1, 2)")
+        with pytest.raises(ValueError, match=exactly(message)):
+            frf_h1(*args, DT)
+    with pytest.raises(ValueError, match="^forces must be real"):
+        frf_h1(x + 0j, y, DT)
+    with pytest.raises(ValueError, match="^dt must be a positive number, got -1"):
+        frf_h1(x, y, -1)
