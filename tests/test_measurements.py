@@ -9,6 +9,7 @@ matrices land within 1 % (asserted 2 %).
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -422,3 +423,39 @@ def test_saved_data_carry_their_format_and_refuse_other_objects(tmp_path, chain6
         assert z["notes"].dtype.kind == "U" and z["notes"].shape == (0,)
     with pytest.raises(ValueError, match="^data must be a MeasuredData, got ndarray$"):
         save_data(tmp_path / "x.npz", H)
+
+
+def test_a_model_file_needs_the_fields_without_defaults(tmp_path, chain6):
+    import json
+
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    path = save_model(tmp_path / "model.npz", result, basis=R)
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    meta = json.loads(str(arrays["meta"]))
+
+    def rewritten(name, drop_array=None, drop_meta=()):
+        kept = {k: v for k, v in arrays.items() if k != drop_array}
+        kept["meta"] = json.dumps({k: v for k, v in meta.items() if k not in drop_meta})
+        out = tmp_path / name
+        np.savez(out, **kept)
+        return out
+
+    # fields with a default (iterations: None; info: an empty dict) may be absent
+    loaded, extras = load_model(rewritten("optional.npz", drop_meta=("iterations", "info")))
+    assert loaded.iterations is None and loaded.info == {}
+    np.testing.assert_array_equal(loaded.K, result.K)
+    np.testing.assert_array_equal(extras["basis"], R)
+    # a field without one may not, be it an array or a number
+    for name, drop in (("no_m.npz", {"drop_array": "result.M"}),
+                       ("no_rank.npz", {"drop_meta": ("rank",)})):
+        path = rewritten(name, **drop)
+        field = "M" if "drop_array" in drop else "rank"
+        with pytest.raises(ValueError, match=f"^{re.escape(str(path))}: the model lacks the "
+                                             f"field '{field}'$"):
+            load_model(path)
+    missing = tmp_path / "absent.npz"
+    with pytest.raises(FileNotFoundError, match=f"^no such file: {re.escape(str(missing))}$"):
+        load_model(missing)

@@ -370,3 +370,19 @@ def test_h1_removes_each_segments_mean_and_takes_its_limits():
         frf_h1(x + 0j, y, DT)
     with pytest.raises(ValueError, match="^dt must be a positive number, got -1"):
         frf_h1(x, y, -1)
+
+
+def test_band_ends_are_inclusive_and_its_limits_exclusive():
+    # 1000 samples at 0.01 s: lines every 0.1 Hz, exactly k / 10; Nyquist 50 Hz
+    sim = simulate_white_noise(SYSTEM, (5.0, 7.0), DT, 10.0, seed=0, histories=False)
+    np.testing.assert_allclose(sim.omega / (2 * np.pi), np.arange(50, 71) / 10, rtol=1e-14)
+    for band in ((5.0, 5.0), (1.0, 50.0), (0.0, 1.0)):
+        with pytest.raises(ValueError, match=exactly(
+                f"band_hz must satisfy 0 < lo < hi < Nyquist = 50 Hz, got {band!r}")):
+            simulate_white_noise(SYSTEM, band, DT, 10.0)
+    with pytest.raises(ValueError, match=exactly(
+            "band_hz (5.01, 5.09) contains no frequency line; the resolution is 0.1 Hz "
+            "(lengthen the record or widen the band)")):
+        simulate_white_noise(SYSTEM, (5.01, 5.09), DT, 10.0)
+    with pytest.raises(ValueError, match="^band_hz must be real"):
+        simulate_white_noise(SYSTEM, (5.0 + 0j, 7.0), DT, 10.0)

@@ -119,3 +119,25 @@ def test_bad_input_is_named(chain_data):
         stabilisation_chart(data, 2, fit="lscf", progress=False)
     with pytest.raises(ValueError, match="data must be a MeasuredData"):
         stabilisation_chart(data.U, 2)
+
+
+def test_pod_fit_is_eq_49_on_the_given_basis(chain_data):
+    from podid_rs import identify, pod_from_frf
+    from podid_rs.stabilisation import pod_fit
+
+    _, data = chain_data
+    U3, F3 = data.project(data.pod().basis(3))
+    # default: the exactly symmetric limit with λ = 0 on the data's own POD
+    expected = identify(U3, F3, data.omega, 0.0, True)
+    got = pod_fit(data)(3)
+    np.testing.assert_array_equal(got.K, expected.K)
+    assert got.symmetric and got.lam == (0.0, 0.0, 0.0)
+    # lam and symmetric reach the estimator
+    plain = pod_fit(data, lam=2.0, symmetric=False)(3)
+    np.testing.assert_array_equal(plain.K, identify(U3, F3, data.omega, 2.0, False).K)
+    # a given basis is used as it is: here the POD of only the first half of the lines
+    half = pod_from_frf(data.U[:200], data.omega[:200])
+    assert not np.allclose(np.abs(half.basis(3)), np.abs(data.pod().basis(3)), atol=1e-3)
+    Uh, Fh = data.project(half.basis(3))
+    np.testing.assert_array_equal(pod_fit(data, basis=half)(3).K,
+                                  identify(Uh, Fh, data.omega, 0.0, True).K)
