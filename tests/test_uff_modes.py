@@ -95,3 +95,50 @@ def test_files_without_modes_are_refused_naming_what_they_hold(tmp_path):
     zero = write(tmp_path / "zero.uff", normal_mode(1, 10.0, 0.01, [0.0], [0.0], [5]))
     with pytest.raises(ValueError, match=exactly(f"{zero}: every dataset-55 mode shape is zero")):
         read_uff_modes(zero)
+
+
+def test_geometry_from_dataset_2411_and_15_sorted_by_node(tmp_path):
+    from podid_rs.io.uff import read_uff_geometry
+
+    path = write(
+        tmp_path / "geometry.uff",
+        pyuff.prepare_2411(node_nums=[3, 1], def_cs=[0, 0], disp_cs=[0, 0], color=[1, 1],
+                           x=[0.5, 1.25], y=[0.0, 2.0], z=[-1.0, 0.0]),
+        pyuff.prepare_15(node_nums=[2], def_cs=[0], disp_cs=[0], color=[1],
+                         x=[4.0], y=[5.0], z=[6.0]),
+    )
+    np.testing.assert_array_equal(read_uff_geometry(path),
+                                  [[1, 1.25, 2, 0], [2, 4, 5, 6], [3, 0.5, 0, -1]])
+    assert read_uff_geometry(write(tmp_path / "modes_only.uff",
+                                   normal_mode(1, 10.0, 0.01, [1.0], [0.0], [5]))) is None
+
+
+def frf_record(node: int, numerator: int):
+    return pyuff.prepare_58(binary=0, func_type=4, rsp_node=node, rsp_dir=1, ref_node=1,
+                            ref_dir=1, data=np.ones(3, complex), x=np.arange(1.0, 4.0),
+                            abscissa_spacing=1, abscissa_spec_data_type=18,
+                            ordinate_spec_data_type=numerator, orddenom_spec_data_type=13)
+
+
+def test_uff_quantity_only_when_the_records_agree(tmp_path):
+    from podid_rs.io.uff import uff_quantity
+
+    same = write(tmp_path / "same.uff", frf_record(1, 11), frf_record(2, 11))
+    assert uff_quantity(same) == "velocity"
+    mixed = write(tmp_path / "mixed.uff", frf_record(1, 11), frf_record(2, 12))
+    assert uff_quantity(mixed) is None
+    none = write(tmp_path / "none.uff", normal_mode(1, 10.0, 0.01, [1.0], [0.0], [5]))
+    assert uff_quantity(none) is None
+
+
+def test_a_single_array_is_not_a_data_file(tmp_path):
+    from podid_rs.io.npz import load_data
+
+    path = tmp_path / "single.npz"
+    with path.open("wb") as fh:
+        np.save(fh, np.ones(3))
+    with pytest.raises(ValueError, match=exactly(
+            f"{path}: not a readable .npz file: it holds a single array, not named arrays")):
+        load_data(path)
+    with pytest.raises(FileNotFoundError, match=exactly(f"no such file: {tmp_path / 'no.npz'}")):
+        load_data(tmp_path / "no.npz")
