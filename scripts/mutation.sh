@@ -5,6 +5,7 @@
 #   scripts/mutation.sh                 # every mutant not yet decided (resumes)
 #   scripts/mutation.sh 'podid_rs.physical.*'   # only these mutants
 #   scripts/mutation.sh --results       # the survivors of the last run
+#   scripts/mutation.sh --survivors     # run the survivors again (after new tests)
 #
 # mutmut imports the mutated package from mutants/src/, so it runs in a staging
 # directory, build/mutation/, where src/ is this repository's python/ (the compiled
@@ -24,5 +25,14 @@ cd "$stage"
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1
 if [[ "${1:-}" == "--results" ]]; then
     exec python -m mutmut results
+fi
+if [[ "${1:-}" == "--survivors" ]]; then
+    mapfile -t names < <(python -m mutmut results 2>/dev/null |
+        awk -F': ' '$2 ~ /^(survived|no tests|suspicious)$/ {gsub(/ /, "", $1); print $1}')
+    if (( ${#names[@]} == 0 )); then
+        echo "no survivors"
+        exit 0
+    fi
+    set -- "${names[@]}"
 fi
 exec nice -n 19 python -m mutmut run --max-children "${MUTATION_JOBS:-2}" "$@"
