@@ -459,3 +459,9 @@ def test_a_model_file_needs_the_fields_without_defaults(tmp_path, chain6):
     missing = tmp_path / "absent.npz"
     with pytest.raises(FileNotFoundError, match=f"^no such file: {re.escape(str(missing))}$"):
         load_model(missing)
+
+
+def test_save_model_refuses_other_objects(tmp_path):
+    with pytest.raises(ValueError, match="^result must be an IdentificationResult, got "
+                                         "SecondOrderSystem$"):
+        save_model(tmp_path / "m.npz", mass_spring_chain(3))
