@@ -269,10 +269,16 @@ def test_inputs_are_not_modified_and_progress_is_called():
     start = (chain.M * 1.1, chain.C, chain.K * 0.9)
     copies = [a.copy() for a in (U, F, w, *start)]
     seen = []
-    refine(start, U, F, w, progress=lambda it, cost: seen.append((it, cost)))
+    res = refine(start, U, F, w, progress=lambda it, cost: seen.append((it, cost)))
     for a, b in zip((U, F, w, *start), copies, strict=True):
         assert np.array_equal(a, b)
-    assert seen and all(c >= 0 for _, c in seen)
+    # the calls follow the iteration: steps forward, the cost never up, and the last
+    # one is where the refinement stopped (a cost below 0 or the start's cannot occur)
+    its, costs = zip(*seen, strict=True)
+    assert list(its) == sorted(set(its)) and list(costs) == sorted(costs, reverse=True)
+    assert its[-1] == res.iterations
+    assert costs[-1] == pytest.approx(res.info["refinement"]["cost"], rel=1e-12)
+    assert 0 < costs[-1] < res.info["refinement"]["cost_start"]
 
 
 def test_an_exception_in_progress_stops_the_refinement():
