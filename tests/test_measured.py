@@ -155,3 +155,16 @@ def test_time_histories_name_what_is_wrong(shaker_records):
     refused("forces and responses must have the same number of records and samples, "
             "got (1, 4096, 2) and (1, 4000, 3)",
             forces, responses[:4000], dt, inputs=[0, 2], estimator="spectra")
+
+
+def test_is_frf_only_for_unit_forces_one_case_per_driven_dof(chain_frf):
+    assert chain_frf.is_frf
+    rng = np.random.default_rng(0)
+    s, n_in = chain_frf.s, chain_frf.F.shape[1]
+    # as many load cases as driven DOFs, but random forces: not FRFs
+    F = rng.standard_normal((s, n_in, n_in)) + 1j * rng.standard_normal((s, n_in, n_in))
+    assert not measured.MeasuredData(chain_frf.omega, chain_frf.U, F, None, [0, 3]).is_frf
+    # unit forces on every line but one
+    F = np.broadcast_to(np.eye(n_in), (s, n_in, n_in)).copy()
+    F[7] *= 2.0
+    assert not measured.MeasuredData(chain_frf.omega, chain_frf.U, F, None, [0, 3]).is_frf

@@ -7,6 +7,8 @@ matching modes are asserted within 1e-8 of 1 and the residue sum within 1e-8.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -183,3 +185,11 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
     assert "structural" not in mode_kinds(shapes, w, U, [0], visible_fraction=1e6)
     with pytest.raises(ValueError, match="U needs inputs"):
         mode_kinds(shapes, w, U)
+
+
+def test_a_zero_eigenvalue_has_zero_damping_ratio():
+    shapes = ModeShapes(np.array([0.0 + 0.0j, -1.0 + 1.0j]), np.eye(2, dtype=complex))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        zeta = shapes.damping_ratios
+    np.testing.assert_allclose(zeta, [0.0, 1 / np.sqrt(2)], rtol=1e-15)

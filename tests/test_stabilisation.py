@@ -141,3 +141,20 @@ def test_pod_fit_is_eq_49_on_the_given_basis(chain_data):
     Uh, Fh = data.project(half.basis(3))
     np.testing.assert_array_equal(pod_fit(data, basis=half)(3).K,
                                   identify(Uh, Fh, data.omega, 0.0, True).K)
+
+
+def test_pole_marks_at_their_boundaries_and_the_charts_band(chain_data):
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import StabilisationOrder
+
+    # an undamped mode (Re λ = 0) is not stable; a real root (Im λ = 0) is not a mode
+    lam = np.array([-1.0 + 5.0j, 0.0 + 7.0j, -3.0 + 0.0j])
+    modes = ModalParameters(lam, np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam), 0)
+    order = StabilisationOrder(3, model_with_modes([1.0, 2.0, 3.0], 0.01), modes, True,
+                               np.ones(3, bool), np.ones(3, bool))
+    assert order.stable.tolist() == [True, False, True]
+    assert order.oscillatory.tolist() == [True, True, False]
+
+    _, data = chain_data
+    chart = stabilisation_chart(data, 2)
+    assert chart.band_hz == (data.freq_hz[0], data.freq_hz[-1]) == (1.0, 200.0)
