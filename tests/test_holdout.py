@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import podid_rs as pr
-from podid_rs.identification.order import HOLDOUT, sweep_orders
+from podid_rs.identification.order import HOLDOUT, final_fit, sweep_orders
 from podid_rs.identification.refinement import db_errors
 
 
@@ -69,3 +69,53 @@ def test_db_error_of_known_ratios():
     U0 = np.array([1.0, 5.0, 4.0, 0.0, 3.0])
     assert db_errors(X, U0).tolist() == [20.0, 20.0, 0.0]
     assert db_errors(np.zeros((2, 3)), np.ones((2, 3))).shape == (0,)
+
+
+# --- a long test: the sweep fits the informative lines only ----------------------------
+
+
+def test_lines_left_out_of_a_thinned_sweep_do_not_reach_the_fit(chain_frf, monkeypatch):
+    # which lines are informative depends on every line's data (by design), so garbage
+    # cannot be put on the others without moving them: here a spy records the lines
+    # every refinement of the sweep is given
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    seen = []
+    real = order.refine
+
+    def spy(start, U, F, omega, **kwargs):
+        seen.append(np.asarray(omega).copy())
+        return real(start, U, F, omega, **kwargs)
+
+    monkeypatch.setattr(order, "refine", spy)
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    used, test = sweep.lines, sweep.test_lines
+    assert 20 <= used.sum() <= 60 and used[0] and used[-1]
+    assert not np.any(test & ~used)  # the held-out lines are among the used ones
+    picked = np.flatnonzero(used)
+    np.testing.assert_array_equal(np.flatnonzero(test),
+                                  picked[np.arange(picked.size) % HOLDOUT == HOLDOUT // 2])
+    assert seen
+    for omega in seen:  # every refinement fits exactly the training lines
+        np.testing.assert_array_equal(omega, w[used & ~test])
+
+
+def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    model, R = final_fit(sweep, U_n, F_n, w, P, threads=1)
+    kept = model.info["refinement"]["final_refit"]
+    assert kept["lines_fitted"] == int(sweep.lines.sum()) < w.size
+    assert kept["reason"].endswith(f"both passes fitted the {kept['lines_fitted']} informative "
+                                   f"lines of {w.size} (the median is over every line)")
+    X = np.einsum("nm,smp->snp", R,
+                  model.system().response(w, np.einsum("nm,snp->smp", R, F_n)))
+    e = db_errors(X, U_n)
+    assert kept["db_all_lines"] == pytest.approx((np.median(e), np.percentile(e, 95)),
+                                                 rel=1e-9)
+    for p in kept["passes"]:  # every pass is judged on every line too
+        assert len(p["db_before"]) == len(p["db_after"]) == 2
+    everything, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, every_line=True)
+    assert everything.info["refinement"]["final_refit"]["lines_fitted"] == w.size
+    assert "informative" not in everything.info["refinement"]["final_refit"]["reason"]
