@@ -43,7 +43,7 @@ from .identification import (
 )
 from .io.npz import load_data, load_model, save_data, save_model
 from .io.uff import read_uff, read_uff_geometry, read_uff_modes, write_uff
-from .measured import MeasuredData
+from .measured import DataWarning, MeasuredData
 from .modes import ModeShapes, mac, mode_shapes, shape_mac
 from .physical import make_physical, modal_parameters
 from .plotting import plot_lambda_curve, plot_mac, plot_order_sweep, plot_stabilisation
@@ -64,6 +64,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "ConvergenceWarning",
+    "DataWarning",
     "IdentificationResult",
     "LambdaCurve",
     "LambdaSelectionWarning",

@@ -35,6 +35,14 @@ with the e^{iωt} convention of the FFT used here: velocity ÷ iω, acceleration
 dropped. UFF unit exponents are not applied: ordinates are taken to be in
 consistent units.
 
+**Entries that were not measured.** A multi-reference test can leave holes in the
+n × p grid of responses × load cases (a channel lost in one run, two campaigns
+combined). ``measured`` ``(n, p)`` marks the entries that were measured; the holes
+hold zeros and weigh nothing in the fit and in every error
+(:mod:`podid_rs.identification.holes`). The POD correlation is that of the
+zero-filled responses: a load case with holes contributes its measured entries
+only (:meth:`MeasuredData.pod`).
+
 Files are read and written by :mod:`podid_rs.io` (UFF dataset 58, ``.npz``).
 """
 
@@ -47,6 +55,7 @@ import numpy as np
 
 from ._arrays import as_array, as_dof_labels, as_omega
 from .identification.estimator import identify
+from .identification.holes import check_measured, measured_targets
 from .identification.order import OrderSweep, final_fit, sweep_orders
 from .identification.result import IdentificationResult
 from .identification.solvers import Backend
@@ -56,6 +65,21 @@ from .systems import SecondOrderSystem
 
 Quantity = Literal["displacement", "velocity", "acceleration"]
 QUANTITIES: tuple[str, ...] = ("displacement", "velocity", "acceleration")
+
+
+class DataWarning(UserWarning):
+    """Something in the measured data was not used as it stands, and what was done.
+
+    Raised (as a warning) when reading data: an FRF that is zero at every line (a
+    dead channel: that entry is treated as not measured), lines of an FRF that are
+    exactly zero, or the same FRF measured twice (the two are averaged). The message
+    names the file, the record and the response / reference DOFs.
+
+    Parameters
+    ----------
+    message : str
+        What was found and what was done with it.
+    """
 
 
 def to_receptance(X: object, omega: object, quantity: str) -> np.ndarray:
@@ -118,6 +142,26 @@ def _input_indices(inputs: object, n: int, n_in: int) -> np.ndarray:
     return idx
 
 
+def band_lines(freq_hz: np.ndarray, band_hz: tuple[float, float]) -> np.ndarray:
+    """The lines of a band: a mask over ``freq_hz`` of the lines with lo ≤ f ≤ hi.
+
+    Raises ``ValueError`` for a malformed band (not 0 ≤ lo < hi) or one keeping fewer
+    than 2 lines, naming the band and the lines there are.
+    """
+    b = as_array(band_hz, "band_hz", real=True)
+    if b.shape != (2,) or not 0 <= b[0] < b[1]:
+        raise ValueError(
+            f"band_hz must be a pair (lo, hi) in Hz with 0 <= lo < hi, got {band_hz!r}"
+        )
+    keep = (freq_hz >= b[0]) & (freq_hz <= b[1])
+    if keep.sum() < 2:
+        raise ValueError(
+            f"band_hz {band_hz!r} keeps {int(keep.sum())} of the {freq_hz.size} lines "
+            f"({freq_hz[0]:g}–{freq_hz[-1]:g} Hz); at least 2 are needed"
+        )
+    return keep
+
+
 def _load_cases(x: object, name: str, s: int) -> np.ndarray:
     """Fresh complex ``(s, k, p)`` array from ``(s, k)`` or ``(s, k, p)``."""
     a = as_array(x, name).astype(np.complex128)
@@ -154,6 +198,11 @@ class MeasuredData:
         when n_in = n).
     notes : tuple of str
         What reading the data assumed (e.g. reciprocity for a roving-hammer file).
+    measured : array_like of bool, (n, p), optional
+        True where response n of load case p was measured (default: every entry).
+        The responses in the other entries (holes) are set to zero in ``U`` and weigh
+        nothing in the fit and its errors. Every load case and every DOF needs a
+        measured entry.
 
     Attributes
     ----------
@@ -169,6 +218,10 @@ class MeasuredData:
         The driven DOFs' indices.
     notes : tuple of str
         What reading the data assumed.
+    measured : numpy.ndarray of bool, (n, p)
+        The entries that were measured (all True for complete data).
+    complete : bool
+        Whether every entry was measured.
     s : int
         Number of frequency lines.
     n : int
@@ -184,7 +237,7 @@ class MeasuredData:
     ------
     ValueError
         For malformed or inconsistent arrays, fewer than 2 lines, U identically
-        zero, or bad ``dofs``/``inputs``.
+        zero, or bad ``dofs``/``inputs``/``measured``.
     """
 
     omega: np.ndarray
@@ -193,6 +246,7 @@ class MeasuredData:
     dofs: np.ndarray | None = None
     inputs: np.ndarray | None = None
     notes: tuple[str, ...] = ()
+    measured: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         w = as_omega(self.omega)
@@ -205,9 +259,15 @@ class MeasuredData:
                 "U and F must have the same number of load cases p, "
                 f"got {U.shape[2]} and {F.shape[2]}"
             )
+        mask = check_measured(self.measured, U.shape[1], U.shape[2])
+        if mask is not None:
+            U[:, ~mask] = 0.0  # a fresh copy: the holes hold zeros, whatever was passed
         if not np.any(U):
             raise ValueError("U is identically zero: there is nothing to identify from")
         n, n_in = U.shape[1], F.shape[1]
+        object.__setattr__(
+            self, "measured", np.ones((n, U.shape[2]), dtype=bool) if mask is None else mask
+        )
         object.__setattr__(self, "omega", w)
         object.__setattr__(self, "U", U)
         object.__setattr__(self, "F", F)
@@ -233,6 +293,15 @@ class MeasuredData:
     @property
     def freq_hz(self) -> np.ndarray:
         return self.omega / (2 * np.pi)
+
+    @property
+    def complete(self) -> bool:
+        """Whether every response of every load case was measured."""
+        return bool(self.measured.all())
+
+    def _mask(self) -> np.ndarray | None:
+        """The mask for the fitters: None for complete data."""
+        return None if self.complete else self.measured
 
     @property
     def is_frf(self) -> bool:
@@ -269,23 +338,19 @@ class MeasuredData:
         ValueError
             For a malformed band, or one that keeps fewer than 2 lines.
         """
-        b = as_array(band_hz, "band_hz", real=True)
-        if b.shape != (2,) or not 0 <= b[0] < b[1]:
-            raise ValueError(
-                f"band_hz must be a pair (lo, hi) in Hz with 0 <= lo < hi, got {band_hz!r}"
-            )
-        keep = (self.freq_hz >= b[0]) & (self.freq_hz <= b[1])
-        if keep.sum() < 2:
-            raise ValueError(
-                f"band_hz {band_hz!r} keeps {int(keep.sum())} of the {self.s} lines "
-                f"({self.freq_hz[0]:g}–{self.freq_hz[-1]:g} Hz); at least 2 are needed"
-            )
+        keep = band_lines(self.freq_hz, band_hz)
         return replace(self, omega=self.omega[keep], U=self.U[keep], F=self.F[keep])
 
     def pod(self) -> PODResult:
         """POD of the measured responses: ``Ruu = ∫ Re(U Uᴴ) dω`` over the lines (eqs. 4–5).
 
-        For FRFs this is the correlation under white noise on the driven DOFs.
+        For FRFs this is the correlation under white noise on the driven DOFs. With
+        holes (``measured``) it is the correlation of the zero-filled responses: each
+        load case contributes the products of its measured entries only, and a DOF
+        counts with the load cases that measured it. No hole is filled with a guess;
+        what this costs is the order in which directions enter the basis (a DOF
+        measured in fewer load cases carries less energy), not what a full basis
+        spans: every measured DOF with a non-zero response has a direction.
 
         Returns
         -------
@@ -305,7 +370,10 @@ class MeasuredData:
         Returns
         -------
         U_m, F_m : numpy.ndarray, complex, (s, m, p)
-            ``Rᵀ U`` and ``Rᵀ F_n``.
+            ``Rᵀ U`` and ``Rᵀ F_n``. With holes, ``U_m`` per load case is the reduced
+            response that best reproduces the measured entries
+            (:func:`~podid_rs.identification.holes.measured_targets`): a hole is not
+            a response of zero.
 
         Raises
         ------
@@ -317,7 +385,7 @@ class MeasuredData:
             raise ValueError(
                 f"R must have shape (n, m) with n = {self.n} measured DOFs, got {Ra.shape}"
             )
-        U_m = np.einsum("nm,snp->smp", Ra, self.U)
+        U_m = measured_targets(self.U, Ra, self._mask())
         F_m = np.einsum("im,sip->smp", Ra[self.inputs], self.F)
         return U_m, F_m
 
@@ -444,9 +512,11 @@ def _fit_output_error(
 ) -> tuple[IdentificationResult, np.ndarray, OrderSweep]:
     pod = data.pod()
     F_n = data.forces_on_dofs()
-    sweep = sweep_orders(data.U, F_n, data.omega, pod, m=m, m_max=m_max, threads=threads)
+    mask = data._mask()
+    sweep = sweep_orders(data.U, F_n, data.omega, pod, m=m, m_max=m_max, threads=threads,
+                         measured=mask)
     model, R = final_fit(sweep, data.U, F_n, data.omega, pod, threads=threads,
-                         progress=progress)
+                         progress=progress, measured=mask)
     return model, R, sweep
 
 
@@ -457,6 +527,7 @@ def from_frf(
     inputs: object = None,
     dofs: object = None,
     quantity: str = "displacement",
+    measured: object = None,
 ) -> MeasuredData:
     """FRFs per unit force as :class:`MeasuredData`: p = n_in unit load cases, ``F = I``.
 
@@ -473,6 +544,8 @@ def from_frf(
         (node, direction) labels of the responses.
     quantity : {"displacement", "velocity", "acceleration"}
         What H measures per unit force; converted to receptance.
+    measured : array_like of bool, (n, n_in), optional
+        True where the FRF was measured (default: all); the others are holes.
 
     Returns
     -------
@@ -482,7 +555,7 @@ def from_frf(
     Raises
     ------
     ValueError
-        For malformed H, omega, inputs or dofs, or an unknown quantity.
+        For malformed H, omega, inputs, dofs or measured, or an unknown quantity.
     """
     Ha = as_array(H, "H")
     if Ha.ndim != 3 or 0 in Ha.shape:
@@ -490,7 +563,7 @@ def from_frf(
     w = as_omega(omega)
     U = to_receptance(Ha, w, quantity)
     F = np.broadcast_to(np.eye(Ha.shape[2]), (w.size, Ha.shape[2], Ha.shape[2]))
-    return MeasuredData(w, U, F, dofs, inputs)
+    return MeasuredData(w, U, F, dofs, inputs, measured=measured)
 
 
 def from_time_histories(

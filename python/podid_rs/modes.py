@@ -292,6 +292,7 @@ def mode_kinds(
     *,
     residual_zeta: float = RESIDUAL_ZETA,
     visible_fraction: float = VISIBLE_FRACTION,
+    measured: object = None,
 ) -> np.ndarray:
     """Tell the structure's modes from the fit's other poles.
 
@@ -327,6 +328,9 @@ def mode_kinds(
         The driven DOF of each load case, as rows of ``shapes.shapes`` (with ``U``).
     residual_zeta, visible_fraction : float
         The thresholds above (defaults ``RESIDUAL_ZETA``, ``VISIBLE_FRACTION``).
+    measured : array_like of bool, (n, p), optional
+        With ``U``: the entries that were measured (default all); a mode is visible
+        only at those (:attr:`podid_rs.MeasuredData.measured`).
 
     Returns
     -------
@@ -359,10 +363,11 @@ def mode_kinds(
             f"U must be (s, n, p) = ({w.size}, {shapes.shapes.shape[0]}, {idx.size}), "
             f"got {Ua.shape}"
         )
+    seen = np.ones(Ua.shape[1:], dtype=bool) if measured is None else np.asarray(measured)
     for k in np.flatnonzero(kinds == STRUCTURAL):
         line = int(np.argmin(np.abs(w - lam[k].imag)))
         phi = shapes.shapes[:, k]
         term = np.abs(np.outer(phi, phi[idx])) / abs(shapes.modal_a[k] * (1j * w[line] - lam[k]))
-        if not np.any(term >= visible_fraction * np.abs(Ua[line])):
+        if not np.any((term >= visible_fraction * np.abs(Ua[line])) & seen):
             kinds[k] = WEAK
     return kinds.astype(str)

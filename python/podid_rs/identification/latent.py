@@ -175,6 +175,7 @@ def latent_starts(
     omega: np.ndarray,
     R: np.ndarray,
     weights: np.ndarray,
+    measured: np.ndarray | None = None,
 ) -> list[tuple[float, tuple[np.ndarray, ...], str]]:
     """Starts of order m + 1 that add one latent coordinate to ``model`` (order m).
 
@@ -201,6 +202,8 @@ def latent_starts(
         ``(n, m)`` observation matrix of ``model`` (:func:`observation_matrix`).
     weights : numpy.ndarray
         ``(s, p)`` non-negative weight of each line and load case.
+    measured : numpy.ndarray of bool, (n, p), optional
+        The entries that were measured: the residual counts only those (default all).
 
     Returns
     -------
@@ -215,6 +218,8 @@ def latent_starts(
     Rp = R[:, :k]
     X = np.einsum("nm,smp->snp", R,
                   SecondOrderSystem(*model).response(omega, np.einsum("nm,snp->smp", R, F_n)))
+    if measured is not None:
+        X = X * measured  # a hole is no residual: the model's response there is not compared
     residual = U_n - X
     r = np.einsum("nk,snp->skp", Rp, residual)  # the residual in the observed coordinates
     f = np.einsum("nk,snp->skp", Rp, F_n)

@@ -48,6 +48,7 @@ from ..physical import modal_parameters
 from ..pod import PODResult
 from ..systems import SecondOrderSystem
 from .estimator import identify
+from .holes import check_measured
 from .latent import free_parameters, latent_starts, observation_matrix
 from .lines import SWEEP_LINES, informative_lines
 from .refinement import StartWarning, db_errors, refine
@@ -309,26 +310,28 @@ def _residual_modes(model, U, F, omega, w):
     return out
 
 
-def _median_db(model: IdentificationResult, R: np.ndarray, F: np.ndarray, omega, U_n, mask):
+def _median_db(model: IdentificationResult, R: np.ndarray, F: np.ndarray, omega, U_n, mask,
+               measured=None):
     X = model.system().response(omega[mask], F[mask])
-    return float(np.median(db_errors(np.einsum("nm,smp->snp", R, X), U_n[mask])))
+    return float(np.median(db_errors(np.einsum("nm,smp->snp", R, X), U_n[mask], measured)))
 
 
-def _all_lines_db(model: IdentificationResult, R: np.ndarray, U_n, F_n, omega) -> tuple:
-    """(median, 95th percentile) |dB| error of ``model`` over every line and entry."""
+def _all_lines_db(model: IdentificationResult, R: np.ndarray, U_n, F_n, omega,
+                  measured=None) -> tuple:
+    """(median, 95th percentile) |dB| error of ``model`` over every line and measured entry."""
     X = model.system().response(omega, np.einsum("nm,snp->smp", R, F_n))
-    e = db_errors(np.einsum("nm,smp->snp", R, X), U_n)
+    e = db_errors(np.einsum("nm,smp->snp", R, X), U_n, measured)
     return float(np.median(e)), float(np.percentile(e, 95))
 
 
-def _refine_quietly(start, U_n, F_n, omega, R, max_iter, threads):
+def _refine_quietly(start, U_n, F_n, omega, R, max_iter, threads, measured=None):
     """refine() on the measured DOFs with relative weights, its warnings silenced (the
     sweep reports what matters: the errors of every order)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StartWarning)
         warnings.simplefilter("ignore", ConvergenceWarning)
         return refine(start, U_n, F_n, omega, basis=R, weights="relative",
-                      max_iter=max_iter, threads=threads, curvature=True)
+                      max_iter=max_iter, threads=threads, curvature=True, measured=measured)
 
 
 def _observed_starts(order, previous, fits, Ut, Ft, wt, w):
@@ -410,6 +413,7 @@ def sweep_orders(
     progress: Callable[[int, OrderFit], object] | None = None,
     threads: int | None = None,
     sweep_lines: int | None = SWEEP_LINES,
+    measured: np.ndarray | None = None,
 ) -> OrderSweep:
     """Fit output-error models of order 1, 2, … and choose m by held-out lines.
 
@@ -452,6 +456,10 @@ def sweep_orders(
         With more lines than this, the sweep fits and scores the lines that carry the
         data's information (:func:`~.lines.informative_lines`; default
         ``SWEEP_LINES`` = 1000); None: every line.
+    measured : array_like of bool, (n, p), optional
+        The entries that were measured (:attr:`podid_rs.MeasuredData.measured`); the
+        others (zeros in ``U_n``) weigh nothing in the fits, the starts and the
+        scores (:mod:`~podid_rs.identification.holes`). Default: every entry.
 
     Returns
     -------
@@ -466,6 +474,7 @@ def sweep_orders(
         the limit), or when no order could be fitted.
     """
     s, n, p = U_n.shape
+    measured = check_measured(measured, n, p)
     if holdout < 2:
         raise ValueError(
             f"holdout must be at least 2 (every holdout-th line is left out), got {holdout}"
@@ -500,12 +509,15 @@ def sweep_orders(
     w = w_all[train]
     fits: list[OrderFit] = []
     previous = None
+    filled = U_n
     best_test, since_best = np.inf, 0
     for order in range(1, m_max + 1):
         t0 = time.perf_counter()
         k = min(order, observed)
         R = observation_matrix(pod_result.basis(k), order)
-        U = np.einsum("nm,snp->smp", R, U_n)
+        # the reduced data the starts see: Rᵀ U_n, its holes (if any) filled with the
+        # previous order's prediction — the fit itself never sees the holes
+        U = np.einsum("nm,snp->smp", R, U_n if measured is None else filled)
         F = np.einsum("nm,snp->smp", R, F_n)
         Ut, Ft, wt = U[train], F[train], omega[train]
         if order <= observed:
@@ -513,13 +525,14 @@ def sweep_orders(
         else:
             R_previous = observation_matrix(pod_result.basis(k), order - 1)
             starts = [(name, start) for _, start, name in latent_starts(
-                previous, U_n[train], F_n[train], wt, R_previous, w)]
+                previous, U_n[train], F_n[train], wt, R_previous, w, measured)]
         # every start gets a few steps, the best of them the rest of the budget
         trials = []
         for name, start in starts:
             try:
                 model = _refine_quietly(
-                    start, U_n[train], F_n[train], wt, R, min(TRIAL_ITER, max_iter), threads
+                    start, U_n[train], F_n[train], wt, R, min(TRIAL_ITER, max_iter), threads,
+                    measured,
                 )
             except ValueError:
                 continue  # a start that cannot be made physical, or with a pole on a line
@@ -529,13 +542,13 @@ def sweep_orders(
         _, name, model = min(trials, key=lambda t: t[0])
         if max_iter > TRIAL_ITER and not model.info["refinement"]["converged"]:
             model = _refine_quietly(
-                model, U_n[train], F_n[train], wt, R, max_iter - TRIAL_ITER, threads
+                model, U_n[train], F_n[train], wt, R, max_iter - TRIAL_ITER, threads, measured
             )
         fit = OrderFit(
             m=order,
             model=model,
-            train_db=_median_db(model, R, F, omega, U_n, train),
-            test_db=_median_db(model, R, F, omega, U_n, test),
+            train_db=_median_db(model, R, F, omega, U_n, train, measured),
+            test_db=_median_db(model, R, F, omega, U_n, test, measured),
             start=name,
             stable=modal_parameters(model).stable,
             seconds=time.perf_counter() - t0,
@@ -543,6 +556,9 @@ def sweep_orders(
         )
         fits.append(fit)
         previous = (model.M, model.C, model.K)
+        if measured is not None:
+            X = model.system().response(omega, np.einsum("nm,snp->smp", R, F_n))
+            filled = np.where(measured, U_n, np.einsum("nm,smp->snp", R, X))
         if progress is not None:
             progress(order, fit)
         if fit.test_db < best_test * (1 - PROGRESS_STEP):
@@ -595,6 +611,7 @@ def final_fit(
     progress: bool | Callable[[int, float], object] = False,
     log_magnitude: bool = True,
     every_line: bool = False,
+    measured: np.ndarray | None = None,
 ) -> tuple[IdentificationResult, np.ndarray]:
     """The chosen order refitted on every line from its held-out fit.
 
@@ -634,6 +651,9 @@ def final_fit(
         Run the second, log-magnitude pass.
     every_line : bool
         Fit every line even where the sweep used the informative ones.
+    measured : array_like of bool, (n, p), optional
+        The entries that were measured, as for :func:`sweep_orders`: the others weigh
+        nothing in the passes and in the medians that decide between them.
 
     Returns
     -------
@@ -649,6 +669,7 @@ def final_fit(
         As for :func:`podid_rs.refine` (e.g. data that do not match the sweep's).
     """
     m = sweep.chosen
+    measured = check_measured(measured, *U_n.shape[1:])
     R = sweep.basis(m, pod_result)
     start = sweep.fit(m).model
     # the lines the sweep used: every line, or the informative ones of a long test
@@ -662,12 +683,12 @@ def final_fit(
             fit = refine(
                 model, U_n[lines], F_n[lines], omega[lines], basis=R, weights="relative",
                 objective=objective, max_iter=max_iter, threads=threads, progress=progress,
-                curvature=True,
+                curvature=True, measured=measured,
             )  # fmt: skip
         if thinned:  # judge by every line, not the ones fitted
             ref = fit.info["refinement"]
-            ref["db_before"] = _all_lines_db(model, R, U_n, F_n, omega)
-            ref["db_after"] = _all_lines_db(fit, R, U_n, F_n, omega)
+            ref["db_before"] = _all_lines_db(model, R, U_n, F_n, omega, measured)
+            ref["db_after"] = _all_lines_db(fit, R, U_n, F_n, omega, measured)
         return fit
 
     model = refit(start, "complex")

@@ -37,6 +37,7 @@ import numpy as np
 from .._arrays import as_array
 from .._validation import FrequencyData, check_frequency_data
 from ..systems import SecondOrderSystem
+from .holes import check_measured, measured_metric
 from .latent import gauge_dimension, observation_matrix, observed_count
 from .result import ConvergenceWarning, IdentificationResult, _check_threads, residual_norm
 
@@ -84,10 +85,13 @@ class _RefineBar:
         self.bar.close()
 
 
-def db_errors(X: np.ndarray, U: np.ndarray) -> np.ndarray:
-    """|20 log10(|X| / |U|)| elementwise (dB), over the entries where both are non-zero."""
+def db_errors(X: np.ndarray, U: np.ndarray, measured: np.ndarray | None = None) -> np.ndarray:
+    """|20 log10(|X| / |U|)| elementwise (dB), over the entries where both are non-zero
+    and, with ``measured`` (an ``(n, p)`` mask of ``(s, n, p)`` arrays), that were measured."""
     a, b = np.abs(X), np.abs(U)
     keep = (a > 0) & (b > 0)
+    if measured is not None:
+        keep &= measured
     # a difference of logarithms: the ratio of a model value to a 1e-300 one overflows
     return np.abs(20.0 * (np.log10(a[keep]) - np.log10(b[keep])))
 
@@ -218,11 +222,12 @@ def _scalar_weights(w: np.ndarray, m: int, observed: int) -> ColumnWeights | Mat
 
 
 def _log_magnitude_targets(
-    weights: object, data: FrequencyData, R: np.ndarray | None, U_n: np.ndarray | None
+    weights: object, data: FrequencyData, R: np.ndarray | None, U_n: np.ndarray | None,
+    measured: np.ndarray | None = None,
 ) -> tuple[LogMagnitudeWeights, str]:
     """The core's log-magnitude weighting: R (n, m), targets (s·p, n) and entry weights
-    (s·p, n), line-major, and a label. Entries with u = 0, or below LOG_DYNAMIC_RANGE
-    of the largest of their line and load case, get weight 0."""
+    (s·p, n), line-major, and a label. Entries with u = 0, below LOG_DYNAMIC_RANGE
+    of the largest of their line and load case, or not ``measured``, get weight 0."""
     from .. import _core
 
     s, m, p = data.s, data.m, data.p
@@ -257,6 +262,8 @@ def _log_magnitude_targets(
     # dynamic range (a far point of a long scan) — would make ln|y| meaningless: weight 0
     A = np.abs(U_n)
     W = np.where(A > LOG_DYNAMIC_RANGE * A.max(axis=1, keepdims=True), W, 0.0)
+    if measured is not None:
+        W = W * measured  # an entry that was not measured weighs nothing
     if not np.any(W > 0):
         raise ValueError("no weighted entry with a non-zero response: there is nothing to fit")
     line_major = lambda X: np.ascontiguousarray(X.transpose(0, 2, 1).reshape(s * p, n))  # noqa: E731
@@ -313,6 +320,7 @@ def refine(
     objective: Literal["complex", "log-magnitude"] = "complex",
     curvature: bool = False,
     metric: Literal["auto", "diagonal", "modal"] = "auto",
+    measured: np.ndarray | None = None,
 ) -> IdentificationResult:
     """Refine ``model`` to the least output error on the data (docs/design.md §6).
 
@@ -397,6 +405,13 @@ def refine(
         steps (the cap) to 0.23281 (seventh session). The modal step works in the
         damping modes of the start (an orthonormal basis: the same cost,
         better-placed factors).
+    measured : array_like of bool, (n, p), optional
+        With ``basis``: True where the response of measured DOF n in load case p was
+        measured (:attr:`podid_rs.MeasuredData.measured`); the other entries weigh
+        nothing — in the complex objective through one metric
+        ``Rᵀ diag(measured[:, j]) R`` per load case
+        (:mod:`podid_rs.identification.holes`), in the log-magnitude one and in the
+        reported dB errors by an entry weight 0. Default: every entry.
 
     Returns
     -------
@@ -450,12 +465,17 @@ def refine(
             raise ValueError(f"F must have the shape of U {Un.shape}, got {Fn.shape}")
         U3 = Un if Un.ndim == 3 else Un[:, :, None]
         F3 = Fn if Fn.ndim == 3 else Fn[:, :, None]
+        mask = check_measured(measured, U3.shape[1], U3.shape[2])
+        if mask is not None:
+            U3 = np.where(mask, U3, 0.0)  # what the holes hold never enters (a fresh array)
         data = check_frequency_data(
             np.einsum("nm,snp->smp", R, U3), np.einsum("nm,snp->smp", R, F3), omega
         )
     else:
-        R, U3 = None, None
+        R, U3, mask = None, None, None
         data = check_frequency_data(U, F, omega)
+    if measured is not None and R is None:
+        raise ValueError("measured (a mask over the measured DOFs) needs basis=")
     observed = data.m if R is None else observed_count(R)
     latent = data.m - observed
     m, p = data.m, data.p
@@ -489,12 +509,14 @@ def refine(
     targets = data
     weighting: ColumnWeights | MatrixWeights | LogMagnitudeWeights
     if objective == "log-magnitude":
-        weighting, label = _log_magnitude_targets(weights, data, R, U3)
+        weighting, label = _log_magnitude_targets(weights, data, R, U3, mask)
     elif R is not None and not isinstance(weights, str):
         Wa = as_array(weights, "weights", real=True)
         if Wa.ndim == 2 and Wa.shape == U3.shape[:2]:
             Wa = np.repeat(Wa[:, :, None], p, axis=2)
         if Wa.shape == U3.shape:
+            if mask is not None:
+                Wa = Wa * mask  # an entry that was not measured weighs nothing
             if np.any(Wa < 0) or not np.any(Wa > 0):
                 raise ValueError("weights must be non-negative and not all zero")
             T, Y, const = _entry_metric(Wa, R, U3.astype(np.complex128))
@@ -507,6 +529,13 @@ def refine(
     else:
         w, label = _column_weights(weights, data, U3)
         weighting = _scalar_weights(w, m, observed)
+    if mask is not None and objective == "complex" and not label.endswith("per entry"):
+        # a scalar weight per column over the measured entries only: one metric per load
+        # case, Rᵀ diag(mask_j) R, and the targets that best reproduce the measured entries
+        T, Y, const = measured_metric(w, R, U3.astype(np.complex128), mask)
+        targets = check_frequency_data(Y, data.F, data.omega)
+        weighting = _core.MatrixWeights(np.ascontiguousarray(T))
+        label += ", measured entries"
 
     (M1, C1, K1), start_report = physical_start(M0, C0, K0)
     changed = any(start_report["eigenvalues_raised"]) or any(
@@ -559,8 +588,8 @@ def refine(
     measured = data.U if R is None else U3
     start_rows = out.responses_start
     X0 = returned(start_rows) if start_rows is not None else responses(M1, C1, K1)
-    before = db_errors(X0, measured)
-    after = db_errors(returned(out.responses), measured)
+    before = db_errors(X0, measured, mask)
+    after = db_errors(returned(out.responses), measured, mask)
     summary = lambda e: (float(np.median(e)), float(np.percentile(e, 95)))  # noqa: E731
     report = {
         "cost_start": float(out.cost_start) + const,

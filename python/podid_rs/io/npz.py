@@ -60,6 +60,7 @@ def save_data(path: str | Path, data: MeasuredData) -> Path:
             dofs=data.dofs,
             inputs=data.inputs,
             notes=np.array(data.notes, dtype=str),
+            measured=data.measured,
         )
     return path
 
@@ -88,7 +89,8 @@ def _need(z: dict, keys: tuple[str, ...], path: str | Path, what: str) -> None:
 def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -> MeasuredData:
     """Read measured data: a UFF file (``.uff``/``.unv``/``.uf``) or an ``.npz`` file.
 
-    An ``.npz`` is either a data set written by :func:`save_data`, or time
+    An ``.npz`` is either a data set written by :func:`save_data` (with its mask of
+    measured entries, :attr:`MeasuredData.measured`; complete when absent), or time
     histories with arrays ``forces``, ``responses``, ``dt`` and optionally
     ``inputs``, ``dofs``, ``quantity``, ``estimator``, ``nperseg``
     (see :func:`podid_rs.measured.from_time_histories`).
@@ -133,7 +135,8 @@ def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -
         )
     _need(z, ("omega", "U", "F"), path, "a measured data set")
     notes = tuple(str(v) for v in z["notes"]) if "notes" in z else ()
-    data = MeasuredData(z["omega"], z["U"], z["F"], z.get("dofs"), z.get("inputs"), notes)
+    data = MeasuredData(z["omega"], z["U"], z["F"], z.get("dofs"), z.get("inputs"), notes,
+                        z.get("measured"))  # files written before masks existed: complete
     return data if band_hz is None else data.band(band_hz)
 
 
