@@ -2,7 +2,10 @@
 
 In (pyuff reads the file):
 
-* :func:`read_uff` — the FRFs of dataset 58 (func_type 4) as :class:`MeasuredData`;
+* :func:`read_uff` — the FRFs of dataset 58 (func_type 4) as :class:`MeasuredData`,
+  laid out as the fewest force columns by reciprocity (shaker columns and
+  roving-hammer rows together), entries nobody measured as holes; a record cut off or
+  damaged is refused, never read as a smaller file;
 * :func:`read_uff_geometry` — node coordinates from dataset 15 (or 2411);
 * :func:`read_uff_modes` — mode shapes from dataset 55;
 * :func:`uff_quantity` — the ordinate (displacement, velocity, acceleration) of the FRFs.
@@ -20,7 +23,7 @@ tools read (the inverse of :func:`read_uff`):
   complete residue model: H = Σ φφᵀ / (A (iω − λ)) + conjugates;
 * dataset 58 — the identified FRF ``R H_m(ω) Rᵀ`` for every measured DOF and
   driven DOF, in the ordinate the test had (``quantity``: accelerance in,
-  accelerance out).
+  accelerance out); an entry the test did not measure says so in its fourth ID line.
 
 Precision is the format's: dataset 15 and 55 fields and the 58 abscissa carry 6
 significant digits (E13.5), ASCII 58 ordinates 12 (E20.11), binary 58 ordinates
@@ -29,14 +32,24 @@ are exact doubles.
 
 from __future__ import annotations
 
-from dataclasses import replace
+import bisect
+import warnings
+from collections import Counter
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from .._arrays import as_array, as_basis, as_dof_labels, as_omega
 from ..identification.result import IdentificationResult
-from ..measured import QUANTITIES, MeasuredData, from_frf, to_receptance
+from ..measured import (
+    QUANTITIES,
+    DataWarning,
+    MeasuredData,
+    band_lines,
+    from_frf,
+    to_receptance,
+)
 from ..modes import ModeShapes, mode_shapes
 
 #: UFF specific data types of an FRF's numerator (record 9) and denominator (record 10).
@@ -60,21 +73,167 @@ def _pyuff():
 
 
 def _read_sets(path: str | Path, types: tuple[int, ...], header_only: bool = False):
-    """The sets of the given dataset types, and the types the file holds."""
+    """The sets of the given dataset types, and the types the file holds.
+
+    The file's records are checked first (:func:`_check_records`): pyuff pairs the
+    ``    -1`` delimiters and drops a record that is not closed, so a file cut off in
+    the middle of a record would otherwise read as a smaller file without a word.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such UFF file: {path}")
+    layout = _check_records(path)
     uff = _pyuff().UFF(str(path))
     found = [int(t) for t in np.asarray(uff.get_set_types()).reshape(-1)]
     idx = [i for i, t in enumerate(found) if t in types]
     if not idx:
         return [], found
+    what = "/".join(str(t) for t in types)
+    sets = []
+    for i in idx:  # one at a time, so that a record pyuff cannot read is named
+        try:
+            d = uff.read_sets(i, header_only=header_only)
+        except Exception as exc:  # pyuff raises bare Exception on malformed records
+            raise ValueError(
+                f"{path}: could not read dataset {what}: {layout.describe(i)}: {exc}"
+            ) from None
+        if not header_only and d.get("type") == 58:
+            size, points = np.size(d.get("data")), d.get("num_pts")
+            if isinstance(points, int | np.integer) and size != points:
+                raise ValueError(
+                    f"{path}: {layout.describe(i)} holds {size} values for the {points} "
+                    "points its header announces: the record is truncated or its header "
+                    "is wrong"
+                )
+        sets.append(d)
+    return sets, found
+
+
+#: the delimiter line that opens and closes every UFF record
+_DELIMITER = b"    -1"
+#: values per line of a dataset-58 ASCII record, by ordinate type and abscissa spacing:
+#: the field widths of one line (pyuff reads them the same way)
+_FIELDS_58 = {
+    (2, 1): (13,) * 6, (5, 1): (13,) * 6, (2, 0): (13,) * 6, (5, 0): (13,) * 6,
+    (4, 1): (20,) * 4, (6, 1): (20,) * 4, (4, 0): (13, 20, 13, 20), (6, 0): (13, 20, 20),
+}
+
+
+def _delimiters(raw: bytes) -> list[int]:
+    """Offsets of the ``    -1`` delimiters, found as pyuff finds them (followed by the
+    end of the line or of the file, or by blanks to column 80)."""
+    out, at, size = [], -1, len(raw)
+    while (at := raw.find(_DELIMITER, at + 1)) != -1:
+        end = at + len(_DELIMITER)
+        if end == size or raw[end] in (10, 13) or (
+            at + 80 < size and raw[end:at + 80] == b" " * (80 - len(_DELIMITER))
+        ):
+            out.append(at)
+    return out
+
+
+def _int(text: bytes) -> int | None:
     try:
-        sets = uff.read_sets(idx, header_only=header_only)
-    except Exception as exc:  # pyuff raises bare Exception on malformed records
-        what = "/".join(str(t) for t in types)
-        raise ValueError(f"{path}: could not read dataset {what}: {exc}") from None
-    return ([sets] if isinstance(sets, dict) else list(sets)), found
+        return int(text)
+    except ValueError:
+        return None
+
+
+@dataclass(frozen=True)
+class _Records:
+    """Where each record of a UFF file is: the offsets of its delimiters, for messages."""
+
+    raw: bytes
+    tags: tuple[int, ...]
+
+    def line(self, offset: int) -> int:
+        return self.raw.count(b"\n", 0, offset) + 1
+
+    def describe(self, k: int) -> str:
+        """Record k (0-based) as a message names it: number, dataset, DOFs and line."""
+        start = self.tags[2 * k]
+        lines = self.raw[start:start + 2000].split(b"\n", 9)
+        kind = _int(lines[1][:6]) if len(lines) > 1 else None
+        text = f"record {k + 1} of the file (dataset {kind if kind is not None else '?'}"
+        if kind == 58 and len(lines) > 7:
+            ids = lines[7]
+            rsp = (_int(ids[41:51]), _int(ids[51:55]))
+            ref = (_int(ids[66:76]), _int(ids[76:80]))
+            if None not in rsp + ref:
+                text += f", response {rsp[0]}:{rsp[1]} / reference {ref[0]}:{ref[1]}"
+        return text + f", from line {self.line(start)})"
+
+
+def _check_records(path: Path) -> _Records:
+    """Refuse a file whose records are not whole, naming the file and the record.
+
+    pyuff pairs the delimiters and drops what is left over, and reads a record's
+    values without comparing them with its header. Here: every record opened by a
+    delimiter must be closed by one (else the file was cut off inside it, or a
+    delimiter is missing); nothing but blanks may stand between records (else a
+    delimiter is missing and two records ran together); a record's second line must
+    be its dataset number; and a dataset-58 record must hold the values its header's
+    number of points announces (ASCII: counted in the fields pyuff reads; binary: the
+    bytes).
+    """
+    raw = path.read_bytes()
+    records = _Records(raw, tuple(_delimiters(raw)))
+    tags = records.tags
+    for k in range(len(tags) // 2):
+        start, end = tags[2 * k], tags[2 * k + 1]
+        if k > 0:
+            gap = raw[tags[2 * k - 1] + len(_DELIMITER):start]
+            if gap.strip():
+                text = gap.strip().split(b"\n", 1)[0][:40].decode("ascii", "replace")
+                at = tags[2 * k - 1] + len(_DELIMITER) + len(gap) - len(gap.lstrip())
+                raise ValueError(
+                    f"{path}: a '    -1' delimiter is missing after {records.describe(k - 1)}: "
+                    f"line {records.line(at)} ({text!r}) belongs to no record, so two records "
+                    "ran together"
+                )
+        _check_58(path, records, k, raw[start:end])
+    if len(tags) % 2:
+        k = len(tags) // 2
+        raise ValueError(
+            f"{path}: {records.describe(k)} has no closing '    -1': the file ends inside "
+            "it (cut off?) or its closing delimiter is missing"
+        )
+    return records
+
+
+def _check_58(path: Path, records: _Records, k: int, block: bytes) -> None:
+    """A dataset-58 record (``block``: its opening delimiter to its closing one) must
+    hold as many values as its header's number of points announces."""
+    lines = block.split(b"\n", 13)
+    kind = _int(lines[1][:6]) if len(lines) > 1 else None
+    if kind is None:
+        raise ValueError(
+            f"{path}: {records.describe(k)} has no dataset number after its opening "
+            "'    -1': a delimiter is missing, or the record is damaged"
+        )
+    if kind != 58 or len(lines) < 14:
+        return  # other datasets are pyuff's to read; a short header is too
+    binary = lines[1][6:7].lower() == b"b"
+    form = (_int(lines[8][0:10]), _int(lines[8][10:20]), _int(lines[8][20:30]))
+    ordinate, points, spacing = form
+    if None in form or (ordinate, spacing) not in _FIELDS_58:
+        return  # a header pyuff cannot read either: it says so
+    per_point = (2 if ordinate in (5, 6) else 1) + (spacing == 0)
+    expected = points * per_point
+    body = lines[13]
+    if binary:  # the values, then at most a line end before the closing delimiter
+        size = 4 if ordinate in (2, 5) else 8
+        whole = len(body) >= expected * size and not body[expected * size:].strip(b"\r\n")
+        held = expected if whole else len(body) // size
+    else:
+        starts = np.cumsum((0,) + _FIELDS_58[(ordinate, spacing)][:-1]).tolist()
+        held = sum(bisect.bisect_left(starts, len(line.rstrip()))
+                   for line in body.split(b"\n"))
+    if held != expected:
+        raise ValueError(
+            f"{path}: {records.describe(k)} holds {held} values where its header announces "
+            f"{points} points ({expected} values): the record is truncated or damaged"
+        )
 
 
 # --------------------------------------------------------------------------- in
@@ -87,6 +246,30 @@ def _uff_int(d: dict, key: str, where: str) -> int:
     return int(v)
 
 
+#: two FRFs of the same entry whose median |dB| difference exceeds this are refused, not
+#: averaged: they do not measure the same thing (calibration, direction, a wrong label)
+DUPLICATE_DB = 3.0
+
+Dof = tuple[int, int]
+
+
+@dataclass(frozen=True)
+class _Frf:
+    """One FRF record as read: its number among the file's FRF records, the response
+    and reference DOFs (directions made positive), the receptance on the lines kept,
+    and the record's own (signed) label for messages."""
+
+    number: int
+    response: Dof
+    reference: Dof
+    values: np.ndarray
+    label: str
+
+    @property
+    def name(self) -> str:
+        return f"FRF record {self.number} ({self.label})"
+
+
 def read_uff(
     path: str | Path,
     *,
@@ -97,15 +280,25 @@ def read_uff(
 
     Each record is one FRF, response (node, direction) over reference (node,
     direction); a negative direction code (−3 = −Z) flips the sign, so that every
-    FRF is in the positive directions. DOFs are ordered by (node, direction),
-    response DOFs and driven DOFs alike; every reference must also be a response
-    (driving point) and every response/reference pair must be present once. A
-    roving-hammer file (fixed response, roving references, the response among the
-    references) is read by reciprocity as the FRF column of a force at the fixed
-    DOF, and says so in ``notes``. Numerator type 8/11/12 (displacement, velocity,
-    acceleration) is converted to receptance; the abscissa is frequency in Hz,
-    shared by all records. Other records (coherence, time data, other datasets) are
-    ignored. The 0 Hz line is dropped.
+    FRF is in the positive directions. The FRFs are laid out as columns, one per
+    force DOF (:func:`_driving_point_layout`): every measured FRF is an entry
+    H(j, k) of a column k directly or by reciprocity H(j, k) = H(k, j), with the
+    fewest columns that do so — a shaker test keeps its references, a roving-hammer
+    file (fixed response, roving references) becomes the column of a force at the
+    fixed DOF, and the two combined become two columns. Every column's force DOF
+    must be a measured response. Entries nobody measured are holes
+    (:attr:`MeasuredData.measured`); two FRFs of the same entry are averaged, with a
+    :class:`~podid_rs.measured.DataWarning`, unless their median difference exceeds
+    ``DUPLICATE_DB`` dB. ``notes`` say what was done. Numerator type 8/11/12
+    (displacement, velocity, acceleration) is converted to receptance; the abscissa
+    is frequency in Hz, shared by all records. Other records (coherence, time data,
+    other datasets) are ignored. The 0 Hz line is dropped.
+
+    Nothing is read silently: a record cut off or whose values do not match its
+    header, and non-finite values, are refused; an FRF that is zero at every line
+    (of the band) — a dead channel — is left out as not measured, with a
+    :class:`~podid_rs.measured.DataWarning`, as are lines of an FRF that are exactly
+    zero (kept; their dB error is not defined).
 
     Parameters
     ----------
@@ -119,18 +312,25 @@ def read_uff(
     Returns
     -------
     MeasuredData
-        The FRFs as unit load cases, with the (node, direction) labels.
+        The FRFs as unit load cases, with the (node, direction) labels and the mask
+        of measured entries.
 
     Raises
     ------
     FileNotFoundError
         When there is no such file.
     ValueError
-        Naming the file and record: no FRF records, unreadable or inconsistent
-        records (abscissa, denominator, numerator type, frequency lines, duplicates),
-        a reference that is not a response and cannot be made one by reciprocity,
-        a missing FRF of the response × reference grid, or a band keeping fewer than
-        2 lines.
+        Naming the file and record: no FRF records, a record cut off, a missing
+        delimiter, a record whose values do not match its header's number of points,
+        unreadable or inconsistent records (abscissa, denominator, numerator type,
+        frequency lines), non-finite values (with the first line in Hz), two FRFs of
+        one entry more than ``DUPLICATE_DB`` apart, a force DOF that is not a
+        measured response, every FRF dead, or a band keeping fewer than 2 lines.
+
+    Warns
+    -----
+    DataWarning
+        For a dead channel, exact zeros in an FRF, or an FRF measured twice.
     """
     path = Path(path)
     sets, _ = _read_sets(path, (58,))
@@ -146,13 +346,14 @@ def read_uff(
     if quantity is not None and quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {QUANTITIES} or None, got {quantity!r}")
     freq = None
-    entries: dict[tuple[tuple[int, int], tuple[int, int]], tuple[np.ndarray, str]] = {}
+    raw: list[tuple[int, Dof, Dof, np.ndarray, str, str]] = []
     for k, d in enumerate(frfs):
         where = f"{path}: FRF record {k + 1}"
         rsp = (_uff_int(d, "rsp_node", where), _uff_int(d, "rsp_dir", where))
         ref = (_uff_int(d, "ref_node", where), _uff_int(d, "ref_dir", where))
+        label = f"response {rsp[0]}:{rsp[1]} / reference {ref[0]}:{ref[1]}"
         x = as_array(d.get("x"), f"{where} abscissa", real=True)
-        y = as_array(d.get("data"), f"{where} ordinate")
+        y = _finite_ordinate(d.get("data"), x, f"{where} ({label})")
         if x.ndim != 1 or y.shape != x.shape or x.size < 2:
             raise ValueError(f"{where}: abscissa and ordinate must be 1-D of equal length >= 2")
         if d.get("abscissa_spec_data_type", 0) not in UFF_FREQUENCY_TYPES:
@@ -169,65 +370,215 @@ def read_uff(
             freq = x
         elif x.shape != freq.shape or not np.allclose(x, freq, rtol=1e-9, atol=0.0):
             raise ValueError(f"{where}: its frequency lines differ from those of record 1")
-        key = ((rsp[0], abs(rsp[1])), (ref[0], abs(ref[1])))
-        if key in entries:
-            raise ValueError(f"{where}: a second FRF for response {key[0]} / reference {key[1]}")
         sign = (-1.0 if rsp[1] < 0 else 1.0) * (-1.0 if ref[1] < 0 else 1.0)
-        entries[key] = (sign * y, q)
+        raw.append((k + 1, (rsp[0], abs(rsp[1])), (ref[0], abs(ref[1])), sign * y, q, label))
     if np.any(np.diff(freq) <= 0):
         raise ValueError(f"{path}: the frequency lines are not strictly increasing")
-    entries, notes = _driving_point_layout(entries, path)
-    outs = sorted({k[0] for k in entries})
-    refs = sorted({k[1] for k in entries})
-    missing = [(o, r) for o in outs for r in refs if (o, r) not in entries]
-    if missing:
-        raise ValueError(
-            f"{path}: {len(missing)} FRF(s) of the {len(outs)} × {len(refs)} grid are missing, "
-            f"e.g. response {missing[0][0]} / reference {missing[0][1]}"
-        )
-    keep = freq > 0
+    positive = np.flatnonzero(freq > 0)
+    keep = positive if band_hz is None else positive[band_lines(freq[positive], band_hz)]
     omega = 2 * np.pi * freq[keep]
-    H = np.empty((omega.size, len(outs), len(refs)), dtype=np.complex128)
-    for (o, r), (y, q) in entries.items():
-        H[:, outs.index(o), refs.index(r)] = to_receptance(y[keep], omega, q)
-    data = from_frf(
-        H,
-        omega,
-        inputs=[outs.index(r) for r in refs],
-        dofs=np.asarray(outs, dtype=np.int64),
-    )
-    data = replace(data, notes=notes)
-    return data if band_hz is None else data.band(band_hz)
+    where = "of the band" if band_hz is not None else "in the file"
+    records, notes = [], []
+    for number, rsp, ref, y, q, label in raw:
+        record = _Frf(number, rsp, ref, to_receptance(y[keep], omega, q), label)
+        dead = _dead_channel(record, freq[keep], where)
+        if dead:
+            warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=2)
+            notes.append(f"{path.name}: {dead}")
+        else:
+            records.append(record)
+    if not records:
+        raise ValueError(f"{path}: every FRF record is zero at every line {where}")
+    layout = _driving_point_layout(records, path)
+    rows, cols = layout.rows, layout.columns
+    H = np.zeros((omega.size, len(rows), len(cols)), dtype=np.complex128)
+    for (o, r), values in layout.entries.items():
+        H[:, rows.index(o), cols.index(r)] = values
+    mask = np.zeros((len(rows), len(cols)), dtype=bool)
+    for o, r in layout.entries:
+        mask[rows.index(o), cols.index(r)] = True
+    data = from_frf(H, omega, inputs=[rows.index(r) for r in cols],
+                    dofs=np.asarray(rows, dtype=np.int64), measured=mask)
+    return replace(data, notes=(*layout.notes, *notes))
 
 
-def _driving_point_layout(entries: dict, path: Path) -> tuple[dict, tuple[str, ...]]:
-    """The FRF grid with every reference among the responses, by reciprocity if need be.
+def _finite_ordinate(values: object, x: np.ndarray, where: str) -> np.ndarray:
+    """The ordinate as a fresh array; ``ValueError`` naming the first non-finite line."""
+    y = np.asarray(values)
+    if np.issubdtype(y.dtype, np.number) and y.shape == x.shape:
+        bad = np.flatnonzero(~np.isfinite(y))
+        if bad.size:
+            i = int(bad[0])
+            more = f" and at {bad.size - 1} more line(s)" if bad.size > 1 else ""
+            raise ValueError(
+                f"{where}: its value at {x[i]:g} Hz (line {i + 1} of {y.size}) is {y[i]}"
+                f"{more}: non-finite values cannot be fitted; repair or remove the record"
+            )
+    return as_array(values, f"{where} ordinate")
+
+
+def _dead_channel(record: _Frf, freq_hz: np.ndarray, where: str) -> str | None:
+    """What is wrong with an FRF that measured nothing (zero or constant at every line),
+    None for a live one — which gets a warning of its own for lines that are exactly
+    zero (a value lost in writing: pyuff writes NaN as 0)."""
+    v = record.values
+    if not np.any(v):
+        return (f"{record.name} is zero at every line {where}: a dead channel; that entry "
+                "is treated as not measured")
+    if v.size >= 3 and np.all(v == v[0]):
+        return (f"{record.name} is the constant {v[0]:.4g} at every line {where}: a dead "
+                "channel; that entry is treated as not measured")
+    zero = np.flatnonzero(v == 0)
+    if zero.size:
+        warnings.warn(
+            f"{record.name} is exactly 0 at {zero.size} line(s), the first at "
+            f"{freq_hz[zero[0]]:g} Hz: a lost value? (pyuff writes NaN as 0); kept, "
+            "those lines have no dB error",
+            DataWarning,
+            stacklevel=3,
+        )
+    return None
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """The FRFs as a grid: response DOFs (rows), force DOFs (columns), the measured
+    entries' values keyed (response, force), and notes on what was done."""
+
+    rows: list[Dof]
+    columns: list[Dof]
+    entries: dict[tuple[Dof, Dof], np.ndarray]
+    notes: tuple[str, ...]
+
+
+def _force_columns(records: list[_Frf]) -> list[Dof]:
+    """The fewest force DOFs such that every measured pair {response, reference} has
+    one of them: a vertex cover of the graph of measured pairs. A driving-point FRF
+    H(k, k) makes k a column; the rest greedily, the DOF that covers most of the
+    pairs left first (ties: the file's references, then the lower DOF); then a
+    column every pair of which another column covers is dropped."""
+    pairs = {tuple(sorted((f.response, f.reference))) for f in records}
+    references = {f.reference for f in records}
+    forced = {a for a, b in pairs if a == b}
+    chosen = set(forced)
+    left = {e for e in pairs if not chosen.intersection(e)}
+    added = []
+    while left:
+        count = Counter(v for e in left for v in set(e))
+        best = max(count, key=lambda v: (count[v], v in references, (-v[0], -v[1])))
+        chosen.add(best)
+        added.append(best)
+        left = {e for e in left if best not in e}
+    for v in reversed(added):
+        others = chosen - {v}
+        if all(e[0] in others or e[1] in others for e in pairs if v in e):
+            chosen = others
+    return sorted(chosen)
+
+
+def _driving_point_layout(records: list[_Frf], path: Path) -> _Layout:
+    """The FRF grid with every force DOF among the responses, by reciprocity if need be.
 
     A shaker test measures the driving point: its references are responses too. A
     roving-hammer test fixes the response and roves the reference, so its references
     are not responses; Maxwell–Betti reciprocity, H(j, k) = H(k, j), turns it into
-    the column of the FRF matrix for a force at the fixed response DOF, which must
-    then be among the hit points. Returns the entries keyed (response, reference)
-    and a note saying what was done (empty when nothing was).
+    the column of the FRF matrix for a force at the fixed response DOF. In general
+    the columns are the fewest force DOFs that hold every measured pair
+    (:func:`_force_columns`): a record H(o, r) is the entry (o, r) of column r when
+    r is a column, else the entry (r, o) of column o by reciprocity; an entry (k, j)
+    between two columns that only H(j, k) measured is filled by reciprocity too.
+    Several records of one entry are averaged (:func:`_average`). Entries no record
+    gives are holes. Every column's force DOF must be a measured response (a row
+    with a measured entry): the force is projected on the basis of the responses.
     """
-    outs = sorted({k[0] for k in entries})
-    refs = sorted({k[1] for k in entries})
-    missing_refs = [r for r in refs if r not in outs]
-    if not missing_refs:
-        return entries, ()
-    if all(o in refs for o in outs):
-        note = (
+    columns = _force_columns(records)
+    cols = set(columns)
+    groups: dict[tuple[Dof, Dof], list[_Frf]] = {}
+    by_reciprocity = 0
+    for f in records:
+        key = (f.response, f.reference) if f.reference in cols else (f.reference, f.response)
+        by_reciprocity += f.reference not in cols
+        groups.setdefault(key, []).append(f)
+    entries = {key: _average(key, group, path) for key, group in groups.items()}
+    for (o, r), values in list(entries.items()):
+        if o in cols and o != r and (r, o) not in entries:
+            entries[(r, o)] = values  # the mirror entry of two columns, by reciprocity
+            by_reciprocity += 1
+    rows = sorted({key[0] for key in entries} | {key[1] for key in entries})
+    unmeasured = [c for c in columns if not any(o == c for o, _ in entries)]
+    if unmeasured:
+        raise ValueError(
+            f"{path}: reference DOF(s) {unmeasured} are not among the measured responses, "
+            "and reciprocity cannot supply their driving point (no FRF pairs them with "
+            "another force DOF, or measures them as a response): the force must be known on "
+            "a measured DOF to be projected"
+        )
+    outs = sorted({f.response for f in records})
+    refs = sorted({f.reference for f in records})
+    notes = []
+    if by_reciprocity and set(outs) <= set(refs) and columns == outs:
+        notes.append(
             f"{path.name}: the {len(refs)} reference DOFs are not all among the "
             f"{len(outs)} response DOF(s) (a roving-hammer test): read by reciprocity, "
             "H(j, k) = H(k, j), as the FRFs of the hit DOFs for a force at the response "
             f"DOF(s) {outs}"
         )
-        return {(r, o): v for (o, r), v in entries.items()}, (note,)
-    raise ValueError(
-        f"{path}: reference DOF(s) {missing_refs} are not among the measured responses, "
-        "and not every response is a reference either, so reciprocity cannot supply "
-        "the driving point; the force must be known on a measured DOF to be projected"
+    elif by_reciprocity or columns != refs:
+        notes.append(
+            f"{path.name}: the {len(records)} FRFs of {len(outs)} response and {len(refs)} "
+            f"reference DOF(s) are laid out as the FRF columns of forces at {columns} (the "
+            "fewest force DOFs that hold every measured pair); "
+            f"{by_reciprocity} entr{'y' if by_reciprocity == 1 else 'ies'} read by "
+            "reciprocity, H(j, k) = H(k, j)"
+        )
+    holes = [(o, r) for r in columns for o in rows if (o, r) not in entries]
+    if holes:
+        notes.append(
+            f"{path.name}: {len(holes)} of the {len(rows)} × {len(columns)} entries "
+            f"(response × force) were not measured, e.g. response {holes[0][0]} / force "
+            f"at {holes[0][1]}: they weigh nothing in the fit and in every error"
+        )
+    notes += [f"{path.name}: {_duplicate_note(key, group)}"
+              for key, group in groups.items() if len(group) > 1]
+    return _Layout(rows, columns, entries, tuple(notes))
+
+
+def _median_db_apart(a: np.ndarray, b: np.ndarray) -> float:
+    """Median |20 log10(|a| / |b|)| over the lines where both are non-zero."""
+    both = (a != 0) & (b != 0)
+    if not np.any(both):
+        return 0.0
+    return float(np.median(np.abs(20 * np.log10(np.abs(a[both]) / np.abs(b[both])))))
+
+
+def _duplicate_note(key: tuple[Dof, Dof], group: list[_Frf]) -> str:
+    """What was done with several FRFs of one entry: averaged, and how far apart."""
+    apart = max(_median_db_apart(a.values, b.values)
+                for i, a in enumerate(group) for b in group[i + 1:])
+    return (
+        f"response {key[0]} / force at {key[1]} was measured {len(group)} "
+        f"times ({', '.join(f.name for f in group)}), directly or by reciprocity: "
+        f"averaged; they differ by {apart:.2f} dB (median |dB| over the lines read)"
     )
+
+
+def _average(key: tuple[Dof, Dof], group: list[_Frf], path: Path) -> np.ndarray:
+    """The value of one entry: its record, or the mean of several that agree to
+    ``DUPLICATE_DB`` dB (median over the lines), with a warning; refused otherwise."""
+    if len(group) == 1:
+        return group[0].values
+    for i, a in enumerate(group):
+        for b in group[i + 1:]:
+            apart = _median_db_apart(a.values, b.values)
+            if apart > DUPLICATE_DB:
+                raise ValueError(
+                    f"{path}: {a.name} and {b.name} both measure response {key[0]} / force "
+                    f"at {key[1]} (directly or by reciprocity) but differ by a median "
+                    f"{apart:.1f} dB (more than {DUPLICATE_DB:g} dB): they do not measure "
+                    "the same thing (calibration, direction or DOF label?); remove one"
+                )
+    warnings.warn(f"{path}: {_duplicate_note(key, group)}", DataWarning, stacklevel=5)
+    return np.mean([f.values for f in group], axis=0)
 
 
 def read_uff_geometry(path: str | Path) -> np.ndarray | None:
@@ -404,14 +755,17 @@ def _set_55(j: int, modes: ModeShapes, nodes: list[int], name: str) -> dict:
 def _reciprocity_remark(data: MeasuredData | None) -> str:
     """The 58 sets' third ID line when the data were read by reciprocity (a roving-hammer
     file: its references became the responses, ``read_uff``'s note), else ``"NONE"``."""
-    if data is not None and any("reciprocity" in note for note in data.notes):
+    if data is not None and any("roving-hammer" in note for note in data.notes):
         return "roving-hammer test read by reciprocity: H(j, k) = H(k, j)"
+    if data is not None and any("reciprocity" in note for note in data.notes):
+        return "entries read by reciprocity: H(j, k) = H(k, j)"
     return "NONE"
 
 
 def _sets_58(
     model: IdentificationResult, R: np.ndarray, dofs: np.ndarray, inputs: np.ndarray,
     omega: np.ndarray, quantity: str, binary: bool, name: str, remark: str = "NONE",
+    measured: np.ndarray | None = None,
 ) -> list[dict]:
     pyuff = _pyuff()
     H_m = model.system().frf(omega)
@@ -430,7 +784,8 @@ def _sets_58(
                 id1="FRF",
                 id2=f"H({node}:{direction}, {ref[0]}:{ref[1]}) {name}, identified"[:80],
                 id3=remark[:80],
-                id4="NONE",
+                id4="NONE" if measured is None or measured[i, k] else
+                "not measured in the test: the model's prediction",
                 id5="NONE",
                 func_type=UFF_FRF,
                 rsp_node=int(node),
@@ -467,7 +822,9 @@ def write_uff(
 
     Dataset 15 holds the geometry, 55 one set per mode (translations, directions
     1–3, only), 58 the identified FRFs ``R H_m(ω) Rᵀ`` (module docstring). FRFs from
-    data read by reciprocity (a roving-hammer file) say so in their third ID line.
+    data read by reciprocity (a roving-hammer file) say so in their third ID line; the
+    FRF of an entry the test did not measure (a hole of ``data.measured``) is written
+    too, and says in its fourth ID line that it is the model's prediction.
     The file is replaced if it exists.
 
     Parameters
@@ -573,7 +930,8 @@ def write_uff(
     sets += [_set_55(j, shapes, nodes, name) for j in range(shapes.n_modes)]
     if omega is not None:
         sets += _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name,
-                         _reciprocity_remark(data))
+                         _reciprocity_remark(data),
+                         None if data is None or data.complete else data.measured)
     path = Path(path)
     path.unlink(missing_ok=True)
     try:

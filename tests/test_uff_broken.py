@@ -1,0 +1,265 @@
+"""Broken Universal Files are refused or warned about, never read as something smaller.
+
+Every broken file here is made by the test from a good one: the real beam (cut at
+several byte offsets, a delimiter removed, a data line removed), or FRFs of a 3-DOF
+chain written with pyuff and then damaged (a NaN or inf written into a field, a channel
+of zeros, a constant channel, one exact zero). Asserted:
+
+- a record cut off, a missing ``    -1`` delimiter, a record whose values do not match
+  its header's number of points (ASCII and binary) → ``ValueError`` naming the file and
+  the record (number, dataset, response / reference DOFs, line);
+- a non-finite value → ``ValueError`` naming the FRF record, its response / reference
+  and the first bad line in Hz;
+- an FRF zero (or constant) at every line, of the file or of the band: a dead channel →
+  :class:`podid_rs.DataWarning` naming it, and that entry is a hole of
+  ``MeasuredData.measured`` (neither a measurement of zero nor dropped without a word;
+  the notes say so too); every FRF dead → ``ValueError``;
+- an FRF exactly zero at one line (pyuff writes a NaN as 0) → a ``DataWarning`` with
+  the line in Hz, the values kept;
+- the file itself is never modified.
+"""
+
+from __future__ import annotations
+
+import struct
+import warnings
+
+import numpy as np
+import pytest
+
+import podid_rs as pr
+from podid_rs import DataWarning, read_uff
+
+pyuff = pytest.importorskip("pyuff")
+
+from conftest import BEAM_UFF  # noqa: E402
+
+DOFS = [(1, 3), (2, 3), (3, 3)]
+
+
+def frf_record(rsp, ref, freq, values, binary=False):
+    return pyuff.prepare_58(
+        binary=int(binary), func_type=4, rsp_node=rsp[0], rsp_dir=rsp[1], ref_node=ref[0],
+        ref_dir=ref[1], data=np.asarray(values, dtype=complex), x=freq, abscissa_spacing=1,
+        abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+    )
+
+
+def write_chain(path, change=None, binary=False, references=3):
+    """The receptances of a 3-DOF chain, every response over the first ``references``
+    DOFs (3: 9 records, response-major); ``change(o, r, values)`` may alter a record's
+    values before it is written."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.arange(0.0, 301.0, 1.0)
+    H = np.zeros((freq.size, 3, 3), dtype=complex)
+    H[1:] = chain.frf(2 * np.pi * freq[1:])
+    records = []
+    for o, rsp in enumerate(DOFS):
+        for r, ref in enumerate(DOFS[:references]):
+            values = H[:, o, r].copy()
+            if change is not None:
+                values = change(o, r, values)
+            records.append(frf_record(rsp, ref, freq, values, binary))
+    pyuff.UFF(str(path)).write_sets(records, "add")
+    return path, freq, H
+
+
+def delimiters(raw: bytes) -> list[int]:
+    """Offsets of the delimiter lines of a file written with '\\n' line ends."""
+    out, at = [], raw.find(b"    -1\n")
+    while at != -1:
+        out.append(at)
+        at = raw.find(b"    -1\n", at + 1)
+    return out
+
+
+@pytest.fixture
+def beam_bytes(tmp_path):
+    raw = BEAM_UFF.read_bytes()
+    return raw, tmp_path
+
+
+# ------------------------------------------------------------------ truncation
+
+
+@pytest.mark.parametrize("where", ["in the data", "in the header", "in the closing delimiter",
+                                   "after an opening delimiter", "one byte short"])
+def test_a_file_cut_inside_a_record_is_refused_naming_the_record(beam_bytes, where):
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    # records of the beam: 1 is dataset 15, 2… are the 30 FRFs; record k opens at
+    # tags[2(k-1)] and closes at tags[2(k-1)+1]
+    record = 16
+    opened, closed = tags[2 * (record - 1)], tags[2 * (record - 1) + 1]
+    cut = {
+        "in the data": (opened + closed) // 2,
+        "in the header": opened + 300,
+        "in the closing delimiter": closed + 4,
+        "after an opening delimiter": opened + len(b"    -1\n"),
+        "one byte short": len(raw) - len(b"    -1\n") + 3,
+    }[where]
+    if where == "one byte short":
+        record = 31
+    path = tmp / "cut.uff"
+    path.write_bytes(raw[:cut])
+    with pytest.raises(ValueError, match=rf"cut\.uff: record {record} of the file "
+                                         r"\(dataset (58|\?).*has no closing '    -1'.*cut off"):
+        read_uff(path)
+
+
+def test_a_missing_delimiter_is_refused(beam_bytes):
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]  # the end of record 10 (an FRF)
+    for name, damaged in [
+        ("no_end.uff", raw[:closing] + raw[closing + 7:]),  # its closing delimiter removed
+        ("no_start.uff", raw[:closing + 7] + raw[closing + 14:]),  # the next one's opening
+    ]:
+        path = tmp / name
+        path.write_bytes(damaged)
+        with pytest.raises(ValueError, match=r"delimiter is missing after record 10 of the "
+                                             r"file \(dataset 58, response 3:-3 / reference "
+                                             r"10:-3"):
+            read_uff(path)
+
+
+def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    lines = raw[tags[2 * 4]:tags[2 * 4 + 1]].split(b"\n")  # record 5
+    line = lines[30] + b"\n"  # a data line of 4 values
+    path = tmp / "short.uff"
+    path.write_bytes(raw.replace(line, b"", 1))
+    with pytest.raises(ValueError, match=r"record 5 of the file \(dataset 58, response "
+                                         r"3:-3 / reference 5:-3, from line \d+\) holds 2046 "
+                                         r"values where its header announces 1025 points"):
+        read_uff(path)
+    # its header says 1024 points, its data hold 1025
+    header = lines[8]
+    assert b"      1025" in header
+    path.write_bytes(raw.replace(header, header.replace(b"      1025", b"      1024"), 1))
+    with pytest.raises(ValueError, match=r"record 2 of the file .* holds 2050 values where "
+                                         r"its header announces 1024 points"):
+        read_uff(path)
+
+
+def test_a_binary_record_short_of_bytes_is_refused(tmp_path):
+    path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
+    raw = path.read_bytes()
+    tags = delimiters(raw)
+    closing = tags[2 * 3 + 1]  # record 4: response 2 / reference 1
+    path.write_bytes(raw[:closing - 16] + raw[closing:])
+    with pytest.raises(ValueError, match=r"record 4 of the file \(dataset 58, response 2:3 / "
+                                         r"reference 1:3, from line \d+\) holds 600 values "
+                                         r"where its header announces 301 points \(602"):
+        read_uff(path)
+
+
+def test_the_whole_file_reads_and_is_not_modified(beam_bytes):
+    raw, _ = beam_bytes
+    data = read_uff(BEAM_UFF)
+    assert data.n == 30 and data.complete and BEAM_UFF.read_bytes() == raw
+    # a file whose last line lacks its line end is whole
+    path = beam_bytes[1] / "no_newline.uff"
+    path.write_bytes(raw[:-1])
+    assert read_uff(path).n == 30
+
+
+# ------------------------------------------------------------------ values
+
+
+@pytest.mark.parametrize("value", ["nan", "inf"])
+def test_a_non_finite_value_is_refused_with_its_line(tmp_path, value):
+    path, _, _ = write_chain(tmp_path / "ascii.uff")
+    raw = path.read_bytes()
+    tags = delimiters(raw)
+    block = raw[tags[2 * 4]:tags[2 * 4 + 1]]  # record 5: response 2 / reference 2
+    lines = block.split(b"\n")
+    # data line 10 holds the real and imaginary parts of lines 18 and 19 (2 values each);
+    # its third field is the real part of line 19: 19 Hz
+    fields = [lines[13 + 9][20 * i:20 * (i + 1)] for i in range(4)]
+    fields[2] = value.rjust(20).encode()
+    damaged = block.replace(lines[13 + 9], b"".join(fields), 1)
+    path.write_bytes(raw.replace(block, damaged, 1))
+    with pytest.raises(ValueError, match=r"FRF record 5 \(response 2:3 / reference 2:3\): its "
+                                         rf"value at 19 Hz \(line 20 of 301\) is \(?{value}"):
+        read_uff(path)
+
+
+def test_a_non_finite_binary_value_is_refused(tmp_path):
+    path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
+    raw = path.read_bytes()
+    tags = delimiters(raw)
+    closing = tags[2 * 1 + 1]  # record 2: response 1 / reference 2
+    start = closing - 301 * 16  # its 301 complex values, 16 bytes each
+    at = start + 16 * 150 + 8  # the imaginary part at 150 Hz
+    path.write_bytes(raw[:at] + struct.pack("<d", np.nan) + raw[at + 8:])
+    with pytest.raises(ValueError, match=r"FRF record 2 \(response 1:3 / reference 2:3\): its "
+                                         r"value at 150 Hz"):
+        read_uff(path)
+
+
+def test_a_dead_channel_is_a_hole_with_a_warning(tmp_path):
+    """Two shakers (at DOFs 1 and 2), three accelerometers; the one at DOF 3 is dead in
+    the first run. Nothing else measured H(3, 1) (DOF 3 is not a force DOF, so
+    reciprocity cannot supply it): a hole."""
+    path, freq, H = write_chain(tmp_path / "dead.uff", references=2,
+                                change=lambda o, r, v: 0 * v if (o, r) == (2, 0) else v)
+    with pytest.warns(DataWarning, match=r"dead\.uff: FRF record 5 \(response 3:3 / reference "
+                                         r"1:3\) is zero at every line in the file: a dead "
+                                         r"channel; that entry is treated as not measured"):
+        data = read_uff(path)
+    assert data.p == 2 and not data.measured[2, 0] and data.measured.sum() == 5
+    assert any("dead channel" in note for note in data.notes)
+    assert any("1 of the 3 × 2 entries" in note for note in data.notes)
+    assert np.all(data.U[:, 2, 0] == 0) and np.allclose(data.U[:, 2, 1], H[1:, 2, 1], rtol=1e-10)
+
+
+def test_a_channel_dead_over_the_band_only_is_a_hole_there(tmp_path):
+    def dead_in_band(o, r, v):
+        if (o, r) == (2, 1):
+            v = v.copy()
+            v[(freq_band[0] <= np.arange(v.size)) & (np.arange(v.size) <= freq_band[1])] = 0
+        return v
+
+    freq_band = (100.0, 200.0)
+    path, _, _ = write_chain(tmp_path / "band.uff", change=dead_in_band, references=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)  # live over the whole file… but zero lines
+        with pytest.raises(DataWarning, match="exactly 0 at 101 line"):
+            read_uff(path)
+    with pytest.warns(DataWarning, match=r"FRF record 6 \(response 3:3 / reference 2:3\) is "
+                                         r"zero at every line of the band"):
+        data = read_uff(path, band_hz=freq_band)
+    assert not data.measured[2, 1] and data.measured.sum() == 5
+
+
+def test_a_constant_channel_is_dead_too(tmp_path):
+    path, _, _ = write_chain(
+        tmp_path / "const.uff", references=2,
+        change=lambda o, r, v: np.full_like(v, 1e-3) if (o, r) == (2, 1) else v)
+    with pytest.warns(DataWarning, match=r"FRF record 6 .* is the constant 0.001.*dead"):
+        data = read_uff(path)
+    assert not data.measured[2, 1]
+
+
+def test_an_exact_zero_at_one_line_is_warned_about(tmp_path):
+    def lost(o, r, v):
+        if (o, r) == (1, 1):
+            v = v.copy()
+            v[42] = np.nan  # pyuff writes it as 0
+        return v
+
+    path, _, H = write_chain(tmp_path / "zero.uff", change=lost)
+    with pytest.warns(DataWarning, match=r"FRF record 5 \(response 2:3 / reference 2:3\) is "
+                                         r"exactly 0 at 1 line\(s\), the first at 42 Hz"):
+        data = read_uff(path)
+    assert data.complete and data.U[41, 1, 1] == 0  # line 42 Hz (the 0 Hz line is dropped)
+
+
+def test_every_channel_dead_is_refused(tmp_path):
+    path, _, _ = write_chain(tmp_path / "all.uff", change=lambda o, r, v: 0 * v)
+    with pytest.raises(ValueError, match="every FRF record is zero at every line"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DataWarning)
+            read_uff(path)

@@ -1,0 +1,161 @@
+"""FRF files laid out as columns by reciprocity: shaker columns, hammer rows, holes, duplicates.
+
+The files are written by the tests from the exact receptances of a uniform 4-DOF chain
+(every value is known). Asserted:
+
+- a complete shaker grid (every reference among the responses) reads as before: one
+  column per reference, each record at its own entry, no note, nothing averaged —
+  even where H(j, k) and H(k, j) differ (they are two measurements, not one);
+- a pair measured one way only fills the entry of the other way by reciprocity
+  between two force DOFs, and says so; an entry nobody measured is a hole;
+- the fewest force DOFs that hold every measured pair: a shaker column plus a
+  roving-hammer row are two columns (their common FRF averaged, with a
+  :class:`DataWarning` saying how far apart the two were); a tie goes to the file's
+  reference; a driving point lost from a shaker grid leaves its pairs to the other
+  columns, by reciprocity;
+- two FRFs of one entry more than 3 dB apart are refused, naming both records;
+- a force DOF no FRF measures as a response is refused (as before).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import podid_rs as pr
+from podid_rs import DataWarning, read_uff
+
+pyuff = pytest.importorskip("pyuff")
+
+CHAIN = pr.mass_spring_chain(4, m1=1.0, m2=1.0)
+FREQ = np.arange(0.0, 301.0, 1.0)
+H = np.zeros((FREQ.size, 4, 4), dtype=complex)
+H[1:] = CHAIN.frf(2 * np.pi * FREQ[1:])
+
+
+def write(path, pairs, scale=None):
+    """One record per (response, reference) pair of 1-based DOF numbers (direction 3),
+    in the given order; ``scale`` maps a record's index to a factor on its values."""
+    records = []
+    for i, (o, r) in enumerate(pairs):
+        factor = 1.0 if scale is None else scale.get(i, 1.0)
+        records.append(pyuff.prepare_58(
+            func_type=4, rsp_node=o, rsp_dir=3, ref_node=r, ref_dir=3,
+            data=factor * H[:, o - 1, r - 1], x=FREQ, abscissa_spacing=1,
+            abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+        ))
+    pyuff.UFF(str(path)).write_sets(records, "add")
+    return path
+
+
+def entry(data, o, r):
+    """The receptance of response DOF o to the force at DOF r (1-based), as read."""
+    rows = [int(n) for n in data.dofs[:, 0]]
+    cols = [rows[i] for i in data.inputs]
+    return data.U[:, rows.index(o), cols.index(r)]
+
+
+def columns(data):
+    return [int(data.dofs[i, 0]) for i in data.inputs]
+
+
+def test_a_complete_shaker_grid_reads_as_before(tmp_path):
+    pairs = [(o, r) for o in range(1, 5) for r in (1, 3)]
+    path = write(tmp_path / "grid.uff", pairs, scale={pairs.index((1, 3)): 1.2})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        data = read_uff(path)
+    assert columns(data) == [1, 3] and data.complete and data.notes == ()
+    # H(1, 3) was written 1.2× off: it stays at its own entry, H(3, 1) at its own
+    assert np.allclose(entry(data, 1, 3), 1.2 * H[1:, 0, 2], rtol=1e-10)
+    assert np.allclose(entry(data, 3, 1), H[1:, 2, 0], rtol=1e-10)
+
+
+def test_one_way_pairs_fill_by_reciprocity_and_the_rest_are_holes(tmp_path):
+    # a 2-shaker grid (forces at 1 and 3) without H(3, 1), nor H(4, 3) or its mirror
+    pairs = [(o, r) for o in range(1, 5) for r in (1, 3) if (o, r) not in ((3, 1), (4, 3))]
+    data = read_uff(write(tmp_path / "holes.uff", pairs))
+    assert columns(data) == [1, 3]
+    assert np.allclose(entry(data, 3, 1), H[1:, 0, 2], rtol=1e-10)  # = H(1, 3)
+    mask = data.measured
+    assert mask.sum() == 7 and not mask[3, 1]  # H(4, 3): nobody measured it
+    assert any("1 entry read by reciprocity" in note for note in data.notes)
+    assert any("1 of the 4 × 2 entries" in note and "response (4, 3) / force at (3, 3)"
+               in note for note in data.notes)
+
+
+def test_a_shaker_column_and_a_hammer_row_are_two_columns(tmp_path):
+    """Campaign 1: a shaker at DOF 2, all four accelerometers. Campaign 2: one
+    accelerometer at DOF 3, the hammer at every DOF. Both measured H(3, 2)."""
+    shaker = [(o, 2) for o in range(1, 5)]
+    hammer = [(3, r) for r in range(1, 5)]
+    # the hammer's H(3, 2) 0.5 dB off the shaker's
+    path = write(tmp_path / "two.uff", shaker + hammer, scale={len(shaker) + 1: 10 ** 0.025})
+    with pytest.warns(DataWarning, match=r"response \(3, 3\) / force at \(2, 3\) was measured "
+                                         r"2 times \(FRF record 3 \(response 3:3 / reference "
+                                         r"2:3\), FRF record 6 .*averaged; they differ by "
+                                         r"0\.50 dB"):
+        data = read_uff(path)
+    assert columns(data) == [2, 3] and data.complete
+    assert np.allclose(entry(data, 3, 2), (1 + 10 ** 0.025) / 2 * H[1:, 2, 1], rtol=1e-10)
+    assert np.allclose(entry(data, 2, 3), entry(data, 3, 2), rtol=0)  # its mirror
+    for o in (1, 4):
+        assert np.allclose(entry(data, o, 3), H[1:, 2, o - 1], rtol=1e-10)  # hammer row
+        assert np.allclose(entry(data, o, 2), H[1:, o - 1, 1], rtol=1e-10)  # shaker column
+    assert any("laid out as the FRF columns of forces at [(2, 3), (3, 3)]" in note
+               for note in data.notes)
+
+
+def test_a_tie_goes_to_the_files_reference(tmp_path):
+    # a shaker at 1 (driving point measured) and H(2, 3): 2 or 3 could hold that pair;
+    # 3 is the file's reference, so it is read directly — only H(1, 3), the mirror of
+    # H(3, 1) between the two force DOFs, comes by reciprocity
+    pairs = [(1, 1), (2, 1), (3, 1), (2, 3)]
+    data = read_uff(write(tmp_path / "tie.uff", pairs))
+    assert columns(data) == [1, 3]
+    assert np.allclose(entry(data, 2, 3), H[1:, 1, 2], rtol=1e-10)
+    assert np.allclose(entry(data, 1, 3), H[1:, 2, 0], rtol=1e-10)
+    assert any("1 entry read by reciprocity" in note for note in data.notes)
+    assert data.n == 3 and data.measured.sum() == 5  # H(3, 3): never measured
+
+
+def test_a_lost_driving_point_leaves_its_pairs_to_the_other_columns(tmp_path):
+    """A 3-shaker grid whose driving point H(1, 1) is lost: the fewest columns that hold
+    every pair are 2 and 3; H(2, 1), H(3, 1) are read as H(1, 2), H(1, 3) and averaged
+    with those (the same FRFs by reciprocity)."""
+    pairs = [(o, r) for o in range(1, 4) for r in range(1, 4) if (o, r) != (1, 1)]
+    with pytest.warns(DataWarning, match="measured 2 times"):
+        data = read_uff(write(tmp_path / "lost.uff", pairs))
+    assert columns(data) == [2, 3] and data.complete and data.n == 3
+
+
+def test_two_measurements_of_one_entry_that_disagree_are_refused(tmp_path):
+    shaker = [(o, 2) for o in range(1, 5)]
+    hammer = [(3, r) for r in range(1, 5)]
+    path = write(tmp_path / "bad.uff", shaker + hammer, scale={len(shaker) + 1: -10.0})
+    with pytest.raises(ValueError, match=r"FRF record 3 \(response 3:3 / reference 2:3\) and "
+                                         r"FRF record 6 \(response 3:3 / reference 2:3\) both "
+                                         r"measure response \(3, 3\) / force at \(2, 3\).*"
+                                         r"differ by a median 20\.0 dB"):
+        read_uff(path)
+
+
+def test_a_force_no_frf_measures_as_a_response_is_refused(tmp_path):
+    # a hammer row at response 3 that never hit DOF 3 itself
+    pairs = [(3, r) for r in (1, 2, 4)]
+    with pytest.raises(ValueError, match="not among the measured responses"):
+        read_uff(write(tmp_path / "nodp.uff", pairs))
+
+
+def test_the_written_model_says_which_entries_were_not_measured(tmp_path):
+    pairs = [(o, r) for o in range(1, 5) for r in (1, 3) if (o, r) not in ((3, 1), (4, 3))]
+    data = read_uff(write(tmp_path / "holes.uff", pairs))
+    model, R = data.identify(m=4, symmetric=True)
+    sets = pyuff.UFF(str(pr.write_uff(tmp_path / "model.uff", model, R, data))).read_sets()
+    s58 = [d for d in sets if d["type"] == 58]
+    assert len(s58) == 8  # every entry, the hole too
+    notes = {(d["rsp_node"], d["ref_node"]): d["id4"] for d in s58}
+    assert notes[(4, 3)].startswith("not measured") and notes[(3, 1)] == "NONE"
+    assert all(d["id3"].startswith("entries read by reciprocity") for d in s58)
