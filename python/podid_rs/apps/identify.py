@@ -101,11 +101,11 @@ class IdentifyRun:
 
     def frf_errors(self, model: IdentificationResult) -> tuple[float, float]:
         """Median and 95th percentile |dB| of ``model``'s responses (R H_m Rᵀ F) against
-        the measured ones, over every line, measured DOF and load case."""
+        the measured ones, over every line and measured entry (DOF and load case)."""
         d, R = self.data, self.basis[:, : model.m]  # [R_p, 0]: a lower order's basis leads it
         F_m = np.einsum("im,sip->smp", R[d.inputs], d.F)
         X = np.einsum("nm,smp->snp", R, model.system().response(d.omega, F_m))
-        e = db_errors(X, d.U)
+        e = db_errors(X, d.U, None if d.complete else d.measured)
         return float(np.median(e)), float(np.percentile(e, 95))
 
     def summary(self) -> str:
@@ -224,14 +224,20 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
     paths = []
     for k in range(min(d.inputs.size if d.is_frf else 1, MAX_OVERLAYS)):
         col = int(d.inputs[k])
-        far = int(np.argmax(np.abs(d.dofs[:, 0] - d.dofs[col, 0])))
+        # the farthest DOF this force's responses measured (every DOF for complete data)
+        distance = np.where(d.measured[:, k], np.abs(d.dofs[:, 0] - d.dofs[col, 0]), -1)
+        far = int(np.argmax(distance))
         rows = [col, far]
-        curves = [Curve("measured", d.U[:, rows, k], kind="original")] if d.is_frf else []
+        # an entry that was not measured is drawn as the model's alone, never as data
+        seen = np.where(d.measured[rows, k], d.U[:, rows, k], np.nan)
+        curves = [Curve("measured", seen, kind="original")] if d.is_frf else []
         for label, r, style in models:
             values = _model_frf(r, run.basis[:, : r.m], d.omega, rows, col)
             curves.append(Curve(label, values, kind="identified", style=style))
         driven = _dof_name(d.dofs[col])
         what = "measured and identified" if d.is_frf else "identified (the data are not FRFs)"
+        if d.is_frf and not d.measured[col, k]:
+            what += f"; H({driven},{driven}) was not measured"
         paths.append(
             plot_frf_comparison(
                 d.freq_hz,
@@ -250,7 +256,8 @@ def pole_kinds(result: IdentificationResult, R: np.ndarray, data: MeasuredData) 
     (FRF data) or by band and damping alone (other data)."""
     shapes = mode_shapes(result, R, data.dofs)
     if data.is_frf:
-        return mode_kinds(shapes, data.omega, data.U, data.inputs)
+        return mode_kinds(shapes, data.omega, data.U, data.inputs,
+                          measured=None if data.complete else data.measured)
     return mode_kinds(shapes, data.omega)
 
 
@@ -316,6 +323,7 @@ def run_identify(
     symmetric = lam is None
     pod = data.pod()
     F_n = data.forces_on_dofs()
+    mask = None if data.complete else data.measured  # holes weigh nothing
     clock.lap("reading the data and its POD")
     sweep = None
     if paper_estimator:
@@ -325,7 +333,7 @@ def run_identify(
         bar = _SweepBar(enabled=progress)
         try:
             sweep = sweep_orders(data.U, F_n, data.omega, pod, m=order, m_max=m_max,
-                                 progress=bar)
+                                 progress=bar, measured=mask)
         finally:
             bar.close()
         order = sweep.chosen
@@ -336,7 +344,8 @@ def run_identify(
     ls = identify(U_m, F_m, data.omega, 0.0 if symmetric else lam, symmetric)
     clock.lap("paper's estimator")
     if sweep is not None:
-        result, R = final_fit(sweep, data.U, F_n, data.omega, pod, progress=progress)
+        result, R = final_fit(sweep, data.U, F_n, data.omega, pod, progress=progress,
+                              measured=mask)
         clock.lap("final fit")
     elif physical:
         result = make_physical(ls, U_m, F_m, data.omega)
