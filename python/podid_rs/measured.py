@@ -512,11 +512,11 @@ def _fit_output_error(
 ) -> tuple[IdentificationResult, np.ndarray, OrderSweep]:
     pod = data.pod()
     F_n = data.forces_on_dofs()
-    mask = data._mask()
+    holes = {} if data.complete else {"measured": data.measured}  # complete: the calls as ever
     sweep = sweep_orders(data.U, F_n, data.omega, pod, m=m, m_max=m_max, threads=threads,
-                         measured=mask)
+                         **holes)
     model, R = final_fit(sweep, data.U, F_n, data.omega, pod, threads=threads,
-                         progress=progress, measured=mask)
+                         progress=progress, **holes)
     return model, R, sweep
 
 

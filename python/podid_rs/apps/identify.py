@@ -323,7 +323,7 @@ def run_identify(
     symmetric = lam is None
     pod = data.pod()
     F_n = data.forces_on_dofs()
-    mask = None if data.complete else data.measured  # holes weigh nothing
+    holes = {} if data.complete else {"measured": data.measured}  # holes weigh nothing
     clock.lap("reading the data and its POD")
     sweep = None
     if paper_estimator:
@@ -333,7 +333,7 @@ def run_identify(
         bar = _SweepBar(enabled=progress)
         try:
             sweep = sweep_orders(data.U, F_n, data.omega, pod, m=order, m_max=m_max,
-                                 progress=bar, measured=mask)
+                                 progress=bar, **holes)
         finally:
             bar.close()
         order = sweep.chosen
@@ -345,7 +345,7 @@ def run_identify(
     clock.lap("paper's estimator")
     if sweep is not None:
         result, R = final_fit(sweep, data.U, F_n, data.omega, pod, progress=progress,
-                              measured=mask)
+                              **holes)
         clock.lap("final fit")
     elif physical:
         result = make_physical(ls, U_m, F_m, data.omega)
