@@ -40,7 +40,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
-from _common import host_line, load_average, markdown_table  # noqa: E402
+from _common import load_average, markdown_table, write_report  # noqa: E402
 from bench_measured import BEAM, errors, run_sdypy  # noqa: E402
 from podid_rs.modes import mode_kinds  # noqa: E402
 
@@ -170,17 +170,13 @@ def main(argv=None) -> int:
               "median dB vs truth", "modes: truth's within 0.1 % / 10 % (simulated), "
               "the peer's within 1 % (real)", "stable, physical", "time (s)"]
     loads = [v for v in load if v is not None]
-    text = "\n".join([
-        "# More modes than sensors", "", host_line(), "",
+    write_report("\n".join([
+        "# More modes than sensors", "",
         "Errors: |20 log10(|H_model|/|H_measured|)| over every line of the band and every "
         "measured DOF. Command: `python3 benches/bench_few_sensors.py`.", "",
         markdown_table(header, rows), "", *summary,
         f"- load average during the run: {min(loads):.1f}–{max(loads):.1f}" if loads else "",
-    ])
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text + "\n")
-    print(f"wrote {out}")
+    ]), args.out)
     return 0
 
 

@@ -42,7 +42,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
-from _common import host_line, load_average, markdown_table  # noqa: E402
+from _common import load_average, markdown_table, write_report  # noqa: E402
 
 BAND = (65.0, 1000.0)
 DF_HZ = 0.02
@@ -194,7 +194,7 @@ def main(argv=None) -> int:
     phases = [[k, f"{v:.1f}"] for k, v in ours["phases"].items()]
     loads = [v for v in load if v is not None]
     text = "\n".join([
-        "# Real resolution: 46 750 lines in 65–1000 Hz", "", host_line(), "",
+        "# Real resolution: 46 750 lines in 65–1000 Hz", "",
         "Command: `python3 benches/bench_resolution.py`.", "",
         markdown_table(header, rows), "",
         f"- podid-rs identify / sdypy-EMA time: {ours['seconds'] / peer['seconds']:.1f}",
@@ -203,10 +203,7 @@ def main(argv=None) -> int:
         "", markdown_table(["phase", "seconds"], phases) if phases else "",
         "", ("```\n" + ours["profile"] + "\n```") if ours["profile"] else "",
     ])
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text + "\n")
-    print(text)
+    write_report(text, args.out)
     return 0
 
 
