@@ -279,9 +279,11 @@ STRUCTURAL, WEAK, RESIDUAL = "structural", "weak", "residual"
 #: a pole with at least this damping ratio is a residual term: its half-power band,
 #: 2ζ·f, spans 40 % of its frequency — no resonance a test resolves
 RESIDUAL_ZETA = 0.2
-#: an in-band, lightly damped pole whose own peak stays below this fraction of the
-#: measured response at every measured DOF and input is a weak term of the fit
+#: an in-band, lightly damped pole whose term reaches this fraction of the largest
+#: measured response within VISIBLE_WINDOW (relative) of its frequency at fewer than two
+#: of its three nearest lines is a weak term of the fit
 VISIBLE_FRACTION = 0.1
+VISIBLE_WINDOW = 0.02
 
 
 def mode_kinds(
@@ -306,13 +308,14 @@ def mode_kinds(
       Im λ ± |Re λ| is not inside the band of ``omega`` (a pole out of the band, or at
       its edge, where the data show one flank of it), or one with damping ratio ≥
       ``residual_zeta``;
-    * ``"weak"`` — in band and lightly damped, but not a resonance the data resolve:
-      narrower than the lines (its half-power band, 2|Re λ|, below the spacing of the
-      lines around it — a pole between two lines, which no measured line can pin
-      down), or its receptance term φ_i φ_d / (a (iω − λ)) (:attr:`ModeShapes.modal_a`)
-      at the measured line nearest its frequency stays below ``visible_fraction`` of
-      the measured |U| there at every measured DOF i and input d (the visibility is
-      judged only with measured FRFs ``U`` and a symmetric model's ``modal_a``);
+    * ``"weak"`` — in band and lightly damped, but not a resonance of the data: its
+      receptance term φ_i φ_d / (a (iω − λ)) (:attr:`ModeShapes.modal_a`) reaches
+      ``visible_fraction`` of the largest measured |U| within ±``VISIBLE_WINDOW`` (2 %)
+      of its frequency, at some measured DOF i and input d, at fewer than two of the
+      three measured lines nearest its frequency — e.g. a pole the fit puts beside an
+      anti-resonance to shape the dip, or a nearly undamped one on a single line to fit
+      that line (judged only with measured FRFs ``U`` and a symmetric model's
+      ``modal_a``);
     * ``"structural"`` — every other pole: a resonance of the measured data.
 
     Parameters
@@ -348,9 +351,6 @@ def mode_kinds(
     # its half-power band must lie in the band: a peak at an edge shows one flank only
     out_of_band = (lam.imag - np.abs(lam.real) < w[0]) | (lam.imag + np.abs(lam.real) > w[-1])
     kinds[(lam.imag == 0) | out_of_band | (shapes.damping_ratios >= residual_zeta)] = RESIDUAL
-    nearest = np.clip(np.searchsorted(w, lam.imag), 1, w.size - 1)
-    spacing = w[nearest] - w[nearest - 1]  # the line spacing around each pole
-    kinds[(kinds == STRUCTURAL) & (2 * np.abs(lam.real) < spacing)] = WEAK
     if U is None or shapes.modal_a is None:
         return kinds.astype(str)
     if inputs is None:
@@ -363,11 +363,18 @@ def mode_kinds(
             f"U must be (s, n, p) = ({w.size}, {shapes.shapes.shape[0]}, {idx.size}), "
             f"got {Ua.shape}"
         )
-    seen = np.ones(Ua.shape[1:], dtype=bool) if measured is None else np.asarray(measured)
+    measured_entries = (np.ones(Ua.shape[1:], dtype=bool) if measured is None
+                        else np.asarray(measured))
     for k in np.flatnonzero(kinds == STRUCTURAL):
-        line = int(np.argmin(np.abs(w - lam[k].imag)))
-        phi = shapes.shapes[:, k]
-        term = np.abs(np.outer(phi, phi[idx])) / abs(shapes.modal_a[k] * (1j * w[line] - lam[k]))
-        if not np.any((term >= visible_fraction * np.abs(Ua[line])) & seen):
+        lines = np.argsort(np.abs(w - lam[k].imag), kind="stable")[:3]
+        residue = np.abs(np.outer(shapes.shapes[:, k], shapes.shapes[idx, k]))
+        # against the largest response around the pole, not the one at a line: a pole
+        # beside an anti-resonance is large next to the dip and small next to the data
+        near = np.abs(w - lam[k].imag) <= VISIBLE_WINDOW * lam[k].imag
+        near[lines] = True
+        level = visible_fraction * np.abs(Ua[near]).max(axis=0)
+        seen = [np.any((residue / abs(shapes.modal_a[k] * (1j * w[j] - lam[k])) >= level)
+                       & measured_entries) for j in lines]
+        if sum(seen) < 2:  # a resonance shows at more than one line; a spike on a line not
             kinds[k] = WEAK
     return kinds.astype(str)

@@ -275,9 +275,9 @@ def modes_markdown(summary: str, rows: list[dict]) -> str:
             f"`{RESIDUAL}`: a residual term — out of the band or at its edge, overdamped or "
             "with ζ ≥ "
             f"{RESIDUAL_ZETA:g}, standing in for modes outside the band; `{WEAK}`: in band but "
-            "not a resonance the data resolve — narrower than the line spacing, or under "
-            f"{100 * VISIBLE_FRACTION:g} % of the measured response at every DOF at its "
-            "nearest line. They shape the fit; they are not resonances of the data.\n\n"
+            f"not a resonance of the data — under {100 * VISIBLE_FRACTION:g} % of the largest "
+            "measured response around it at every DOF, or seen at one line only. They shape "
+            "the fit; they are not resonances of the data.\n\n"
             + table_markdown(others)
         )
     return text
