@@ -66,21 +66,30 @@ def cantilever_modes() -> tuple[np.ndarray, np.ndarray]:
     return f, shapes
 
 
-def write_test(path: Path, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """The roving-hammer UFF; returns the true in-band (f, ζ)."""
+def true_receptance(freq_hz: np.ndarray, zetas: np.ndarray = ZETAS) -> np.ndarray:
+    """The noise-free receptance H(tip, j) ``(s, 9)`` at ``freq_hz`` (the file's units)."""
+    f_n, phi = cantilever_modes()
+    w, wn = 2 * np.pi * np.asarray(freq_hz, dtype=float), 2 * np.pi * f_n
+    tip = POINTS.size - 1
+    # receptance H(tip, j) = Σ φ_tip φ_j / (ω_k² − ω² + 2iζω_kω), ~ m/N · 10⁻³ scale
+    den = wn[None, :] ** 2 - w[:, None] ** 2 + 2j * zetas * wn[None, :] * w[:, None]
+    return (phi[tip][None, None, :] * phi[None, :, :] / den[:, None, :]).sum(axis=2) * 1e3
+
+
+def write_test(path: Path, seed: int = 0, zetas: np.ndarray = ZETAS,
+               floor: float = FLOOR) -> tuple[np.ndarray, np.ndarray]:
+    """The roving-hammer UFF (damping ratios ``zetas``, noise floor ``floor`` of each
+    FRF's largest value); returns the true in-band (f, ζ)."""
     import pyuff
 
-    f_n, phi = cantilever_modes()
+    f_n, _ = cantilever_modes()
     freq = np.arange(0.0, F_MAX + DF_HZ / 2, DF_HZ)
-    w, wn = 2 * np.pi * freq, 2 * np.pi * f_n
+    w = 2 * np.pi * freq
     tip = POINTS.size - 1
-    # receptance H(tip, j) = Σ φ_tip φ_j / (ω_k² − ω² + 2iζω_kω), then accelerance
-    den = wn[None, :] ** 2 - w[:, None] ** 2 + 2j * ZETAS * wn[None, :] * w[:, None]
-    H = (phi[tip][None, None, :] * phi[None, :, :] / den[:, None, :]).sum(axis=2)
-    A = -(w**2)[:, None] * H * 1e3  # accelerance, ~ (m/s²)/N scale
+    A = -(w**2)[:, None] * true_receptance(freq, zetas)  # accelerance, ~ (m/s²)/N scale
     rng = np.random.default_rng(seed)
     noise = (rng.standard_normal(A.shape) + 1j * rng.standard_normal(A.shape)) / np.sqrt(2)
-    A = A + (NOISE * np.abs(A) + FLOOR * np.abs(A).max(axis=0)) * noise
+    A = A + (NOISE * np.abs(A) + floor * np.abs(A).max(axis=0)) * noise
     A[0] = 0.0
     uff = pyuff.UFF(str(path))
     for j in range(POINTS.size):
@@ -91,7 +100,7 @@ def write_test(path: Path, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
             orddenom_spec_data_type=13,
         ), "add")
     keep = (f_n >= BAND[0]) & (f_n <= BAND[1])
-    return f_n[keep], ZETAS[keep]
+    return f_n[keep], zetas[keep]
 
 
 def run_podid(path: Path, out: Path, profile: bool) -> dict:
@@ -143,9 +152,9 @@ def run_peer(path: Path) -> dict:
         med = float(np.median(e))
         if best is None or med < best[0]:
             best = (med, float(np.percentile(e, 95)), np.asarray(model.nat_freq),
-                    np.asarray(model.nat_xi))
+                    np.asarray(model.nat_xi), H_rec[:, keep], model.freq[keep], order)
     return dict(seconds=time.perf_counter() - t0, median=best[0], p95=best[1],
-                f=best[2], z=best[3])
+                f=best[2], z=best[3], H_acc=best[4], freq=best[5], order=best[6])
 
 
 def recovered(f: np.ndarray, z: np.ndarray, f_true: np.ndarray, z_true: np.ndarray) -> int:

@@ -9,6 +9,8 @@
 - :mod:`.reference` — the paper's literal Kronecker formulation (the oracle);
 - :mod:`.refinement` — output-error refinement: models that reproduce the data;
 - :mod:`.latent` — latent coordinates: models with more DOFs than measured points;
+- :mod:`.holes`, :mod:`.lines` — entries not measured; the informative lines of a long test;
+- :mod:`.modal_start` — the final fit's modal start, rebuilt from the in-band poles;
 - :mod:`.order` — the order on measured data, chosen on held-out lines.
 
 This package re-exports the public names of its modules that ``podid_rs`` offers.
