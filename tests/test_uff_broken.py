@@ -16,6 +16,9 @@ of zeros, a constant channel, one exact zero). Asserted:
   the notes say so too); every FRF dead → ``ValueError``;
 - an FRF exactly zero at one line (pyuff writes a NaN as 0) → a ``DataWarning`` with
   the line in Hz, the values kept;
+- a record whose unit labels disagree with the other records of its ordinate (g/N among
+  m/N) → a ``DataWarning`` naming the record and both labels, the record not fitted; labels
+  that differ only in case, spaces or ``^`` agree; a tie between two labels → ``ValueError``;
 - the file itself is never modified.
 """
 
@@ -263,3 +266,71 @@ def test_every_channel_dead_is_refused(tmp_path):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DataWarning)
             read_uff(path)
+
+
+# ------------------------------------------------------------------ units
+
+
+def write_labelled(path, labels):
+    """The 3-DOF chain's 9 receptances, record k's numerator units labelled ``labels[k]``."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.arange(0.0, 301.0, 1.0)
+    H = np.zeros((freq.size, 3, 3), dtype=complex)
+    H[1:] = chain.frf(2 * np.pi * freq[1:])
+    records = []
+    for k, (o, r) in enumerate((o, r) for o in range(3) for r in range(3)):
+        record = frf_record(DOFS[o], DOFS[r], freq, H[:, o, r])
+        record.update(ordinate_axis_units_lab=labels[k], orddenom_axis_units_lab="N")
+        records.append(record)
+    pyuff.UFF(str(path)).write_sets(records, "add")
+    return path
+
+
+def test_a_record_in_other_units_is_left_out_and_named(tmp_path):
+    labels = ["m"] * 9
+    labels[5] = "mm"  # record 6: response 2:3 / reference 3:3
+    path = write_labelled(tmp_path / "units.uff", labels)
+    with pytest.warns(DataWarning, match=r"FRF record\(s\) 6 \(response 2:3 / reference 3:3, "
+                      r"'mm/n'\) are in other units than the 8 other displacement records "
+                      r"\('m/n'\): left out as not measured") as caught:
+        data = read_uff(path)
+    assert len([w for w in caught if "units" in str(w.message)]) == 1
+    # 2:3/3:3 was measured once more, as 3:3/2:3 (reciprocity): the entry stays measured
+    # from that record alone, the same values as a file without record 6
+    labels[5] = "m"
+    clean = read_uff(write_labelled(tmp_path / "clean.uff", labels))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        np.testing.assert_allclose(data.U, clean.U, rtol=0, atol=1e-14 * np.abs(clean.U).max())
+    assert any("other units" in note for note in data.notes)
+
+
+def test_labels_that_differ_in_spelling_only_agree(tmp_path):
+    labels = ["m"] * 4 + ["M"] * 3 + [" m "] * 2
+    path = write_labelled(tmp_path / "spelling.uff", labels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        read_uff(path)
+
+
+def test_a_tie_between_two_units_is_refused(tmp_path):
+    labels = ["m"] * 4 + ["g"] * 4 + ["NONE"]
+    path = write_labelled(tmp_path / "tie.uff", labels)
+    with pytest.raises(ValueError, match=r"the displacement FRF records disagree on their "
+                       r"units, as many in 'm/n' as in 'g/n' \(records \[1, 2, 3, 4\] against "
+                       r"\[5, 6, 7, 8\]\): convert them to one unit"):
+        read_uff(path)
+
+
+def test_a_record_left_out_for_its_units_is_not_fitted(tmp_path):
+    """The driving point 2:3 / 2:3 in other units: without it the fewest columns that
+    hold every other record are the forces at 1 and 3 (by reciprocity), and no value of
+    record 5 reaches the data."""
+    labels = ["m"] * 9
+    labels[4] = "in"  # record 5: the driving point 2:3 / 2:3, measured once
+    with pytest.warns(DataWarning, match=r"FRF record\(s\) 5 \(response 2:3 / reference 2:3"):
+        data = read_uff(write_labelled(tmp_path / "hole.uff", labels))
+    np.testing.assert_array_equal(data.dofs[data.inputs, 0], [1, 3])
+    assert data.measured.all()
+    _, freq, H = write_chain(tmp_path / "chain.uff")
+    np.testing.assert_allclose(data.U, H[1:][:, :, [0, 2]], rtol=1e-6)

@@ -297,8 +297,10 @@ def read_uff(
     Nothing is read silently: a record cut off or whose values do not match its
     header, and non-finite values, are refused; an FRF that is zero at every line
     (of the band) — a dead channel — is left out as not measured, with a
-    :class:`~podid_rs.measured.DataWarning`, as are lines of an FRF that are exactly
-    zero (kept; their dB error is not defined).
+    :class:`~podid_rs.measured.DataWarning`, as is a record whose unit labels
+    (``ordinate_axis_units_lab`` / ``orddenom_axis_units_lab``) disagree with those of
+    the other records of its ordinate (g/N among (m/s²)/N; a tie is refused); lines of
+    an FRF that are exactly zero are warned about (kept; their dB error is not defined).
 
     Parameters
     ----------
@@ -371,15 +373,17 @@ def read_uff(
         elif x.shape != freq.shape or not np.allclose(x, freq, rtol=1e-9, atol=0.0):
             raise ValueError(f"{where}: its frequency lines differ from those of record 1")
         sign = (-1.0 if rsp[1] < 0 else 1.0) * (-1.0 if ref[1] < 0 else 1.0)
-        raw.append((k + 1, (rsp[0], abs(rsp[1])), (ref[0], abs(ref[1])), sign * y, q, label))
+        raw.append((k + 1, (rsp[0], abs(rsp[1])), (ref[0], abs(ref[1])), sign * y, q, label,
+                    _units(d)))
     if np.any(np.diff(freq) <= 0):
         raise ValueError(f"{path}: the frequency lines are not strictly increasing")
     positive = np.flatnonzero(freq > 0)
     keep = positive if band_hz is None else positive[band_lines(freq[positive], band_hz)]
     omega = 2 * np.pi * freq[keep]
     where = "of the band" if band_hz is not None else "in the file"
-    records, notes = [], []
-    for number, rsp, ref, y, q, label in raw:
+    raw, notes = _same_units(raw, path)
+    records = []
+    for number, rsp, ref, y, q, label, _ in raw:
         record = _Frf(number, rsp, ref, to_receptance(y[keep], omega, q), label)
         dead = _dead_channel(record, freq[keep], where)
         if dead:
@@ -400,6 +404,51 @@ def read_uff(
     data = from_frf(H, omega, inputs=[rows.index(r) for r in cols],
                     dofs=np.asarray(rows, dtype=np.int64), measured=mask)
     return replace(data, notes=(*layout.notes, *notes))
+
+
+def _units(record: dict) -> str | None:
+    """The record's unit labels, numerator / denominator, normalised (case, spaces,
+    ``^``, ``*`` and brackets ignored); None where the file gives none."""
+    labels = []
+    for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
+        text = str(record.get(key, "") or "").strip()
+        labels.append("" if text.upper() in ("", "NONE") else
+                      "".join(c for c in text.lower() if c not in " ^*()[]"))
+    return None if not any(labels) else "/".join(labels)
+
+
+def _same_units(raw: list, path: Path) -> tuple[list, list[str]]:
+    """The records whose unit labels agree with the others of the same ordinate
+    (displacement, velocity, acceleration): a record labelled in another unit (g/N
+    among (m/s²)/N) would enter the fit at another scale, so it is left out as not
+    measured, with a :class:`DataWarning` naming it and both labels. A tie between two
+    labels cannot be settled and is refused. Records without labels are kept."""
+    keep, notes = [], []
+    for q in dict.fromkeys(item[4] for item in raw):
+        group = [item for item in raw if item[4] == q]
+        counts: dict[str, int] = {}
+        for item in group:
+            if item[6] is not None:
+                counts[item[6]] = counts.get(item[6], 0) + 1
+        if len(counts) > 1:
+            ranked = sorted(counts.items(), key=lambda kv: -kv[1])
+            if ranked[0][1] == ranked[1][1]:
+                raise ValueError(
+                    f"{path}: the {q} FRF records disagree on their units, as many in "
+                    f"{ranked[0][0]!r} as in {ranked[1][0]!r} (records "
+                    f"{[i[0] for i in group if i[6] == ranked[0][0]]} against "
+                    f"{[i[0] for i in group if i[6] == ranked[1][0]]}): convert them to one unit"
+                )
+            unit = ranked[0][0]
+            odd = [item for item in group if item[6] not in (None, unit)]
+            text = (f"FRF record(s) {', '.join(f'{i[0]} ({i[5]}, {i[6]!r})' for i in odd)} "
+                    f"are in other units than the {counts[unit]} other {q} records "
+                    f"({unit!r}): left out as not measured (convert them to include them)")
+            warnings.warn(f"{path}: {text}", DataWarning, stacklevel=3)
+            notes.append(f"{path.name}: {text}")
+            group = [item for item in group if item[6] in (None, unit)]
+        keep += [id(item) for item in group]
+    return [item for item in raw if id(item) in keep], notes
 
 
 def _finite_ordinate(values: object, x: np.ndarray, where: str) -> np.ndarray:
