@@ -293,3 +293,26 @@ def test_predict_and_project_with_holes():
     assert np.allclose(U_m[:, mask], H[:, mask], rtol=1e-14, atol=0)
     assert np.all(np.abs(U_m[:, ~mask]) <= 1e-14 * np.abs(H).max())
     assert isinstance(data, MeasuredData) and F_m.shape == U_m.shape
+
+
+def test_the_order_limit_counts_measured_entries_only():
+    """Each measured entry gives 2 real equations per fitted line; a hole gives none. An
+    order whose free parameters exceed the measured entries' equations is refused with
+    the count of measured entries, where the full grid would still allow it."""
+    from podid_rs.identification.latent import free_parameters
+    from podid_rs.identification.order import order_limit, sweep_orders
+
+    chain = pr.mass_spring_chain(6, m1=1.0, m2=1.0)
+    omega = 2 * np.pi * np.linspace(5, 150, 12)
+    H = chain.frf(omega)[:, :2, :2]
+    mask = np.array([[True, True], [True, False]])
+    data = from_frf(H * mask, omega, inputs=[0, 1], measured=mask)
+    lines = int(np.sum(np.arange(12) % 4 != 2))
+    full, holed = order_limit(lines, 2, 2, 2), order_limit(lines, 2, 2, 2, entries=3)
+    assert holed < full
+    assert free_parameters(holed, 2) <= 2 * lines * 3 < free_parameters(holed + 1, 2)
+    with pytest.raises(ValueError, match=rf"m must be in \[1, {holed}\]: .* more than the "
+                       rf"{2 * lines * 3} real equations of the {lines} fitted lines × 3 "
+                       r"measured entries of the 2 × 2 grid"):
+        sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m=holed + 1,
+                     measured=mask)

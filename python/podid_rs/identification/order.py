@@ -388,13 +388,14 @@ def _observed_starts(order, previous, fits, Ut, Ft, wt, w):
     return starts
 
 
-def order_limit(lines: int, n: int, p: int, observed: int) -> int:
+def order_limit(lines: int, n: int, p: int, observed: int, entries: int | None = None) -> int:
     """The highest order m whose free parameters the data can determine.
 
     An order-m model with k = min(m, ``observed``) observed coordinates has
     :func:`~podid_rs.identification.latent.free_parameters` (3m(m+1)/2 less the gauge
-    of its m − k latent coordinates); ``lines`` frequency lines of ``n`` measured
-    DOFs and ``p`` load cases give 2·lines·n·p real equations.
+    of its m − k latent coordinates); ``lines`` frequency lines of ``entries``
+    measured responses (n·p: ``n`` measured DOFs in ``p`` load cases, less the holes)
+    give 2·lines·entries real equations.
 
     Parameters
     ----------
@@ -402,13 +403,15 @@ def order_limit(lines: int, n: int, p: int, observed: int) -> int:
         Frequency lines fitted, measured DOFs, load cases.
     observed : int
         POD coordinates available (the POD modes with energy, at most n).
+    entries : int, optional
+        The measured entries of the n × p grid (default n·p: no holes).
 
     Returns
     -------
     int
         The largest m with at most as many free parameters as equations (0 if none).
     """
-    equations = 2 * lines * n * p
+    equations = 2 * lines * (n * p if entries is None else entries)
     m = 0
     while free_parameters(m + 1, min(m + 1, observed)) <= equations:
         m += 1
@@ -506,16 +509,18 @@ def sweep_orders(
     if train.sum() < 2 or test.sum() < 1:
         raise ValueError(f"{s} lines are too few to hold every {holdout}-th out")
     observed = min(int(np.sum(pod_result.eigenvalues > 0)), n)
-    limit = order_limit(int(train.sum()), n, p, observed)
+    entries = n * p if measured is None else int(measured.sum())
+    limit = order_limit(int(train.sum()), n, p, observed, entries)
     if m is not None:
         if not 1 <= m <= limit:
             k = min(m, observed)
+            grid = (f"{n} measured DOF(s) × {p} load case(s)" if measured is None else
+                    f"{entries} measured entries of the {n} × {p} grid")
             raise ValueError(
                 f"m must be in [1, {limit}]: an order-{m} model with {k} observed "
                 f"(POD) and {m - k} latent coordinates has {free_parameters(m, k)} free "
-                f"parameters, more than the {2 * int(train.sum()) * n * p} real equations "
-                f"of the {int(train.sum())} fitted lines × {n} measured DOF(s) × {p} load "
-                f"case(s), got m = {m}"
+                f"parameters, more than the {2 * int(train.sum()) * entries} real equations "
+                f"of the {int(train.sum())} fitted lines × {grid}, got m = {m}"
                 if m > limit
                 else f"m must be in [1, {limit}], got {m}"
             )
