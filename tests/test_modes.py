@@ -187,6 +187,38 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
         mode_kinds(shapes, w, U)
 
 
+def test_a_pole_where_the_data_have_no_peak_is_weak():
+    """The data of one mode (30 Hz) against a model that also has a strong pole at
+    100 Hz, where the data fall smoothly as 1/ω²: its own term is as large as the data
+    there (the visibility test passes), but the data do not rise to a peak — weak; the
+    resonance stays structural. With the 100 Hz mode in the data, it is structural."""
+    from podid_rs.modes import mode_kinds
+
+    w = 2 * np.pi * np.linspace(20.0, 150.0, 1301)
+    F = np.ones((w.size, 1, 1))
+
+    def seen_at_one_sensor(f_hz):
+        wn = 2 * np.pi * np.asarray(f_hz)
+        model = SecondOrderSystem(np.eye(wn.size), np.diag(2 * 0.01 * wn), np.diag(wn**2))
+        R = np.ones((1, wn.size))
+        U = np.einsum("nm,smp->snp", R, model.response(w, np.einsum("nm,snp->smp", R, F)))
+        return model, R, U
+
+    _, _, U_data = seen_at_one_sensor([30.0])
+    two, R, U_two = seen_at_one_sensor([30.0, 100.0])
+    shapes = mode_shapes(two, R)
+    near = np.abs(w / (2 * np.pi) - 100.0) < 2.0
+    line = int(np.argmin(np.abs(w / (2 * np.pi) - 100.0)))
+    term = 1.0 / abs(shapes.modal_a[1] * (1j * w[line] - shapes.eigenvalues[1]))
+    assert term > 0.1 * np.abs(U_data[near]).max()  # visible by the term test alone
+    kinds = dict(zip(np.round(shapes.frequencies_hz), mode_kinds(shapes, w, U_data, [0]),
+                     strict=True))
+    assert kinds == {30.0: "structural", 100.0: "weak"}
+    kinds = dict(zip(np.round(shapes.frequencies_hz), mode_kinds(shapes, w, U_two, [0]),
+                     strict=True))
+    assert kinds == {30.0: "structural", 100.0: "structural"}
+
+
 def test_a_zero_eigenvalue_has_zero_damping_ratio():
     shapes = ModeShapes(np.array([0.0 + 0.0j, -1.0 + 1.0j]), np.eye(2, dtype=complex))
     with warnings.catch_warnings():

@@ -284,6 +284,12 @@ RESIDUAL_ZETA = 0.2
 #: of its three nearest lines is a weak term of the fit
 VISIBLE_FRACTION = 0.1
 VISIBLE_WINDOW = 0.02
+#: a resonance of the data rises above its surroundings: the largest measured |U| within
+#: the pole's half-power band (or at its nearest line) is at least PEAK_RISE times the
+#: median |U| over one side of the ring from PEAK_RING[0] to PEAK_RING[1] half-power bands
+#: away (at least 2 and 6 lines; the lower side), at some measured entry
+PEAK_RISE = 2.0
+PEAK_RING = (3.0, 10.0)
 
 
 def mode_kinds(
@@ -316,6 +322,9 @@ def mode_kinds(
       anti-resonance to shape the dip, or a nearly undamped one on a single line to fit
       that line (judged only with measured FRFs ``U`` and a symmetric model's
       ``modal_a``);
+      or one where the measured data have no peak: their largest |U| within its
+      half-power band is under ``PEAK_RISE`` times their median over the ring from 3 to
+      10 half-power bands away at every measured entry (the fit's peak, not the data's);
     * ``"structural"`` — every other pole: a resonance of the measured data.
 
     Parameters
@@ -377,4 +386,28 @@ def mode_kinds(
                        & measured_entries) for j in lines]
         if sum(seen) < 2:  # a resonance shows at more than one line; a spike on a line not
             kinds[k] = WEAK
+        elif not _data_peak(w, Ua, measured_entries, lam[k]):
+            kinds[k] = WEAK  # the model has a peak there; the data have none
     return kinds.astype(str)
+
+
+def _data_peak(w: np.ndarray, Ua: np.ndarray, measured: np.ndarray, lam: complex) -> bool:
+    """The measured |U| rises to a peak at the pole ``lam``: within its half-power band
+    (or at its nearest line) at least ``PEAK_RISE`` times its median over the ring
+    ``PEAK_RING`` half-power bands away, at some measured entry. A pole the fit needs
+    to shape the data between resonances (two nearly cancelling terms, or one fitting
+    noise) has a peak in its own term, not in the data."""
+    half = abs(lam.real)  # half the half-power band, rad/s
+    distance = np.abs(w - lam.imag)
+    spacing = float(np.median(np.diff(w))) if w.size > 1 else 0.0
+    inner = distance <= half
+    inner[int(np.argmin(distance))] = True
+    ring = (distance >= max(PEAK_RING[0] * 2 * half, 2 * spacing)) & \
+        (distance <= max(PEAK_RING[1] * 2 * half, 6 * spacing))
+    sides = [side for side in (ring & (w < lam.imag), ring & (w > lam.imag)) if side.any()]
+    if not sides:
+        return True  # nothing around it to compare with: no evidence against
+    peak = np.abs(Ua[inner]).max(axis=0)
+    # the lower side: a resonance beside a stronger one still rises above its other side
+    around = np.min([np.median(np.abs(Ua[side]), axis=0) for side in sides], axis=0)
+    return bool(np.any((peak >= PEAK_RISE * around) & measured))
