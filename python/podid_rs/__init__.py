@@ -16,6 +16,8 @@ the paper's Kronecker matrix. The pipeline, one home per stage, lowest first:
 - :mod:`podid_rs.physical` — SPD/PSD correction, modal parameters, stability;
 - :mod:`podid_rs.modes` — mode shapes on the measured DOFs, the MAC;
 - :mod:`podid_rs.stabilisation` — stabilisation chart over the POD order;
+- :mod:`podid_rs.uncertainty` — confidence intervals on the modes, FRFs and M, C, K
+  of a refined model;
 - :mod:`podid_rs.statespace` — the model as a ``scipy.signal.StateSpace``;
 - :mod:`podid_rs.io` — files: Universal Files (datasets 15, 55, 58) and ``.npz``;
 - :mod:`podid_rs.plotting` — every figure;
@@ -56,19 +58,40 @@ from .pod import (
     pod_from_frf,
     pod_from_spectra,
 )
-from .simulation import Simulation, add_noise, frf_h1, simulate_white_noise, spectra
+from .simulation import (
+    H1Coherence,
+    Simulation,
+    add_noise,
+    frf_h1,
+    h1_coherence,
+    simulate_white_noise,
+    spectra,
+)
 from .stabilisation import StabilisationChart, is_physical, stabilisation_chart
 from .systems import SecondOrderSystem, mass_spring_chain, mass_spring_lattice
+from .uncertainty import (
+    FRFBand,
+    MatrixIntervals,
+    ModeIntervals,
+    ModelUncertainty,
+    fit_uncertainty,
+    model_uncertainty,
+)
 
 __version__ = "0.1.0"
 
 __all__ = [
     "ConvergenceWarning",
     "DataWarning",
+    "FRFBand",
+    "H1Coherence",
     "IdentificationResult",
     "LambdaCurve",
     "LambdaSelectionWarning",
+    "MatrixIntervals",
     "MeasuredData",
+    "ModeIntervals",
+    "ModelUncertainty",
     "ModeShapes",
     "NoCornerWarning",
     "OrderSweep",
@@ -83,7 +106,9 @@ __all__ = [
     "correlation_from_frf",
     "correlation_from_snapshots",
     "final_fit",
+    "fit_uncertainty",
     "frf_h1",
+    "h1_coherence",
     "identify",
     "is_physical",
     "lambda_curve",
@@ -94,6 +119,7 @@ __all__ = [
     "mass_spring_chain",
     "mass_spring_lattice",
     "modal_parameters",
+    "model_uncertainty",
     "observation_matrix",
     "mode_shapes",
     "plot_lambda_curve",

@@ -355,6 +355,51 @@ def _records(x: object, name: str) -> np.ndarray:
     return a
 
 
+@dataclass(frozen=True)
+class _Welch:
+    """Welch segmentation shared by :func:`frf_h1` and :func:`h1_coherence`."""
+
+    x: np.ndarray
+    y: np.ndarray
+    nperseg: int
+    step: int
+    n_avg: int
+    lines: np.ndarray
+    window: np.ndarray
+    omega: np.ndarray
+
+    def spectra(self, a: np.ndarray) -> np.ndarray:
+        """Windowed spectra of every segment of every record, ``(s, channels, n_avg)``."""
+        seg = np.lib.stride_tricks.sliding_window_view(a, self.nperseg, axis=1)[:, :: self.step]
+        seg = seg - seg.mean(axis=-1, keepdims=True)
+        X = np.fft.rfft(seg * self.window, axis=-1)[..., self.lines]  # (n_rec, n_seg, ch, s)
+        return X.reshape(self.n_avg, a.shape[2], self.lines.size).transpose(2, 1, 0)
+
+
+def _welch(forces, responses, dt, nperseg, band_hz, window) -> _Welch:
+    x = _records(forces, "forces")
+    y = _records(responses, "responses")
+    if x.shape[:2] != y.shape[:2]:
+        raise ValueError(
+            f"forces and responses must have the same number of records and samples, "
+            f"got {x.shape} and {y.shape}"
+        )
+    dt = as_scalar(dt, "dt")
+    r = x.shape[1]
+    nperseg = min(r, 256) if nperseg is None else as_count(nperseg, "nperseg", 2, r)
+    step = nperseg - nperseg // 2
+    n_avg = x.shape[0] * ((r - nperseg) // step + 1)
+    n_in = x.shape[2]
+    if n_avg < n_in:
+        raise ValueError(
+            f"{n_avg} averaged segments cannot resolve {n_in} inputs (S_xx would be "
+            "singular); use longer or more records or a smaller nperseg"
+        )
+    lines = _band_lines(nperseg, dt, band_hz)
+    omega = 2 * np.pi * np.fft.rfftfreq(nperseg, dt)[lines]
+    return _Welch(x, y, nperseg, step, n_avg, lines, get_window(window, nperseg), omega)
+
+
 def frf_h1(
     forces: object,
     responses: object,
@@ -396,39 +441,108 @@ def frf_h1(
         For malformed histories, records or samples that differ, fewer averaged
         segments than inputs, or a band outside (0, Nyquist) or without a line.
     """
-    x = _records(forces, "forces")
-    y = _records(responses, "responses")
-    if x.shape[:2] != y.shape[:2]:
-        raise ValueError(
-            f"forces and responses must have the same number of records and samples, "
-            f"got {x.shape} and {y.shape}"
-        )
-    dt = as_scalar(dt, "dt")
-    r = x.shape[1]
-    nperseg = min(r, 256) if nperseg is None else as_count(nperseg, "nperseg", 2, r)
-    step = nperseg - nperseg // 2
-    n_avg = x.shape[0] * ((r - nperseg) // step + 1)
-    n_in = x.shape[2]
-    if n_avg < n_in:
-        raise ValueError(
-            f"{n_avg} averaged segments cannot resolve {n_in} inputs (S_xx would be "
-            "singular); use longer or more records or a smaller nperseg"
-        )
-    lines = _band_lines(nperseg, dt, band_hz)
-    win = get_window(window, nperseg)
-
-    def segment_spectra(a: np.ndarray) -> np.ndarray:
-        """Windowed spectra of every segment of every record, ``(s, channels, n_avg)``."""
-        seg = np.lib.stride_tricks.sliding_window_view(a, nperseg, axis=1)[:, ::step]
-        seg = seg - seg.mean(axis=-1, keepdims=True)
-        X = np.fft.rfft(seg * win, axis=-1)[..., lines]  # (n_rec, n_seg, channels, s)
-        return X.reshape(n_avg, a.shape[2], lines.size).transpose(2, 1, 0)
-
-    X = segment_spectra(x)
-    Y = segment_spectra(y)
+    welch = _welch(forces, responses, dt, nperseg, band_hz, window)
+    X = welch.spectra(welch.x)
+    Y = welch.spectra(welch.y)
     Xh = X.conj().transpose(0, 2, 1)
     Sxx = X @ Xh  # (s, n_in, n_in)
     Syx = Y @ Xh  # (s, n_out, n_in)
     # H Sxx = Syx  ⇔  Sxxᵀ Hᵀ = Syxᵀ
     H = np.linalg.solve(Sxx.transpose(0, 2, 1), Syx.transpose(0, 2, 1)).transpose(0, 2, 1)
-    return 2 * np.pi * np.fft.rfftfreq(nperseg, dt)[lines], H
+    return welch.omega, H
+
+
+@dataclass(frozen=True)
+class H1Coherence:
+    """What the variance of H1 estimates needs: coherence, averages, line correlation.
+
+    What :func:`h1_coherence` returns, for :func:`podid_rs.model_uncertainty`
+    (``coherence=``, ``averages=``, ``line_correlation=``).
+
+    Attributes
+    ----------
+    omega : numpy.ndarray, (s,)
+        The lines (rad/s), those of :func:`frf_h1` with the same arguments.
+    coherence : numpy.ndarray, (s, n_out)
+        The ordinary coherence γ² = |S_yx|² / (S_xx S_yy) of each response with the
+        input.
+    averages : float
+        The number of independent averages the overlapping segments are worth
+        (Welch): K / (1 + 2 Σ_j (1 − j/K) ρ_j²) per record, ρ_j the window's overlap
+        correlation at j segment steps.
+    line_correlation : tuple of float
+        The correlation of the H1 errors of lines 1 and 2 apart, for white input and
+        noise: |Σ w² e^{2πiℓn/N}|² / (Σ w²)² (Hann: 4/9 and 1/36).
+    """
+
+    omega: np.ndarray
+    coherence: np.ndarray
+    averages: float
+    line_correlation: tuple[float, ...]
+
+
+def h1_coherence(
+    forces: object,
+    responses: object,
+    dt: float,
+    nperseg: int | None = None,
+    band_hz: tuple[float, float] | None = None,
+    window: str = "hann",
+) -> H1Coherence:
+    """Coherence, effective averages and line correlation of the H1 estimates of :func:`frf_h1`.
+
+    Bendat & Piersol's random error of an H1 estimate from n_d averages with
+    coherence γ² (the normalised error of |Ĥ| and the error of its phase, each
+    √(1 − γ²)/(|γ|√(2 n_d))) needs γ² and n_d; overlapping windowed segments are
+    fewer independent averages than segments, and their spectra correlate
+    neighbouring lines. One input only (ordinary coherence).
+
+    Parameters
+    ----------
+    forces : array_like, real, (r, 1) or (n_rec, r, 1)
+        The force history (one input).
+    responses : array_like, real, (r, n_out) or (n_rec, r, n_out)
+        Response histories, with the force's records and samples.
+    dt : float
+        Sampling interval (s), > 0.
+    nperseg : int, optional
+        Samples per segment, as for :func:`frf_h1`.
+    band_hz : tuple of float, optional
+        The lines kept, as for :func:`frf_h1`.
+    window : str
+        A ``scipy.signal.get_window`` name, as for :func:`frf_h1`.
+
+    Returns
+    -------
+    H1Coherence
+        Coherence per line and response, the effective number of averages and the
+        correlation between lines.
+
+    Raises
+    ------
+    ValueError
+        As :func:`frf_h1`, and for more than one input.
+    """
+    welch = _welch(forces, responses, dt, nperseg, band_hz, window)
+    if welch.x.shape[2] != 1:
+        raise ValueError(f"h1_coherence takes one input (ordinary coherence), got "
+                         f"{welch.x.shape[2]}; with several, give the noise variance instead")
+    X = welch.spectra(welch.x)[:, 0, :]  # (s, n_avg)
+    Y = welch.spectra(welch.y)  # (s, n_out, n_avg)
+    Sxx = np.sum(np.abs(X) ** 2, axis=1)
+    Syy = np.sum(np.abs(Y) ** 2, axis=2)
+    Syx = np.einsum("sok,sk->so", Y, X.conj())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gamma2 = np.abs(Syx) ** 2 / (Sxx[:, None] * Syy)
+    gamma2 = np.clip(np.nan_to_num(gamma2), 0.0, 1.0)
+    w, N, step = welch.window, welch.nperseg, welch.step
+    w2 = w * w
+    per_record = welch.n_avg // welch.x.shape[0]
+    rho = [float(np.sum(w[: N - j * step] * w[j * step:]) / np.sum(w2))
+           for j in range(1, per_record) if j * step < N]
+    k = per_record
+    effective = k / (1 + 2 * sum((1 - j / k) * r * r for j, r in enumerate(rho, start=1)))
+    n = np.arange(N)
+    corr = tuple(float(abs(np.sum(w2 * np.exp(2j * np.pi * lag * n / N))) ** 2 / np.sum(w2) ** 2)
+                 for lag in (1, 2))
+    return H1Coherence(welch.omega, gamma2, effective * welch.x.shape[0], corr)

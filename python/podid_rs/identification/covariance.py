@@ -1,0 +1,591 @@
+"""Covariance of an output-error fit: the Gauss–Newton matrix, the noise, the sandwich.
+
+:func:`~podid_rs.refine` minimises, over symmetric M, C, K,
+
+    c = Σ_ce W_ce² ρ_ce²,    ρ_ce = ŷ_ce − u_ce            (objective "complex")
+                             ρ_ce = ln|ŷ_ce| − ln|u_ce|    (objective "log-magnitude")
+
+over the measured entries e (DOF) of every column c (line and load case), with
+ŷ_c = R D(ω)⁻¹ Rᵀ f_c the model's response on the measured DOFs and W the weights
+(a scalar per column, 1/‖u_c‖ for ``"relative"``, or one per entry). Noise δu on the
+data moves the optimum, to first order, by
+
+    δθ = N⁻¹ Jᵣᵀ (∂r/∂u) δu,      N = Jᵣᵀ Jᵣ (the Gauss–Newton matrix),
+
+so cov θ̂ = N⁻¹ S N⁻¹ with S = Jᵣᵀ (∂r/∂u) Σ_u (∂r/∂u)ᵀ Jᵣ: the **sandwich**. It
+reduces to N⁻¹/2 only when W² is the inverse noise variance; relative weights on
+additive noise need the sandwich. Both N and S are Gauss–Newton matrices of the
+same residual with other weights (:class:`EntryWeights`): for circular complex
+noise of variance σ² per entry,
+
+    complex:        N ← W²,                 S ← W⁴ σ² / 2
+    log-magnitude:  N ← W² (exact Re(J)ᵀRe(J)),   S ← W⁴ σ² / (2 |u|²).
+
+**Coordinates.** The covariance is taken in M, C, K themselves — the coordinates of
+each symmetric block in the orthonormal basis {E_jj} ∪ {(E_jk + E_kj)/√2} (the
+symmetric half of docs/design.md §3), on data scaled as there (ω by its RMS, u and
+f by theirs) — not in the refinement's Cholesky factors: the covariance of
+anything computed from M, C, K is the same in every parametrisation that maps onto
+them locally one-to-one, and the factors' map is nearly singular where the fit puts
+C at the edge of positive semidefiniteness (the usual case on measured data). With
+latent coordinates the matrices have a gauge (:mod:`.latent`): N is singular along
+it, and only quantities it leaves unchanged have a variance.
+
+**The noise.** Given per entry (``noise_variance``), from the coherence γ² and the
+number of averages n_d of H1 estimates (Bendat & Piersol: the normalised random
+error of |Ĥ| and the error of its phase in radians are each
+√(1 − γ²)/(|γ|√(2n_d)), so E|δĤ|² = |Ĥ|²(1 − γ²)/(γ² n_d)), or estimated from the
+residuals ŷ − u of the fit: one variance per channel (measured DOF and load case)
+over the lines, by default, or per line, or one for all; the residuals have
+2·entries − rank real degrees of freedom, and the variances are scaled by their ratio.
+
+:func:`gauss_newton_matrix` forms N (or S) densely from five moment sums of
+Kronecker products (O(columns · m⁴)); :class:`LinearisedFit` holds the point, and
+its ``jacobian`` is the explicit (small-problem) oracle the fast paths are tested
+against; ``product`` applies N or S to vectors line by line (O(columns · m²)
+memory-light products) for the matrix-free path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from .._arrays import as_array
+
+Objective = Literal["complex", "log-magnitude"]
+NoiseModel = Literal["channel", "line", "global"]
+
+#: a coherence below this is taken as this (the variance of that entry is then huge)
+COHERENCE_FLOOR = 1e-12
+
+
+def sym_pairs(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Row, column (j ≤ k, row-major) and the factor f of each symmetric coordinate.
+
+    The coordinate p = (j, k) is the coefficient of E_jj (j = k) or
+    (E_jk + E_kj)/√2 (j < k); ``f`` is 1/√2 off the diagonal and 1/2 on it, so
+    that the coordinate of the gradient A (∂g/∂X_ij = A_ij) is f·(A + Aᵀ)_jk.
+    """
+    rows, cols = np.triu_indices(m)
+    f = np.where(rows == cols, 0.5, 1.0 / np.sqrt(2.0))
+    return rows, cols, f
+
+
+def sym_gradient(A: np.ndarray) -> np.ndarray:
+    """Coordinates of a gradient with respect to a symmetric matrix.
+
+    ``A`` is ``(..., m, m)``: ∂g/∂X_ij for the entries of X taken as independent;
+    the result ``(..., m(m+1)/2)`` is ∂g/∂θ_p for the orthonormal symmetric
+    coordinates θ of :func:`sym_pairs`.
+    """
+    m = A.shape[-1]
+    rows, cols, f = sym_pairs(m)
+    S = A + np.swapaxes(A, -1, -2)
+    return f * S[..., rows, cols]
+
+
+def sym_matrix(theta: np.ndarray, m: int) -> np.ndarray:
+    """The symmetric matrices ``(..., m, m)`` of coordinates ``(..., m(m+1)/2)``."""
+    rows, cols, _ = sym_pairs(m)
+    diag = rows == cols
+    X = np.zeros(theta.shape[:-1] + (m, m), dtype=theta.dtype)
+    off = theta[..., ~diag] / np.sqrt(2.0)
+    X[..., rows[~diag], cols[~diag]] = off
+    X[..., cols[~diag], rows[~diag]] = off
+    X[..., rows[diag], cols[diag]] = theta[..., diag]
+    return X
+
+
+def _rms(z: np.ndarray) -> float:
+    a = np.abs(z[np.isfinite(z)])
+    top = float(a.max()) if a.size else 0.0
+    if top == 0.0:
+        return 1.0
+    return top * float(np.sqrt(np.mean((a / top) ** 2)))
+
+
+@dataclass(frozen=True)
+class EntryWeights:
+    """Weights of a Gauss–Newton-type matrix over pairs of lines.
+
+    The matrix is Σ_P (A_P + A_Pᵀ)/(1 + [left = right]) with
+    A_P = Re J_lᴴ diag(h) J_r + Re J_lᵀ diag(t) J_r over the entries of the columns
+    of line l = ``left[P]`` and line r = ``right[P]`` (same load case, same DOF); J is
+    the Jacobian of the model's (scaled) responses on the measured entries. Pairs
+    with l = r give the usual Re Σ Jᴴ diag(h) J; pairs of neighbouring lines carry
+    noise that is correlated between lines (H1 estimates from overlapping windows).
+
+    ``left``, ``right`` ``(P,)`` fitted-line indices; ``hermitian`` ``(P, n, p)``;
+    ``symmetric`` ``(P, n, p)`` or None.
+    """
+
+    left: np.ndarray
+    right: np.ndarray
+    hermitian: np.ndarray
+    symmetric: np.ndarray | None = None
+
+    @property
+    def diagonal(self) -> np.ndarray:
+        """Which pairs are a line with itself."""
+        return self.left == self.right
+
+
+class LinearisedFit:
+    """An output-error fit linearised at its optimum: the point, the scales, the weights.
+
+    Parameters
+    ----------
+    M, C, K : numpy.ndarray
+        The fitted model (m × m, symmetric), the caller's units.
+    U, F : numpy.ndarray
+        ``(s, n, p)`` measured responses and the forces on the measured DOFs (zero
+        off the driven ones), on the lines the fit used.
+    omega : numpy.ndarray
+        ``(s,)`` rad/s.
+    R : numpy.ndarray
+        ``(n, m)`` observation matrix (the identity for reduced data).
+    W : numpy.ndarray
+        ``(s, n, p)`` the weight of each entry in the fitted cost.
+    objective : {"complex", "log-magnitude"}
+        What was minimised.
+    grid : numpy.ndarray of int, optional
+        ``(s,)`` the index of each line on the data's grid of lines (the fit may have
+        used a subset), for noise correlated between neighbouring lines; default
+        0 … s − 1.
+
+    Attributes
+    ----------
+    m, s, n, p : int
+        Order, lines, measured entries per column, load cases.
+    n_params : int
+        3 m(m+1)/2 coordinates of M, C, K.
+    scales : numpy.ndarray
+        ``(3,)`` c_M, c_C, c_K: X = c_X · X̃ (docs/design.md §3).
+    """
+
+    def __init__(self, M, C, K, U, F, omega, R, W, objective: Objective,
+                 grid: np.ndarray | None = None) -> None:
+        self.objective = objective
+        self.m = M.shape[0]
+        self.s, self.n, self.p = U.shape
+        self.n_params = 3 * self.m * (self.m + 1) // 2
+        self.R = R
+        self.omega = omega
+        self.U = U
+        self.W = W
+        self.w0 = float(np.sqrt(np.mean(omega**2)))
+        self.su = _rms(U)
+        self.sf = _rms(F)
+        self.scales = np.array([self.sf / (self.su * self.w0**2), self.sf / (self.su * self.w0),
+                                self.sf / self.su])  # fmt: skip
+        self.w = omega / self.w0
+        self.phi = np.stack([-(self.w**2) + 0j, 1j * self.w, np.ones_like(self.w) + 0j])  # (3, s)
+        self.X = [np.asarray(X, dtype=np.float64) / c for X, c in zip((M, C, K), self.scales,
+                                                                       strict=True)]
+        D = (self.phi[0][:, None, None] * self.X[0] + self.phi[1][:, None, None] * self.X[1]
+             + self.X[2][None])  # fmt: skip
+        self.Dinv = np.linalg.inv(D)  # (s, m, m)
+        self.f = np.einsum("nm,snp->smp", R, F) / self.sf  # scaled reduced forces
+        self.x = self.Dinv @ self.f  # (s, m, p) scaled responses of the coordinates
+        self.y = np.einsum("nm,smp->snp", R, self.x)  # scaled responses on the measured DOFs
+        self.u = U / self.su
+        self.grid = np.arange(self.s) if grid is None else np.asarray(grid)
+
+    # ------------------------------------------------------------------ the cost's weights
+    def bread(self) -> EntryWeights:
+        """The weights whose Gauss–Newton matrix is N (the fitted cost's)."""
+        idx = np.arange(self.s)
+        W2 = self.W**2
+        if self.objective == "complex":
+            return EntryWeights(idx, idx, W2)
+        y = np.where(self.W > 0, self.y, 1.0)
+        return EntryWeights(idx, idx, 0.5 * W2 / np.abs(y) ** 2, 0.5 * W2 / y**2)
+
+    def meat(self, variance: np.ndarray, correlation: tuple[float, ...] = ()) -> EntryWeights:
+        """The weights whose matrix is S, the noise's: ``variance`` E|δu|² per entry
+        ``(s, n, p)`` (data units; circular complex noise), and ``correlation[ℓ − 1]``
+        the correlation coefficient of the noise of lines ℓ apart (same entry) on the
+        data's grid of lines (``self.grid``)."""
+        v = variance / self.su**2
+        idx = np.arange(self.s)
+        left, right, rho = [idx], [idx], [np.ones(self.s)]
+        for lag, r in enumerate(correlation, start=1):
+            # pairs of fitted lines that are `lag` apart on the data's grid
+            pos = np.searchsorted(self.grid, self.grid + lag)
+            ok = (pos < self.s) & (self.grid[np.minimum(pos, self.s - 1)] == self.grid + lag)
+            left.append(idx[ok])
+            right.append(pos[ok])
+            rho.append(np.full(int(ok.sum()), float(r)))
+        lft, rgt, rho = (np.concatenate(x) for x in (left, right, rho))
+        sd = np.sqrt(v)
+        c = rho[:, None, None] * sd[lft] * sd[rgt]  # E δu_l δū_r, per entry
+        Wl2, Wr2 = self.W[lft] ** 2, self.W[rgt] ** 2
+        if self.objective == "complex":
+            # E[Re(aᴴ e_l) Re(bᴴ e_r)] = ½ Re(aᴴ E[e_l ē_rᵀ] b) for circular noise
+            return EntryWeights(lft, rgt, 0.5 * Wl2 * Wr2 * c)
+        used = (self.W[lft] > 0) & (self.W[rgt] > 0)
+        ul = np.where(used, self.u[lft], 1.0)
+        ur = np.where(used, self.u[rgt], 1.0)
+        yl = np.where(used, self.y[lft], 1.0)
+        yr = np.where(used, self.y[rgt], 1.0)
+        # r = W ln|u| ⇒ δr = W Re(δu/u): E = ½ W_l W_r Re(c / (u_l ū_r)); then
+        # Re(a_l)ᵀRe(a_r) = ½ Re(a_lᴴ a_r) + ½ Re(a_lᵀ a_r) with a = J/ŷ
+        h = np.where(used, Wl2 * Wr2 * 0.5 * np.real(c / (ul * np.conj(ur))), 0.0)
+        return EntryWeights(lft, rgt, 0.5 * h / (np.conj(yl) * yr), 0.5 * h / (yl * yr))
+
+    def residuals(self) -> np.ndarray:
+        """ŷ − u on the measured entries ``(s, n, p)``, in the data's units."""
+        return (self.y - self.u) * self.su
+
+    # ------------------------------------------------------------------ explicit Jacobian
+    def jacobian(self) -> np.ndarray:
+        """∂ŷ/∂θ ``(s, n, p, n_params)`` complex, scaled units: the oracle (small problems).
+
+        δŷ_c = −R D⁻¹ (Σ_b φ_b(ω) δX_b) x_c with φ = (−ω², iω, 1); θ the orthonormal
+        symmetric coordinates of M̃, C̃, K̃ (block-major).
+        """
+        rows, cols, f = sym_pairs(self.m)
+        # D⁻¹ E^p x for every coordinate p: f·(D⁻¹[:, j] x_k + D⁻¹[:, k] x_j), (s, m, p, q)
+        t = (self.Dinv[:, :, None, rows] * self.x[:, None, cols, :].transpose(0, 1, 3, 2)
+             + self.Dinv[:, :, None, cols] * self.x[:, None, rows, :].transpose(0, 1, 3, 2))
+        t = t * f
+        t = np.einsum("nm,smpq->snpq", self.R, t)
+        return np.concatenate([-self.phi[b][:, None, None, None] * t for b in range(3)], axis=3)
+
+    # ------------------------------------------------------------------ matrix-free products
+    def apply_jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """J·θ: ``(n_params, k)`` → δŷ ``(s, n, p, k)``."""
+        nb = self.n_params // 3
+        dX = [sym_matrix(theta[b * nb:(b + 1) * nb].T, self.m) for b in range(3)]  # (k, m, m)
+        dD = (self.phi[0][:, None, None, None] * dX[0][None] + self.phi[1][:, None, None, None]
+              * dX[1][None] + dX[2][None].astype(complex))  # (s, k, m, m)
+        v = np.einsum("skij,sjp->skip", dD, self.x)  # δD x
+        dx = -np.einsum("sij,skjp->skip", self.Dinv, v)
+        return np.einsum("nm,skmp->snpk", self.R, dx)
+
+    def apply_adjoint(self, t: np.ndarray) -> np.ndarray:
+        """Re(Jᴴ t): ``(s, n, p, k)`` complex → ``(n_params, k)``."""
+        z = np.einsum("nm,snpk->smpk", self.R, t)
+        z = np.einsum("sji,sjpk->sipk", self.Dinv.conj(), z)  # D⁻ᴴ Rᵀ t
+        out = []
+        for b in range(3):
+            # ∂/∂X_ij of Re Σ t̄ᵀ J δX = −Re Σ φ̄_b z̄_i x_j ... as the conjugate pairing
+            G = -np.einsum("s,sipk,sjp->kij", self.phi[b], z.conj(), self.x)
+            out.append(sym_gradient(G.real).T)
+        return np.concatenate(out, axis=0)
+
+    def product(self, weights: EntryWeights, theta: np.ndarray) -> np.ndarray:
+        """The matrix of ``weights`` times ``theta`` ``(n_params,)`` or ``(n_params, k)``."""
+        vec = theta.ndim == 1
+        th = theta[:, None] if vec else theta
+        u = self.apply_jacobian(th)  # (s, n, p, k)
+        t = np.zeros_like(u)
+        lft, rgt, diag = weights.left, weights.right, weights.diagonal
+        hH = weights.hermitian[..., None]
+        hS = None if weights.symmetric is None else weights.symmetric[..., None]
+        # A v = Re J_lᴴ (h J_r v + conj(t J_r v)); Aᵀ v = Re J_rᴴ (h̄ J_l v + conj(t J_l v))
+        np.add.at(t, lft, hH * u[rgt] + (0 if hS is None else np.conj(hS * u[rgt])))
+        off = ~diag
+        np.add.at(t, rgt[off], np.conj(hH[off]) * u[lft[off]]
+                  + (0 if hS is None else np.conj(hS[off] * u[lft[off]])))
+        out = self.apply_adjoint(t)
+        return out[:, 0] if vec else out
+
+
+def _pair_sum(fit: LinearisedFit, weights: EntryWeights) -> np.ndarray:
+    """Σ_P A_P (unsymmetrised) of :class:`EntryWeights`, dense, ``(n_params,)²``."""
+    m, nb = fit.m, fit.n_params // 3
+    p = fit.p
+    rows, cols, f = sym_pairs(m)
+    lft, rgt = weights.left, weights.right
+    P = lft.size
+    A = np.zeros((3, 3, m, m, m, m))
+
+    def add(h: np.ndarray, conj: bool) -> None:
+        # Rᵀ diag(h) R per column, (P, p, m, m)
+        Q = fit.R.T @ (h.transpose(0, 2, 1)[..., None] * fit.R)
+        left = fit.Dinv[lft].conj() if conj else fit.Dinv[lft]
+        G = left.transpose(0, 2, 1)[:, None] @ Q @ fit.Dinv[rgt][:, None]  # D_l⁻ᴴ Q D_r⁻¹
+        xl = fit.x[lft].transpose(0, 2, 1)  # (P, p, m)
+        xr = fit.x[rgt].transpose(0, 2, 1)
+        XX = (xl.conj() if conj else xl)[:, :, :, None] * xr[:, :, None, :]  # (P, p, j, l)
+        Gm = G.reshape(P * p, m * m)
+        Xm = XX.reshape(P * p, m * m)
+        # φ_b(ω) = c_b ω^d_b: c = (−1, i, 1), d = (2, 1, 0); the coefficient of block
+        # pair (b, b′) is c̄_b c_b′ ω_l^d_b ω_r^d_b′ (c_b unconjugated without conj)
+        c = np.array([-1.0, 1j, 1.0])
+        d = (2, 1, 0)
+        cl = c.conj() if conj else c
+        wl, wr = np.repeat(fit.w[lft], p), np.repeat(fit.w[rgt], p)
+        same = bool(np.all(lft == rgt))
+        sums: dict[tuple[int, int], np.ndarray] = {}
+        for b in range(3):
+            for bb in range(3):
+                # on a line with itself only the total power matters: five sums
+                key = (0, d[b] + d[bb]) if same else (d[b], d[bb])
+                if key not in sums:
+                    coef = wl ** key[0] * wr ** key[1]
+                    T = (Gm * coef[:, None]).T @ Xm  # [ik, jl]
+                    sums[key] = T.reshape(m, m, m, m).transpose(0, 2, 1, 3)  # [i, j, k, l]
+                A[b, bb] += (cl[b] * c[bb] * sums[key]).real
+
+    add(weights.hermitian.astype(np.complex128), conj=True)
+    if weights.symmetric is not None:
+        add(weights.symmetric.astype(np.complex128), conj=False)
+    N = np.empty((3 * nb, 3 * nb))
+    ff = f[:, None] * f[None, :]
+    for b in range(3):
+        for bb in range(3):
+            S = A[b, bb] + A[b, bb].transpose(1, 0, 2, 3)
+            S = S + S.transpose(0, 1, 3, 2)
+            N[b * nb:(b + 1) * nb, bb * nb:(bb + 1) * nb] = ff * S[rows, cols][:, rows, cols]
+    return N
+
+
+def gauss_newton_matrix(fit: LinearisedFit, weights: EntryWeights) -> np.ndarray:
+    """The matrix of ``weights`` (:class:`EntryWeights`), dense, ``(n_params,)²``.
+
+    In the entries of Z = [M̃ C̃ K̃] each pair's term is a Kronecker product,
+    A[(b, i, j), (b′, k, l)] = Re Σ_P φ̄_b(ω_l) φ_b′(ω_r) G_P[i, k] x̄_{l,j} x_{r,l}
+    with G_P = D_l⁻ᴴ Rᵀ diag(h_P) R D_r⁻¹ (and Re Σ_P φ_b φ_b′ G̃_P[i, k] x_j x_l with
+    G̃_P = D_l⁻ᵀ Rᵀ diag(t_P) R D_r⁻¹): for each of the nine block pairs one matrix
+    product of (m² × columns) by (columns × m²); then each block is taken to the
+    symmetric coordinates. Pairs of distinct lines count as (l, r) and (r, l).
+    """
+    diag = weights.diagonal
+
+    def part(keep: np.ndarray) -> np.ndarray:
+        return _pair_sum(fit, EntryWeights(
+            weights.left[keep], weights.right[keep], weights.hermitian[keep],
+            None if weights.symmetric is None else weights.symmetric[keep]))
+
+    N = part(diag)
+    N = 0.5 * (N + N.T)
+    if not np.all(diag):
+        off = part(~diag)
+        N = N + off + off.T
+    return N
+
+
+# ---------------------------------------------------------------------- the noise
+
+
+def check_variance(v: object, shape: tuple[int, int, int]) -> np.ndarray:
+    """``noise_variance`` as ``(s, n, p)``: a scalar, per line ``(s,)``, per line and DOF
+    ``(s, n)`` or per entry ``(s, n, p)``; finite and non-negative."""
+    try:
+        a = np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"noise_variance must be a real array, got {v!r}") from None
+    if np.any(np.isnan(a)):
+        raise ValueError("noise_variance contains NaN")
+    if np.any(~np.isfinite(a)):
+        raise ValueError("noise_variance contains inf")
+    if np.any(a < 0):
+        raise ValueError(f"noise_variance must be non-negative (found {a.min():.3g})")
+    s, n, p = shape
+    if a.ndim == 0:
+        return np.full(shape, float(a))
+    if a.shape == (s,):
+        return np.broadcast_to(a[:, None, None], shape).copy()
+    if a.shape == (s, n):
+        return np.broadcast_to(a[:, :, None], shape).copy()
+    if a.shape == (s, n, p):
+        return a.copy()
+    raise ValueError(
+        f"noise_variance must be a scalar, (s,) = ({s},), (s, n) = ({s}, {n}) or "
+        f"(s, n, p) = ({s}, {n}, {p}), got shape {a.shape}"
+    )
+
+
+def h1_variance(H: np.ndarray, coherence: object, averages: object) -> np.ndarray:
+    """Variance E|δĤ|² of H1 estimates from their coherence and number of averages.
+
+    Bendat & Piersol (*Random Data*, §9.2.2): the normalised random error of |Ĥ| and
+    the random error of its phase (radians) are each ε = √(1 − γ²)/(|γ|√(2 n_d)), so
+    the complex estimate scatters by E|δĤ|² = 2ε²|Ĥ|² = |Ĥ|²(1 − γ²)/(γ² n_d). Exact
+    for one input (ordinary coherence); with several, give each entry's partial
+    coherence. ``H`` and ``coherence`` are ``(s, n, p)`` (or ``(s, n)`` for coherence).
+
+    Raises ``ValueError`` for a coherence outside [0, 1] or NaN, or averages < 1.
+    """
+    g = np.asarray(coherence, dtype=np.float64)
+    if np.any(np.isnan(g)):
+        raise ValueError("coherence contains NaN")
+    if np.any((g < 0) | (g > 1)):
+        bad = g[(g < 0) | (g > 1)]
+        raise ValueError(f"coherence must lie in [0, 1] (γ², found {bad.flat[0]:.3g})")
+    if g.shape == H.shape[:2]:
+        g = np.broadcast_to(g[:, :, None], H.shape)
+    if g.shape != H.shape:
+        raise ValueError(f"coherence must have shape (s, n) or (s, n, p) = {H.shape}, "
+                         f"got {g.shape}")
+    if isinstance(averages, bool) or not np.isscalar(averages):
+        raise ValueError(f"averages must be a positive number, got {averages!r}")
+    nd = float(averages)
+    if not np.isfinite(nd) or nd < 1:
+        raise ValueError(f"averages must be at least 1 (the number of averaged segments), "
+                         f"got {averages!r}")
+    g = np.maximum(g, COHERENCE_FLOOR)
+    return np.abs(H) ** 2 * (1 - g) / (g * nd)
+
+
+def residual_variance(
+    fit: LinearisedFit, rank: int, model: NoiseModel = "channel"
+) -> tuple[np.ndarray, int]:
+    """Noise variance per entry ``(s, n, p)`` estimated from the residuals ŷ − u.
+
+    ``"channel"``: one variance per measured DOF and load case over the lines;
+    ``"line"``: one per line over the entries; ``"global"``: one for all. Entries of
+    weight 0 did not take part in the fit and are left out. The residuals have
+    2·entries − ``rank`` real degrees of freedom: every mean square is scaled by
+    2·entries / (2·entries − rank). Returns the variances and those degrees of
+    freedom.
+    """
+    e2 = np.abs(fit.residuals()) ** 2
+    used = fit.W > 0
+    n_used = int(used.sum())
+    dof = 2 * n_used - rank
+    if dof <= 0:
+        raise ValueError(
+            f"the residuals have no degrees of freedom left ({n_used} complex entries, "
+            f"{rank} parameters): give noise_variance or coherence"
+        )
+    scale = 2 * n_used / dof
+    e2 = np.where(used, e2, 0.0)
+    if model == "channel":
+        count = np.maximum(used.sum(axis=0, keepdims=True), 1)
+        v = e2.sum(axis=0, keepdims=True) / count
+    elif model == "line":
+        count = np.maximum(used.sum(axis=(1, 2), keepdims=True), 1)
+        v = e2.sum(axis=(1, 2), keepdims=True) / count
+    elif model == "global":
+        v = np.array(e2.sum() / max(n_used, 1)).reshape(1, 1, 1)
+    else:
+        raise ValueError(f"noise must be 'channel', 'line' or 'global', got {model!r}")
+    return np.broadcast_to(v * scale, e2.shape).copy(), dof
+
+
+def entry_weights(
+    weights: object, U: np.ndarray, objective: Objective, observed_basis: bool
+) -> np.ndarray:
+    """Per-entry weights ``(s, n, p)`` of the cost :func:`~podid_rs.refine` minimised.
+
+    ``"relative"``: 1/‖u_c‖ per column (complex objective), 1 per entry
+    (log-magnitude); ``"uniform"``: 1; an array ``(s,)``, ``(s, p)``, ``(s, n)`` or
+    ``(s, n, p)`` (the last two only on measured DOFs, ``observed_basis``). The
+    log-magnitude objective leaves out entries with u = 0.
+    """
+    s, n, p = U.shape
+    if isinstance(weights, str):
+        if weights not in ("relative", "uniform"):
+            raise ValueError(f"weights must be 'relative', 'uniform' or an array, got {weights!r}")
+        if weights == "relative" and objective == "complex":
+            norms = np.linalg.norm(U, axis=1)  # (s, p)
+            w = np.zeros_like(norms)
+            w[norms > 0] = 1.0 / norms[norms > 0]
+            W = np.broadcast_to(w[:, None, :], U.shape).copy()
+        else:
+            W = np.ones(U.shape)
+    else:
+        a = as_array(weights, "weights", real=True)
+        if np.any(a < 0):
+            raise ValueError(f"weights must be non-negative (found {a.min():.3g})")
+        if a.shape == (s,):
+            W = np.broadcast_to(a[:, None, None], U.shape).copy()
+        elif a.shape == (s, p) and (a.shape != (s, n) or not observed_basis):
+            W = np.broadcast_to(a[:, None, :], U.shape).copy()
+        elif observed_basis and a.shape == (s, n):
+            W = np.broadcast_to(a[:, :, None], U.shape).copy()
+        elif observed_basis and a.shape == (s, n, p):
+            W = a
+        else:
+            raise ValueError(f"weights must have shape (s,), (s, p), or per measured entry "
+                             f"(s, n) / (s, n, p), got {a.shape}")
+    if objective == "log-magnitude":
+        W = np.where(np.abs(U) > 0, W, 0.0)
+    if not np.any(W > 0):
+        raise ValueError("weights are all zero: there is nothing fitted")
+    return W
+
+
+# ---------------------------------------------------------------------- the covariance
+
+#: directions of the Gauss–Newton matrix (scaled to unit diagonal) whose eigenvalue is
+#: below this fraction of the largest are not determined by the data
+RANK_RTOL = 1e-11
+#: a derived quantity whose gradient has more than this fraction (relative) along the
+#: undetermined directions has no variance: it depends on what the data do not fix
+UNDETERMINED_RTOL = 1e-6
+
+
+class DenseCovariance:
+    """cov θ̂ = N⁺ S N⁺ from dense N and S, with the undetermined directions found.
+
+    N is scaled to unit diagonal and eigendecomposed; eigenvalues at or below
+    ``rtol`` times the largest span the directions the data do not determine (the
+    gauge of latent coordinates, or a rank deficiency), on which N⁺ is zero. The
+    meat S is given after (:meth:`set_meat`): estimating the noise from the residuals
+    needs the rank first.
+
+    Parameters
+    ----------
+    N : numpy.ndarray
+        The Gauss–Newton matrix of the fitted cost, ``(q, q)``.
+    rtol : float
+        The rank threshold.
+
+    Attributes
+    ----------
+    rank : int
+        The number of determined directions.
+    covariance : numpy.ndarray
+        ``(q, q)`` N⁺ S N⁺ (after :meth:`set_meat`).
+    """
+
+    def __init__(self, N: np.ndarray, rtol: float = RANK_RTOL) -> None:
+        d = np.sqrt(np.maximum(np.diag(N), 0.0))
+        d[d == 0] = 1.0
+        lam, V = np.linalg.eigh(N / d[:, None] / d[None, :])
+        top = max(float(lam[-1]), np.finfo(float).tiny)
+        keep = lam > rtol * top
+        self.rank = int(keep.sum())
+        self.eigenvalues = lam / top
+        self._scale = d
+        self._null = V[:, ~keep]  # undetermined directions (unit-diagonal coordinates)
+        # N⁺ = B Bᵀ with B = V_k Λ_k^-½ in the original coordinates
+        self._half = V[:, keep] / np.sqrt(lam[keep]) / d[:, None]
+        self.covariance = np.zeros_like(N)
+
+    def set_meat(self, S: np.ndarray) -> None:
+        """Form N⁺ S N⁺ for the meat S ``(q, q)``."""
+        B = self._half
+        core = B.T @ S @ B
+        self.covariance = B @ core @ B.T
+        self.covariance = 0.5 * (self.covariance + self.covariance.T)
+
+    def undetermined(self, G: np.ndarray) -> np.ndarray:
+        """Whether each row of ``G`` ``(k, q)`` has a component along an undetermined
+        direction (relative to its size, above ``UNDETERMINED_RTOL``)."""
+        G = np.atleast_2d(G)
+        if not self._null.shape[1]:
+            return np.zeros(G.shape[0], dtype=bool)
+        Gs = G / self._scale  # the gradient in unit-diagonal coordinates
+        along = np.linalg.norm(Gs @ self._null, axis=1)
+        size = np.linalg.norm(Gs, axis=1)
+        return along > UNDETERMINED_RTOL * np.maximum(size, np.finfo(float).tiny)
+
+    def covariances(self, G: np.ndarray, H: np.ndarray) -> np.ndarray:
+        """gᵀ cov h of the rows of ``G`` and ``H`` ``(k, q)``; NaN where either has a
+        component along an undetermined direction."""
+        G, H = np.atleast_2d(G), np.atleast_2d(H)
+        out = np.einsum("kq,qr,kr->k", G, self.covariance, H)
+        return np.where(self.undetermined(G) | self.undetermined(H), np.nan, out)
+
+    def variances(self, G: np.ndarray) -> np.ndarray:
+        """Variances gᵀ cov g of the rows of ``G`` ``(k, q)``; NaN for a row with a
+        component along an undetermined direction."""
+        return np.maximum(self.covariances(G, G), 0.0)

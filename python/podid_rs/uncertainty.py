@@ -1,0 +1,779 @@
+"""How sure: confidence intervals on the modes, the FRFs and M, C, K of a refined model.
+
+An output-error fit (:func:`podid_rs.refine`, :meth:`podid_rs.MeasuredData.fit`)
+is linearised at its optimum: the covariance of M, C, K is the sandwich
+N⁺ S N⁺ of :mod:`podid_rs.identification.covariance` (the Gauss–Newton matrix of
+the fitted cost around the noise's), with the noise given per entry, from the
+coherence and averages of H1 estimates, or estimated from the residuals. It is
+carried to what a user reads by first-order perturbation:
+
+* eigenvalues of the quadratic problem (λ²M + λC + K)ψ = 0 (M, C, K symmetric):
+  dλ = −ψᵀ(λ² dM + λ dC + dK)ψ / ψᵀ(2λM + C)ψ, and from it the natural frequency
+  |λ|/2π and the damping ratio −Re λ/|λ|;
+* mode shapes on the measured DOFs, R ψ scaled to largest entry 1 (as
+  :func:`podid_rs.mode_shapes`): dψ_j = Σ_{r≠j} ψ_r ψ_rᵀ dD(λ_j) ψ_j / (a_r (λ_r − λ_j))
+  over all 2m modes of the symmetric first-order form, a_r = ψ_rᵀ(2λ_rM + C)ψ_r,
+  dD(λ) = λ² dM + λ dC + dK;
+* the model's FRF on the measured DOFs R D(ω)⁻¹ Rᵀ: dH = −R D⁻¹ dD(iω) D⁻¹ Rᵀ, a band
+  on |H| per line (symmetric in dB);
+* the entries of M, C, K in the basis they are given in — only when they are
+  identifiable: with latent coordinates the matrices have a gauge and no entry has a
+  variance (:mod:`podid_rs.identification.latent`).
+
+Intervals are estimate ± z·σ at the chosen level, z from the normal distribution for a
+given noise level and from Student's t with the residuals' degrees of freedom for an
+estimated one. A quantity that depends on a direction the data do not determine has
+NaN for its σ and ``determined`` False: it gets no interval rather than a huge one.
+Checked by Monte Carlo in ``benches/bench_uncertainty.py``; docs/design.md §12.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.stats
+
+from ._arrays import as_array, as_omega
+from .identification.covariance import (
+    DenseCovariance,
+    LinearisedFit,
+    NoiseModel,
+    Objective,
+    check_variance,
+    entry_weights,
+    gauss_newton_matrix,
+    h1_variance,
+    residual_variance,
+    sym_gradient,
+)
+from .identification.latent import gauge_dimension, observation_matrix, observed_count
+from .identification.order import OrderSweep
+from .identification.result import IdentificationResult
+from .measured import MeasuredData
+from .systems import SecondOrderSystem
+
+#: default confidence level
+LEVEL = 0.95
+
+
+def _check_level(level: object) -> float:
+    if isinstance(level, bool) or not isinstance(level, int | float | np.floating):
+        raise ValueError(f"level must be a number in (0, 1), got {level!r}")
+    if not 0.0 < float(level) < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level!r}")
+    return float(level)
+
+
+@dataclass(frozen=True)
+class ModeIntervals:
+    """Natural frequencies, damping ratios (and mode shapes) with their intervals.
+
+    Attributes
+    ----------
+    eigenvalues : numpy.ndarray, complex, (k,)
+        One per mode, as :func:`podid_rs.modal_parameters` orders them.
+    frequencies_hz, damping_ratios : numpy.ndarray, (k,)
+        ``|λ|/2π`` and ``−Re λ/|λ|``.
+    std_frequency_hz, std_damping : numpy.ndarray, (k,)
+        Their standard deviations (NaN where not determined).
+    level : float
+        The confidence level of the intervals.
+    z : float
+        The interval's half-width in standard deviations.
+    determined : numpy.ndarray of bool, (k,)
+        False for a mode whose frequency or damping depends on what the data do not fix.
+    shapes : numpy.ndarray, complex, (n, k), or None
+        The mode shapes on the measured DOFs, largest entry 1 (with ``shapes=True``).
+    std_shapes_real, std_shapes_imag : numpy.ndarray, (n, k), or None
+        Standard deviations of their real and imaginary parts (0 at the reference entry).
+    frequency_intervals_hz, damping_intervals : numpy.ndarray, (k, 2)
+        Lower and upper ends, estimate ± z·σ (NaN where not determined).
+    """
+
+    eigenvalues: np.ndarray
+    frequencies_hz: np.ndarray
+    damping_ratios: np.ndarray
+    std_frequency_hz: np.ndarray
+    std_damping: np.ndarray
+    level: float
+    z: float
+    determined: np.ndarray
+    shapes: np.ndarray | None = None
+    std_shapes_real: np.ndarray | None = None
+    std_shapes_imag: np.ndarray | None = None
+
+    @property
+    def frequency_intervals_hz(self) -> np.ndarray:
+        """``(k, 2)``: estimate ∓ z·σ of each natural frequency."""
+        h = self.z * self.std_frequency_hz
+        return np.stack([self.frequencies_hz - h, self.frequencies_hz + h], axis=1)
+
+    @property
+    def damping_intervals(self) -> np.ndarray:
+        """``(k, 2)``: estimate ∓ z·σ of each damping ratio."""
+        h = self.z * self.std_damping
+        return np.stack([self.damping_ratios - h, self.damping_ratios + h], axis=1)
+
+
+@dataclass(frozen=True)
+class FRFBand:
+    """The model's FRF on the measured DOFs with a confidence band per line.
+
+    Each value Ĥ has a 2 × 2 covariance of its real and imaginary parts; its
+    confidence region at the level is the ellipse (h − Ĥ)ᵀ Σ⁻¹ (h − Ĥ) ≤ z², and the
+    band on |H| is that ellipse's shadow, [min |h|, max |h|] over it — the interval
+    the likelihood ratio gives for |H| with the phase unknown. Where |Ĥ| is many
+    standard deviations from 0 it is |Ĥ| ± z σ_|H|; where the ellipse holds 0 (an
+    FRF below its own uncertainty, e.g. at an anti-resonance) it reaches down to 0.
+
+    Attributes
+    ----------
+    omega : numpy.ndarray, (s,)
+        The lines, rad/s.
+    rows, cols : numpy.ndarray of int, (r,), (c,)
+        The measured DOFs of the entries (response, force).
+    values : numpy.ndarray, complex, (s, r, c)
+        ``R D(ω)⁻¹ Rᵀ`` at those entries.
+    std_real, std_imag, corr : numpy.ndarray, (s, r, c)
+        Standard deviations of the real and imaginary parts and their correlation.
+    std_db : numpy.ndarray, (s, r, c)
+        Standard deviation of 20 log10 |H| (dB), linearised: meaningful where it is
+        small (a few dB at most).
+    level, z : float
+        The confidence level and the half-width in standard deviations.
+    lower, upper : numpy.ndarray, (s, r, c)
+        The band on |H| (NaN where not determined).
+    """
+
+    omega: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    values: np.ndarray
+    std_real: np.ndarray
+    std_imag: np.ndarray
+    corr: np.ndarray
+    level: float
+    z: float
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def std_db(self) -> np.ndarray:
+        """Linearised standard deviation of 20 log10 |H| (dB)."""
+        H = self.values
+        a, b = H.real, H.imag
+        var = (a**2 * self.std_real**2 + b**2 * self.std_imag**2
+               + 2 * a * b * self.corr * self.std_real * self.std_imag)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return 20 / np.log(10) * np.sqrt(np.maximum(var, 0.0)) / np.abs(H) ** 2
+
+
+#: points on the boundary of a confidence ellipse searched for the band's ends
+ELLIPSE_POINTS = 720
+
+
+def _ellipse_shadow(
+    H: np.ndarray, vr: np.ndarray, vi: np.ndarray, cri: np.ndarray, z: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """[min |h|, max |h|] over the ellipses (h − H)ᵀ Σ⁻¹ (h − H) ≤ z², Σ = [[vr, cri],
+    [cri, vi]] per entry (flat arrays); 0 below where the ellipse holds the origin."""
+    cov = np.stack([np.stack([vr, cri], -1), np.stack([cri, vi], -1)], -2)  # (k, 2, 2)
+    lam, V = np.linalg.eigh(np.nan_to_num(cov))
+    L = V * np.sqrt(np.maximum(lam, 0.0))[:, None, :]  # Σ = L Lᵀ
+    t = np.linspace(0.0, 2 * np.pi, ELLIPSE_POINTS, endpoint=False)
+    circle = z * np.stack([np.cos(t), np.sin(t)])  # (2, T)
+    pts = np.stack([H.real, H.imag], -1)[:, :, None] + L @ circle  # (k, 2, T)
+    radius = np.hypot(pts[:, 0], pts[:, 1])
+    upper, lower = radius.max(axis=1), radius.min(axis=1)
+    # the origin inside: ‖L⁻¹ H‖ ≤ z in the ellipse's own coordinates
+    with np.errstate(divide="ignore", invalid="ignore"):
+        proj = np.einsum("kij,ki->kj", V, np.stack([H.real, H.imag], -1))
+        inside = np.sum(np.where(lam > 0, proj**2 / lam, np.where(proj == 0, 0.0, np.inf)),
+                        axis=1) <= z**2
+    lower = np.where(inside, 0.0, lower)
+    bad = ~(np.isfinite(vr) & np.isfinite(vi) & np.isfinite(cri))
+    return np.where(bad, np.nan, lower), np.where(bad, np.nan, upper)
+
+
+@dataclass(frozen=True)
+class MatrixIntervals:
+    """Standard deviations of the entries of M, C and K, in the basis they are given in.
+
+    Attributes
+    ----------
+    M, C, K : numpy.ndarray, (m, m)
+        The estimates.
+    std_M, std_C, std_K : numpy.ndarray, (m, m)
+        The standard deviations of their entries (NaN where not determined).
+    level, z : float
+        The confidence level and the half-width in standard deviations.
+    """
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    std_M: np.ndarray
+    std_C: np.ndarray
+    std_K: np.ndarray
+    level: float
+    z: float
+
+
+def _all_modes(M: np.ndarray, C: np.ndarray, K: np.ndarray):
+    """Every eigenvalue of the pencil (2m), its vector ψ (m, 2m) and a_r = ψᵀ(2λM + C)ψ,
+    and the indices of the modes :func:`podid_rs.modal_parameters` reports, in order."""
+    m = M.shape[0]
+    eye, zero = np.eye(m), np.zeros((m, m))
+    A = np.block([[zero, eye], [-K, -C]])
+    B = np.block([[eye, zero], [zero, M]])
+    lam, Z = scipy.linalg.eig(A, B)
+    psi = Z[:m]
+    a = np.einsum("ir,ij,jr->r", psi, 2 * M, psi) * lam + np.einsum("ir,ij,jr->r", psi, C, psi)
+    finite = np.isfinite(lam)
+    pick = np.flatnonzero(finite & (lam.imag >= 0))
+    pick = pick[np.argsort(np.abs(lam[pick]), kind="stable")]
+    return lam, psi, a, pick
+
+
+class ModelUncertainty:
+    """Covariance of a refined model and the intervals it gives (module docstring).
+
+    Made by :func:`model_uncertainty` and :func:`fit_uncertainty`.
+
+    Parameters
+    ----------
+    model : IdentificationResult or SecondOrderSystem
+        The fitted model.
+    fit : LinearisedFit
+        The fit linearised at the model.
+    variance : numpy.ndarray
+        ``(s, n, p)`` noise variance of each fitted entry.
+    noise : str
+        Where the variance came from, in words.
+    dof : int or None
+        Degrees of freedom of an estimated variance (None when given).
+    solver : str
+        ``"dense"``.
+    seconds : float
+        Time to form the covariance.
+    cov : DenseCovariance
+        The covariance of M, C, K.
+    omega : numpy.ndarray
+        ``(s,)`` every line of the data (the FRF band's default lines).
+    driven : numpy.ndarray of int
+        The measured DOFs where the data have forces (the FRF band's default columns).
+
+    Attributes
+    ----------
+    m : int
+        The model's order.
+    latent : int
+        Latent coordinates (unobserved); M, C, K then have a gauge.
+    gauge : int
+        Its dimension, l·k + l².
+    n_parameters : int
+        3 m(m+1)/2.
+    rank : int
+        Directions of M, C, K the data determine.
+    """
+
+    def __init__(self, model, fit: LinearisedFit, variance: np.ndarray, noise: str,
+                 dof: int | None, solver: str, seconds: float, cov: DenseCovariance,
+                 omega: np.ndarray, driven: np.ndarray) -> None:
+        self.M, self.C, self.K = (np.asarray(X, dtype=np.float64) for X in
+                                  (model.M, model.C, model.K))
+        self._fit = fit
+        self._cov = cov
+        self.variance = variance
+        self.noise = noise
+        self.dof = dof
+        self.solver = solver
+        self.seconds = seconds
+        self.R = fit.R
+        self.omega = omega
+        self.driven = driven
+        self._observed = observed_count(fit.R) if fit.R.shape[0] else fit.m
+
+    @property
+    def m(self) -> int:
+        """The model's order."""
+        return self._fit.m
+
+    @property
+    def latent(self) -> int:
+        """Latent (unobserved) coordinates of the model."""
+        return self.m - self._observed
+
+    @property
+    def gauge(self) -> int:
+        """Dimension of the gauge of latent coordinates (0 without)."""
+        return gauge_dimension(self.m, self._observed)
+
+    @property
+    def n_parameters(self) -> int:
+        """3 m(m+1)/2: the symmetric M, C, K's free entries."""
+        return self._fit.n_params
+
+    @property
+    def rank(self) -> int:
+        """Directions of M, C, K the data determine (n_parameters less the undetermined)."""
+        return self._cov.rank
+
+    def z(self, level: float = LEVEL) -> float:
+        """Half-width of a two-sided interval at ``level``, in standard deviations.
+
+        Parameters
+        ----------
+        level : float
+            Confidence level in (0, 1).
+
+        Returns
+        -------
+        float
+            The normal quantile for a given noise variance; Student's t with ``dof``
+            degrees of freedom for one estimated from the residuals.
+        """
+        level = _check_level(level)
+        q = 0.5 + level / 2
+        if self.dof is None:
+            return float(scipy.stats.norm.ppf(q))
+        return float(scipy.stats.t.ppf(q, self.dof))
+
+    # --------------------------------------------------------------------- gradients
+    def _scaled(self, grads: list[np.ndarray]) -> np.ndarray:
+        """Gradients per block (∂g/∂X_b as (..., m, m) for b = M, C, K, the caller's
+        units) → the covariance's coordinates (..., n_params)."""
+        parts = [sym_gradient(g) * c for g, c in zip(grads, self._fit.scales, strict=True)]
+        return np.concatenate(parts, axis=-1)
+
+    def modes(self, level: float = LEVEL, *, shapes: bool = False) -> ModeIntervals:
+        """Natural frequencies and damping ratios with intervals (and the mode shapes').
+
+        Parameters
+        ----------
+        level : float
+            Confidence level of the intervals, in (0, 1).
+        shapes : bool
+            Also the mode shapes on the measured DOFs and their standard deviations.
+
+        Returns
+        -------
+        ModeIntervals
+            One entry per mode of :func:`podid_rs.modal_parameters`, same order.
+
+        Raises
+        ------
+        ValueError
+            For a level outside (0, 1).
+        """
+        z = self.z(level)
+        lam, psi, a, pick = _all_modes(self.M, self.C, self.K)
+        sel = lam[pick]
+        powers = np.stack([sel**2, sel, np.ones_like(sel)])  # c_b(λ) for b = M, C, K
+        outer = psi[:, pick].T[:, :, None] * psi[:, pick].T[:, None, :]  # ψψᵀ (k, m, m)
+        dlam = self._scaled([-(powers[b] / a[pick])[:, None, None] * outer for b in range(3)])
+        mag = np.abs(sel)
+        g_f = (np.conj(sel)[:, None] * dlam).real / (2 * np.pi * mag[:, None])
+        g_z = (-dlam.real / mag[:, None]
+               + sel.real[:, None] * (np.conj(sel)[:, None] * dlam).real / mag[:, None] ** 3)
+        var_f = self._cov.variances(g_f)
+        var_z = self._cov.variances(g_z)
+        real_root = np.abs(sel.imag) <= 1e-12 * mag
+        var_z = np.where(real_root & np.isfinite(var_z), 0.0, var_z)
+        determined = np.isfinite(var_f) & np.isfinite(var_z)
+        out = dict(
+            eigenvalues=sel, frequencies_hz=mag / (2 * np.pi),
+            damping_ratios=np.where(mag > 0, -sel.real / np.maximum(mag, 1e-300), 0.0),
+            std_frequency_hz=np.sqrt(var_f), std_damping=np.sqrt(var_z), level=_check_level(level),
+            z=z, determined=determined,
+        )
+        if shapes:
+            out.update(self._shape_std(lam, psi, a, pick))
+        return ModeIntervals(**out)
+
+    def _shape_std(self, lam, psi, a, pick) -> dict[str, np.ndarray]:
+        """Mode shapes R ψ (largest entry 1) and the standard deviations of their parts."""
+        R = self.R
+        y_all = R @ psi  # (n, 2m)
+        n, k = R.shape[0], pick.size
+        shapes = np.empty((n, k), dtype=complex)
+        sd_re, sd_im = np.empty((n, k)), np.empty((n, k))
+        for col, j in enumerate(pick):
+            lj = lam[j]
+            gap = lam - lj
+            coef = np.zeros(lam.size, dtype=complex)
+            ok = np.arange(lam.size) != j
+            near = ok & (np.abs(gap) <= 1e-12 * max(abs(lj), 1.0))
+            coef[ok & ~near] = 1.0 / (a[ok & ~near] * gap[ok & ~near])
+            # ψ_r ψ_jᵀ per r, then dy = Σ_r (R ψ_r) coef_r c_b(λ_j) ψ_rᵀ dX_b ψ_j
+            pr = psi.T[:, :, None] * psi[:, j][None, None, :]  # (2m, m, m)
+            blocks = self._scaled([lj**2 * pr, lj * pr, pr])  # (2m, q)
+            dy = (y_all * coef[None, :]) @ blocks  # (n, q)
+            y = y_all[:, j]
+            ref = int(np.argmax(np.abs(y)))
+            phi = y / y[ref]
+            dphi = (dy - phi[:, None] * dy[ref][None, :]) / y[ref]
+            dphi[ref] = 0.0
+            var_re = self._cov.variances(dphi.real)
+            var_im = self._cov.variances(dphi.imag)
+            if np.any(near):
+                var_re[:], var_im[:] = np.nan, np.nan  # a repeated eigenvalue: no derivative
+            shapes[:, col] = phi
+            sd_re[:, col], sd_im[:, col] = np.sqrt(var_re), np.sqrt(var_im)
+        return dict(shapes=shapes, std_shapes_real=sd_re, std_shapes_imag=sd_im)
+
+    def frf(
+        self,
+        omega: object = None,
+        rows: object = None,
+        cols: object = None,
+        level: float = LEVEL,
+    ) -> FRFBand:
+        """The model's FRF on the measured DOFs with a confidence band per line.
+
+        Parameters
+        ----------
+        omega : array_like, (s,), optional
+            Lines (rad/s); default the fitted data's.
+        rows, cols : array_like of int, optional
+            Measured DOFs (indices into the observation matrix's rows) of the
+            responses and of the forces; default every DOF, and every DOF where the
+            fitted data have a force.
+        level : float
+            Confidence level, in (0, 1).
+
+        Returns
+        -------
+        FRFBand
+            Values, standard deviations and the band.
+
+        Raises
+        ------
+        ValueError
+            For bad lines, indices or level.
+        """
+        z = self.z(level)
+        w = self.omega if omega is None else as_omega(omega)
+        n = self.R.shape[0]
+        r_idx = np.arange(n) if rows is None else np.atleast_1d(np.asarray(rows))
+        c_idx = self.driven if cols is None else np.atleast_1d(np.asarray(cols))
+        for name, idx in (("rows", r_idx), ("cols", c_idx)):
+            if (idx.ndim != 1 or idx.size == 0 or not np.issubdtype(idx.dtype, np.integer)
+                    or idx.min() < 0 or idx.max() >= n):
+                raise ValueError(f"{name} must be indices of measured DOFs in [0, {n}), "
+                                 f"got {idx!r}")
+        Rr, Rc = self.R[r_idx], self.R[c_idx]  # (r, m), (c, m)
+        s, r, c = w.size, r_idx.size, c_idx.size
+        values = np.empty((s, r, c), dtype=complex)
+        var_re, var_im, cov_ri = (np.empty((s, r, c)) for _ in range(3))
+        for i, wi in enumerate(w):
+            D = -(wi**2) * self.M + 1j * wi * self.C + self.K
+            Dinv = np.linalg.inv(D)
+            g = Dinv @ Rr.T  # (m, r)
+            h = Dinv @ Rc.T  # (m, c)
+            values[i] = Rr @ h
+            outer = g.T[:, None, :, None] * h.T[None, :, None, :]  # (r, c, m, m)
+            phis = (-(wi**2), 1j * wi, 1.0)
+            grad = self._scaled([-ph * outer for ph in phis]).reshape(r * c, -1)
+            var_re[i] = self._cov.variances(grad.real).reshape(r, c)
+            var_im[i] = self._cov.variances(grad.imag).reshape(r, c)
+            cov_ri[i] = self._cov.covariances(grad.real, grad.imag).reshape(r, c)
+        lower, upper = _ellipse_shadow(values.reshape(-1), var_re.reshape(-1),
+                                       var_im.reshape(-1), cov_ri.reshape(-1), z)
+        sd_re, sd_im = np.sqrt(var_re), np.sqrt(var_im)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            corr = np.where(sd_re * sd_im > 0, cov_ri / (sd_re * sd_im), 0.0)
+        return FRFBand(w, r_idx, c_idx, values, sd_re, sd_im, corr, _check_level(level), z,
+                       lower.reshape(s, r, c), upper.reshape(s, r, c))
+
+    def matrices(self, level: float = LEVEL) -> MatrixIntervals:
+        """Standard deviations of the entries of M, C and K, in their basis.
+
+        Parameters
+        ----------
+        level : float
+            Confidence level, in (0, 1).
+
+        Returns
+        -------
+        MatrixIntervals
+            The estimates and the standard deviation of every entry.
+
+        Raises
+        ------
+        ValueError
+            When the model has latent coordinates: its M, C, K have a gauge (every
+            T = [[I, 0], [T_lp, T_ll]] maps them to TᵀMT, TᵀCT, TᵀKT with the same
+            responses) and no entry is determined by the data.
+        """
+        z = self.z(level)
+        if self.latent:
+            raise ValueError(
+                f"the model has {self.latent} latent coordinate(s): M, C and K have a gauge "
+                f"of dimension {self.gauge} (docs/design.md §11) and their entries are not "
+                "determined by the data; the modes and FRFs are (modes(), frf())"
+            )
+        m = self.m
+        nb = m * (m + 1) // 2
+        rows, cols = np.triu_indices(m)
+        out = []
+        for b in range(3):
+            G = np.zeros((nb, self.n_parameters))
+            # X_jk = c_b · θ_p / √2 off the diagonal, c_b · θ_p on it
+            G[np.arange(nb), b * nb + np.arange(nb)] = np.where(
+                rows == cols, 1.0, 1 / np.sqrt(2.0)) * self._fit.scales[b]
+            sd = np.sqrt(self._cov.variances(G))
+            S = np.empty((m, m))
+            S[rows, cols] = sd
+            S[cols, rows] = sd
+            out.append(S)
+        return MatrixIntervals(self.M, self.C, self.K, *out, _check_level(level), z)
+
+    def summary(self, level: float = LEVEL) -> str:
+        """One line: how the covariance was made, and the typical interval of the modes.
+
+        Parameters
+        ----------
+        level : float
+            Confidence level, in (0, 1).
+
+        Returns
+        -------
+        str
+            The line (no trailing newline).
+        """
+        modes = self.modes(level)
+        osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0)
+        text = (f"{100 * level:g} % intervals from the sandwich covariance at the optimum "
+                f"({self.solver}, {self.n_parameters} parameters, rank {self.rank}"
+                + (f", gauge {self.gauge}" if self.gauge else "") + f"); noise {self.noise}")
+        if np.any(osc):
+            hf = modes.z * modes.std_frequency_hz[osc] / modes.frequencies_hz[osc]
+            hz = modes.z * modes.std_damping[osc] / np.maximum(modes.damping_ratios[osc], 1e-300)
+            text += (f"; median half-width {100 * np.median(hf):.2g} % of the natural "
+                     f"frequency, {100 * np.median(hz):.2g} % of the damping ratio")
+        undetermined = int(np.sum(~modes.determined))
+        if undetermined:
+            text += f"; {undetermined} mode(s) not determined by the data"
+        return text + f"; {self.seconds:.2g} s"
+
+
+def model_uncertainty(
+    model: IdentificationResult | SecondOrderSystem,
+    U: object,
+    F: object,
+    omega: object,
+    *,
+    basis: object = None,
+    weights: object = "relative",
+    objective: Objective = "complex",
+    lines: object = None,
+    noise_variance: object = None,
+    coherence: object = None,
+    averages: object = None,
+    noise: NoiseModel = "channel",
+    line_correlation: object = (),
+) -> ModelUncertainty:
+    """The covariance of a model refined to these data, and its intervals.
+
+    Give the data and the options :func:`podid_rs.refine` was given: the
+    covariance is that of the cost refine minimised, at ``model`` (its optimum).
+
+    Parameters
+    ----------
+    model : IdentificationResult or SecondOrderSystem
+        The refined model (symmetric M, C, K), order m.
+    U, F : array_like, complex, (s, n) or (s, n, p)
+        Responses and forces on the n measured DOFs (with ``basis``), or reduced
+        ``(s, m[, p])`` — as given to :func:`podid_rs.refine`.
+    omega : array_like, (s,)
+        Lines, rad/s.
+    basis : array_like, (n, k), optional
+        The observation matrix (POD modes, then zero columns for latent coordinates).
+    weights : {"relative", "uniform"} or array_like
+        As given to :func:`podid_rs.refine`.
+    objective : {"complex", "log-magnitude"}
+        As given to :func:`podid_rs.refine`.
+    lines : array_like of bool, (s,), optional
+        The lines the model was fitted to (e.g. the order sweep's training lines);
+        default all.
+    noise_variance : float or array_like, optional
+        Variance E|δu|² of the complex noise on each measured entry of U: a scalar,
+        per line ``(s,)``, per line and DOF ``(s, n)`` or per entry ``(s, n, p)``.
+    coherence : array_like, (s, n) or (s, n, p), optional
+        With ``averages``: U are H1 estimates, whose variance is
+        |H|²(1 − γ²)/(γ² n_d) (Bendat & Piersol; γ² the coherence).
+    averages : float, optional
+        The number of independent averages n_d of the H1 estimates.
+    noise : {"channel", "line", "global"}
+        Without a variance or coherence: the noise is estimated from the residuals,
+        one variance per channel (measured DOF and load case) over the lines, per line,
+        or one for all.
+    line_correlation : float or sequence of float
+        The correlation coefficient of the noise of an entry between lines 1, 2, …
+        apart (default none: independent lines). H1 estimates from windowed
+        segments are correlated between neighbouring lines (Hann: 4/9, then 1/36, for
+        white input and noise; :func:`podid_rs.h1_coherence` gives them).
+
+    Returns
+    -------
+    ModelUncertainty
+        The covariance, with :meth:`~ModelUncertainty.modes`,
+        :meth:`~ModelUncertainty.frf` and :meth:`~ModelUncertainty.matrices`.
+
+    Raises
+    ------
+    ValueError
+        For malformed data or options, negative or NaN variances, a coherence outside
+        [0, 1], fewer than one average, both a variance and a coherence, a
+        coherence without averages, or a line correlation outside (−1, 1).
+    """
+    t0 = time.perf_counter()
+    if not isinstance(model, IdentificationResult | SecondOrderSystem):
+        raise ValueError(f"model must be an IdentificationResult or a SecondOrderSystem, got "
+                         f"{type(model).__name__}")
+    M, C, K = (np.asarray(X, dtype=np.float64) for X in (model.M, model.C, model.K))
+    m = M.shape[0]
+    for X, name in ((M, "M"), (C, "C"), (K, "K")):
+        if np.linalg.norm(X - X.T) > 1e-10 * np.linalg.norm(X):
+            raise ValueError(f"the model's {name} is not symmetric: the covariance is that of a "
+                             "refined model (symmetric M, C, K)")
+    w = as_omega(omega)
+    Ua, Fa = as_array(U, "U"), as_array(F, "F")
+    if Ua.ndim == 2:
+        Ua = Ua[:, :, None]
+    if Fa.ndim == 2:
+        Fa = Fa[:, :, None]
+    if Ua.ndim != 3 or Ua.shape[0] != w.size or Fa.shape != Ua.shape:
+        raise ValueError(f"U and F must be (s, n[, p]) of the same shape with s = {w.size} lines, "
+                         f"got {np.shape(U)} and {np.shape(F)}")
+    if basis is None:
+        if Ua.shape[1] > m:
+            raise ValueError(f"U has {Ua.shape[1]} coordinates, more than the model's m = {m}: "
+                             "give the basis")
+        R = observation_matrix(np.eye(Ua.shape[1]), m)
+        on_dofs = Ua.shape[1] < m
+    else:
+        Rb = as_array(basis, "basis", real=True)
+        if Rb.ndim != 2 or Rb.shape[0] != Ua.shape[1]:
+            raise ValueError(f"basis must be (n, k) with n = {Ua.shape[1]} measured DOFs, "
+                             f"got {Rb.shape}")
+        R = observation_matrix(Rb, m)
+        on_dofs = True
+    if objective not in ("complex", "log-magnitude"):
+        raise ValueError(f"objective must be 'complex' or 'log-magnitude', got {objective!r}")
+    keep = np.ones(w.size, bool) if lines is None else np.asarray(lines)
+    if keep.shape != (w.size,) or keep.dtype != bool or not keep.any():
+        raise ValueError(f"lines must be a boolean mask of the {w.size} lines, with a line in it")
+    W_all = entry_weights(weights, Ua, objective, on_dofs)
+    if noise_variance is not None and coherence is not None:
+        raise ValueError("give noise_variance or coherence (with averages), not both")
+    if coherence is None and averages is not None:
+        raise ValueError("averages goes with coherence (H1 estimates)")
+    rho = np.atleast_1d(np.asarray(line_correlation, dtype=np.float64))
+    if rho.ndim != 1 or not np.all(np.abs(rho) < 1):
+        raise ValueError(f"line_correlation must be coefficients in (−1, 1), got "
+                         f"{line_correlation!r}")
+    fit = LinearisedFit(M, C, K, Ua[keep], Fa[keep], w[keep], R, W_all[keep], objective,
+                        grid=np.flatnonzero(keep))
+    N = gauss_newton_matrix(fit, fit.bread())
+    cov = DenseCovariance(N)
+    dof = None
+    if noise_variance is not None:
+        variance = check_variance(noise_variance, Ua.shape)[keep]
+        source = "given per entry"
+    elif coherence is not None:
+        if averages is None:
+            raise ValueError("coherence needs averages: the number of averages of the H1 "
+                             "estimates")
+        variance = h1_variance(Ua, coherence, averages)[keep]
+        source = f"from the coherence and {averages:g} averages (H1)"
+    else:
+        variance, dof = residual_variance(fit, cov.rank, noise)
+        what = {"channel": "per channel (DOF and load case)", "line": "per line",
+                "global": "one for all entries"}[noise]
+        source = f"estimated from the residuals, {what}, {dof} degrees of freedom"
+    cov.set_meat(gauss_newton_matrix(fit, fit.meat(variance, tuple(float(r) for r in rho))))
+    driven = np.flatnonzero(np.any(Fa != 0, axis=(0, 2)))
+    return ModelUncertainty(model, fit, variance, source, dof, "dense",
+                            time.perf_counter() - t0, cov, w, driven)
+
+
+def _refinement_weights(model: IdentificationResult) -> tuple[str, Objective]:
+    """The weights and objective the refinement of ``model`` used, from its report."""
+    ref = model.info.get("refinement") if isinstance(model, IdentificationResult) else None
+    if ref is None:
+        raise ValueError("the model is not a refined (output-error) model: its covariance is "
+                         "that of the cost refine() minimised; use model_uncertainty with the "
+                         "data and options of the fit")
+    objective = ref["objective"]
+    label = ref["weights"]
+    if label in ("relative", "uniform"):
+        return label, objective
+    if label == "log-magnitude, uniform per entry":
+        return "uniform", objective
+    raise ValueError(f"the model was refined with the user's weights ({label!r}): give them to "
+                     "model_uncertainty")
+
+
+def fit_uncertainty(
+    data: MeasuredData,
+    model: IdentificationResult,
+    basis: object,
+    sweep: OrderSweep | None = None,
+    *,
+    noise_variance: object = None,
+    coherence: object = None,
+    averages: object = None,
+    noise: NoiseModel = "channel",
+    line_correlation: object = (),
+) -> ModelUncertainty:
+    """The covariance of a model fitted to measured data by :meth:`MeasuredData.fit`.
+
+    The weights, the objective and the lines of the fit are read from the model's
+    report (``info["refinement"]``): the final fit keeps a complex refit, a
+    log-magnitude refit or the order sweep's fit on its training lines (which then
+    needs ``sweep``).
+
+    Parameters
+    ----------
+    data : MeasuredData
+        The data the model was fitted to (same band).
+    model : IdentificationResult
+        The fitted model (:meth:`MeasuredData.fit`, :func:`podid_rs.final_fit`).
+    basis : array_like, (n, m)
+        Its observation matrix.
+    sweep : OrderSweep, optional
+        The order sweep, when the final fit kept its held-out fit.
+    noise_variance, coherence, averages, noise, line_correlation
+        The noise, as for :func:`model_uncertainty`.
+
+    Returns
+    -------
+    ModelUncertainty
+        The covariance and its intervals.
+
+    Raises
+    ------
+    ValueError
+        For a model that is not refined, or refined with the user's weights; a held-out
+        fit without its sweep; or as :func:`model_uncertainty`.
+    """
+    if not isinstance(data, MeasuredData):
+        raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
+    weights, objective = _refinement_weights(model)
+    lines = None
+    kept = model.info["refinement"].get("final_refit", {}).get("kept")
+    if kept == "held-out fit":
+        if sweep is None:
+            raise ValueError("the final fit kept the order sweep's held-out fit (fitted on its "
+                             "training lines): give the sweep")
+        lines = ~np.asarray(sweep.test_lines)
+    return model_uncertainty(
+        model, data.U, data.forces_on_dofs(), data.omega, basis=basis, weights=weights,
+        objective=objective, lines=lines, noise_variance=noise_variance, coherence=coherence,
+        averages=averages, noise=noise, line_correlation=line_correlation,
+    )

@@ -1,0 +1,324 @@
+"""Confidence intervals of a refined model: the Jacobian oracle, the sandwich, the propagation,
+the gauge, a small Monte Carlo and the refusals."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import podid_rs as pr
+from podid_rs.identification.covariance import (
+    DenseCovariance,
+    LinearisedFit,
+    entry_weights,
+    gauss_newton_matrix,
+    sym_gradient,
+    sym_matrix,
+)
+from podid_rs.measured import from_frf
+from podid_rs.uncertainty import _ellipse_shadow
+
+
+def _chain(n: int = 4):
+    """A chain with unequal masses and a dashpot at its first DOF: complex modes, no two
+    shape entries alike (so the largest entry of each shape is clear)."""
+    c = pr.mass_spring_chain(n, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-4)
+    M = np.diag(np.linspace(0.8, 1.4, n))
+    C = 2.0 * M + 1e-4 * c.K
+    C[0, 0] += 3.0
+    return pr.SecondOrderSystem(M, C, c.K)
+
+
+def _frf_data(n: int = 4, s: int = 40, inputs=(0, 2), snr_db: float = 30.0, seed: int = 0):
+    """FRFs of the chain at s lines over its modes, with complex noise of known variance
+    per channel (SNR per channel), and the unit forces on the measured DOFs."""
+    system = _chain(n)
+    f = pr.modal_parameters(system).frequencies_hz
+    omega = 2 * np.pi * np.linspace(0.7 * f[0], 1.2 * f[-1], s)
+    H = system.frf(omega)[:, :, list(inputs)]
+    F = np.zeros_like(H)
+    for k, i in enumerate(inputs):
+        F[:, i, k] = 1.0
+    var = np.broadcast_to(np.mean(np.abs(H) ** 2, axis=0) / 10 ** (snr_db / 10), H.shape).copy()
+    rng = np.random.default_rng(seed)
+    U = H + np.sqrt(var / 2) * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    return system, omega, H, U, F, var
+
+
+def _fit(objective="complex", grid=None, s=40):
+    system, omega, H, U, F, var = _frf_data(s=s)
+    rng = np.random.default_rng(3)
+    R, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    M, C, K = (R.T @ X @ R for X in (system.M, system.C, system.K))
+    W = entry_weights("relative", U, objective, True)
+    return LinearisedFit(M, C, K, U, F, omega, R, W, objective, grid=grid), var
+
+
+def _responses(fit: LinearisedFit, theta: np.ndarray) -> np.ndarray:
+    nb = fit.n_params // 3
+    X = [fit.X[b] + sym_matrix(theta[b * nb:(b + 1) * nb], fit.m) for b in range(3)]
+    D = fit.phi[0][:, None, None] * X[0] + fit.phi[1][:, None, None] * X[1] + X[2]
+    return np.einsum("nm,smp->snp", fit.R, np.linalg.solve(D, fit.f))
+
+
+def test_symmetric_coordinates_are_orthonormal_and_gradients_match():
+    rng = np.random.default_rng(0)
+    theta = rng.standard_normal(10)
+    X = sym_matrix(theta, 4)
+    assert np.allclose(X, X.T)
+    assert np.isclose(np.sum(X * X), np.sum(theta * theta))  # an isometry
+    A = rng.standard_normal((4, 4))  # g(X) = Σ A_ij X_ij
+    assert np.isclose(np.sum(A * X), sym_gradient(A) @ theta)
+
+
+@pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
+def test_jacobian_matches_central_differences(objective):
+    fit, _ = _fit(objective)
+    J = fit.jacobian()
+    rng = np.random.default_rng(1)
+    h = 1e-4
+    for q in rng.choice(fit.n_params, 8, replace=False):
+        e = np.zeros(fit.n_params)
+        e[q] = h
+        fd = (_responses(fit, e) - _responses(fit, -e)) / (2 * h)
+        assert np.linalg.norm(fd - J[..., q]) <= 1e-6 * np.linalg.norm(fd)
+
+
+@pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
+def test_gauss_newton_matrices_equal_the_explicit_jacobians(objective):
+    """The Kronecker moment sums and the line-by-line products against Jᴴ diag(h) J
+    formed from the explicit Jacobian, with and without correlated neighbouring lines
+    (on a grid with gaps: the fit used a subset of the lines)."""
+    grid = np.array(sorted(np.random.default_rng(2).choice(50, 40, replace=False)))
+    fit, var = _fit(objective, grid=grid)
+    J = fit.jacobian().reshape(fit.s, -1, fit.n_params)
+    rng = np.random.default_rng(4)
+    for weights in (fit.bread(), fit.meat(var), fit.meat(var, (0.44, 0.03))):
+        ref = np.zeros((fit.n_params, fit.n_params))
+        for k in range(weights.left.size):
+            lft, rgt = weights.left[k], weights.right[k]
+            A = (J[lft].conj().T @ (weights.hermitian[k].reshape(-1)[:, None] * J[rgt])).real
+            if weights.symmetric is not None:
+                A += (J[lft].T @ (weights.symmetric[k].reshape(-1)[:, None] * J[rgt])).real
+            ref += A if lft == rgt else A + A.T
+        N = gauss_newton_matrix(fit, weights)
+        assert np.abs(N - ref).max() <= 1e-12 * np.abs(ref).max()
+        v = rng.standard_normal((fit.n_params, 2))
+        assert np.allclose(fit.product(weights, v), ref @ v, rtol=0,
+                           atol=1e-12 * np.abs(ref @ v).max())
+
+
+def test_log_magnitude_bread_is_the_exact_gauss_newton_matrix():
+    fit, _ = _fit("log-magnitude")
+    J = fit.jacobian().reshape(-1, fit.n_params)
+    W = fit.W.reshape(-1)
+    a = (J / np.where(W > 0, fit.y.reshape(-1), 1.0)[:, None]).real  # ∂ ln|ŷ| / ∂θ
+    exact = (W[:, None] ** 2 * a).T @ a
+    assert np.allclose(gauss_newton_matrix(fit, fit.bread()), exact, rtol=0,
+                       atol=1e-12 * np.abs(exact).max())
+
+
+def _uncertainty_with_covariance(unc: pr.ModelUncertainty, v: np.ndarray) -> None:
+    """Replace the covariance by v vᵀ: then σ(g) = |∇g · v|."""
+    unc._cov.covariance = np.outer(v, v)
+    unc._cov._null = np.zeros((v.size, 0))
+
+
+def _perturbed(unc: pr.ModelUncertainty, v: np.ndarray, h: float):
+    nb = unc.n_parameters // 3
+    return tuple(X + c * sym_matrix(h * v[b * nb:(b + 1) * nb], unc.m)
+                 for b, (X, c) in enumerate(zip((unc.M, unc.C, unc.K), unc._fit.scales,
+                                                strict=True)))
+
+
+def test_propagation_to_modes_shapes_and_frfs_matches_differences():
+    """Every gradient (natural frequency, damping ratio, mode shape, FRF) against
+    central differences of the quantity along one direction v of M, C, K."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    v = np.random.default_rng(5).standard_normal(unc.n_parameters)
+    _uncertainty_with_covariance(unc, v)
+    modes = unc.modes(shapes=True)
+    h = 1e-4
+    plus = pr.SecondOrderSystem(*_perturbed(unc, v, h))
+    minus = pr.SecondOrderSystem(*_perturbed(unc, v, -h))
+    mp, mm = pr.modal_parameters(plus), pr.modal_parameters(minus)
+    df = (mp.frequencies_hz - mm.frequencies_hz) / (2 * h)
+    dz = (mp.damping_ratios - mm.damping_ratios) / (2 * h)
+    assert np.allclose(modes.std_frequency_hz, np.abs(df), rtol=1e-5)
+    assert np.allclose(modes.std_damping, np.abs(dz), rtol=1e-5)
+    sp, sm = pr.mode_shapes(plus).shapes, pr.mode_shapes(minus).shapes
+    ds = (sp - sm) / (2 * h)
+    scale = np.abs(ds).max()
+    assert np.allclose(modes.std_shapes_real, np.abs(ds.real), rtol=1e-4, atol=1e-7 * scale)
+    assert np.allclose(modes.std_shapes_imag, np.abs(ds.imag), rtol=1e-4, atol=1e-7 * scale)
+    band = unc.frf(omega[::7], rows=[0, 3], cols=[0, 2])
+    Hp = plus.frf(omega[::7])[:, [0, 3]][:, :, [0, 2]]
+    Hm = minus.frf(omega[::7])[:, [0, 3]][:, :, [0, 2]]
+    dH = (Hp - Hm) / (2 * h)
+    assert np.allclose(band.values, system.frf(omega[::7])[:, [0, 3]][:, :, [0, 2]])
+    assert np.allclose(band.std_real, np.abs(dH.real), rtol=1e-5)
+    assert np.allclose(band.std_imag, np.abs(dH.imag), rtol=1e-5)
+    dl = (np.log(np.abs(Hp)) - np.log(np.abs(Hm))) / (2 * h) * 20 / np.log(10)
+    assert np.allclose(band.std_db, np.abs(dl), rtol=1e-5)
+
+
+def test_matrix_intervals_in_the_caller_units():
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    v = np.random.default_rng(6).standard_normal(unc.n_parameters)
+    _uncertainty_with_covariance(unc, v)
+    mats = unc.matrices()
+    moved = _perturbed(unc, v, 1.0)
+    for std, X, Y in zip((mats.std_M, mats.std_C, mats.std_K), (unc.M, unc.C, unc.K), moved,
+                         strict=True):
+        assert np.allclose(std, np.abs(Y - X))
+
+
+def test_the_band_is_the_shadow_of_the_confidence_ellipse():
+    H = np.array([10.0 + 0j, 0.5 + 0.5j, 1.0 + 3j])
+    vr, vi, c = np.array([1.0, 1.0, 0.3]), np.array([1.0, 1.0, 0.05]), np.array([0, 0, 0.08])
+    lo, hi = _ellipse_shadow(H, vr, vi, c, 1.96)
+    assert np.allclose([lo[0], hi[0]], [10 - 1.96, 10 + 1.96], rtol=1e-4)  # radial
+    assert lo[1] == 0.0 and np.isclose(hi[1], np.sqrt(0.5) + 1.96, rtol=1e-4)  # 0 inside
+    # the third against the ellipse filled densely
+    L = np.linalg.cholesky(np.array([[0.3, 0.08], [0.08, 0.05]]))
+    g = np.linspace(-1.96, 1.96, 801)
+    a, b = np.meshgrid(g, g)
+    disc = a**2 + b**2 <= 1.96**2
+    pts = L @ np.stack([a[disc], b[disc]])
+    r = np.hypot(1.0 + pts[0], 3.0 + pts[1])
+    assert np.isclose(lo[2], r.min(), rtol=1e-3) and np.isclose(hi[2], r.max(), rtol=1e-3)
+
+
+def test_latent_coordinates_have_a_gauge_and_no_matrix_intervals():
+    system, omega, H, U, F, var = _frf_data(n=4)
+    # the chain's first three coordinates observed, the fourth latent
+    unc = pr.model_uncertainty(system, U[:, :3], F[:, :3], omega, basis=np.eye(3),
+                               noise_variance=var[:, :3])
+    assert unc.latent == 1 and unc.gauge == 1 * 3 + 1
+    assert unc.rank == unc.n_parameters - unc.gauge
+    with pytest.raises(ValueError, match="latent coordinate.*gauge of dimension 4"):
+        unc.matrices()
+    modes = unc.modes(shapes=True)
+    assert np.all(modes.determined) and np.all(np.isfinite(modes.std_frequency_hz))
+    assert np.all(np.isfinite(unc.frf(omega[::5]).upper))
+
+
+def test_rank_deficiency_gives_no_interval_rather_than_a_huge_one():
+    """Two parameters the data see only through their sum: their sum and a third one have
+    variances, either alone has none (NaN), however small its share of the null direction."""
+    N = np.array([[1.0, 1.0, 0.0], [1.0, 1.0 + 1e-14, 0.0], [0.0, 0.0, 2.0]])
+    cov = DenseCovariance(N)
+    cov.set_meat(N)
+    assert cov.rank == 2
+    var = cov.variances(np.array([[1.0, 1.0, 0], [0, 0, 1.0], [1.0, 0, 0], [1.0, 1.001, 0]]))
+    assert var[0] == pytest.approx(1.0) and var[1] == pytest.approx(0.5)
+    assert np.isnan(var[2]) and np.isnan(var[3])
+
+
+def test_monte_carlo_coverage_of_a_small_chain():
+    """40 noise seeds, maximum-likelihood weights and the known variance: the 95 %
+    intervals of the natural frequencies and damping ratios hold the truth in most
+    seeds, and their width matches the scatter of the estimates."""
+    system = _chain(3)
+    truth = pr.modal_parameters(system)
+    est_f, est_z, sd_f, sd_z, inside = [], [], [], [], []
+    for seed in range(40):
+        _, omega, H, U, F, var = _frf_data(n=3, s=60, inputs=(0,), snr_db=20, seed=seed)
+        w = 1 / np.sqrt(var)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = pr.refine(system, U, F, omega, weights=w, basis=np.eye(3))
+        unc = pr.model_uncertainty(model, U, F, omega, weights=w, basis=np.eye(3),
+                                   noise_variance=var)
+        modes = unc.modes()
+        est_f.append(modes.frequencies_hz)
+        est_z.append(modes.damping_ratios)
+        sd_f.append(modes.std_frequency_hz)
+        sd_z.append(modes.std_damping)
+        band = unc.frf()
+        inside.append((np.abs(H) >= band.lower) & (np.abs(H) <= band.upper))
+    est_f, est_z, sd_f, sd_z = map(np.array, (est_f, est_z, sd_f, sd_z))
+    cover_f = np.mean(np.abs(est_f - truth.frequencies_hz) <= 1.96 * sd_f)
+    cover_z = np.mean(np.abs(est_z - truth.damping_ratios) <= 1.96 * sd_z)
+    assert 0.88 <= cover_f <= 1.0 and 0.88 <= cover_z <= 1.0
+    assert 0.88 <= np.mean(inside) <= 1.0
+    for est, sd in ((est_f, sd_f), (est_z, sd_z)):
+        ratio = np.median(sd, axis=0) / est.std(axis=0)
+        assert np.all((ratio > 0.7) & (ratio < 1.4)), ratio
+
+
+def test_noise_from_the_residuals_matches_the_known_noise():
+    system, omega, H, U, F, var = _frf_data(s=200, snr_db=20)
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4))
+    ratio = unc.variance / var
+    assert np.all((ratio > 0.75) & (ratio < 1.3))
+    assert unc.dof == 2 * U.size - unc.rank
+    assert "per channel" in unc.noise
+    known = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    assert known.dof is None and known.z() == pytest.approx(1.959964, abs=1e-5)
+    assert unc.z() > known.z()  # Student's t
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"noise_variance": -1.0}, "noise_variance must be non-negative"),
+        ({"noise_variance": np.nan}, "noise_variance contains NaN"),
+        ({"noise_variance": np.ones(7)}, "noise_variance must be a scalar"),
+        ({"coherence": 1.5, "averages": 10}, r"coherence must lie in \[0, 1\]"),
+        ({"coherence": -0.1, "averages": 10}, r"coherence must lie in \[0, 1\]"),
+        ({"coherence": np.nan, "averages": 10}, "coherence contains NaN"),
+        ({"coherence": 0.9, "averages": 0}, "averages must be at least 1"),
+        ({"coherence": 0.9}, "coherence needs averages"),
+        ({"averages": 10}, "averages goes with coherence"),
+        ({"noise_variance": 1.0, "coherence": 0.9, "averages": 3}, "not both"),
+        ({"line_correlation": 1.0}, "line_correlation"),
+        ({"noise": "typo"}, "noise must be"),
+        ({"lines": np.zeros(40, bool)}, "lines must be a boolean mask"),
+    ],
+)
+def test_bad_noise_input_is_refused_by_name(kwargs, message):
+    system, omega, H, U, F, var = _frf_data()
+    if "coherence" in kwargs and np.ndim(kwargs["coherence"]) == 0:
+        kwargs = {**kwargs, "coherence": np.full(U.shape, kwargs["coherence"])}
+    with pytest.raises(ValueError, match=message):
+        pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), **kwargs)
+
+
+def test_bad_level_and_a_model_that_is_not_refined():
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    for level in (0.0, 1.0, 1.5, True):
+        with pytest.raises(ValueError, match="level"):
+            unc.modes(level)
+    data = from_frf(U, omega, inputs=[0, 2])
+    plain = pr.identify(U, F, omega, symmetric=True)
+    with pytest.raises(ValueError, match="not a refined"):
+        pr.fit_uncertainty(data, plain, np.eye(4))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        user = pr.refine(system, U, F, omega, basis=np.eye(4), weights=np.ones(40))
+    with pytest.raises(ValueError, match="user's weights"):
+        pr.fit_uncertainty(data, user, np.eye(4))
+
+
+def test_h1_coherence_of_hann_segments():
+    rng = np.random.default_rng(0)
+    r, dt = 8192, 1e-2
+    x = rng.standard_normal((r, 1))
+    y = np.concatenate([2 * x, 2 * x + rng.standard_normal((r, 1))], axis=1)
+    stats = pr.h1_coherence(x, y, dt, nperseg=512)
+    omega, H = pr.frf_h1(x, y, dt, nperseg=512)
+    assert np.allclose(stats.omega, omega)
+    assert np.allclose(stats.coherence[:, 0], 1.0)
+    assert 0.5 < np.median(stats.coherence[:, 1]) < 0.9  # |2|² / (|2|² + 1) = 0.8, biased up
+    assert stats.line_correlation == pytest.approx((4 / 9, 1 / 36))
+    segments = (r - 512) // 256 + 1
+    expected = segments / (1 + 2 * (1 - 1 / segments) / 36)
+    assert stats.averages == pytest.approx(expected)
+    with pytest.raises(ValueError, match="one input"):
+        pr.h1_coherence(np.stack([x[:, 0], x[:, 0]], 1), y, dt, nperseg=512)
