@@ -18,7 +18,7 @@ from podid_rs.identification.covariance import (
     sym_matrix,
 )
 from podid_rs.measured import from_frf
-from podid_rs.uncertainty import _ellipse_shadow
+from podid_rs.uncertainty import _magnitude_band
 
 
 def _chain(n: int = 4):
@@ -177,20 +177,18 @@ def test_matrix_intervals_in_the_caller_units():
         assert np.allclose(std, np.abs(Y - X))
 
 
-def test_the_band_is_the_shadow_of_the_confidence_ellipse():
-    H = np.array([10.0 + 0j, 0.5 + 0.5j, 1.0 + 3j])
-    vr, vi, c = np.array([1.0, 1.0, 0.3]), np.array([1.0, 1.0, 0.05]), np.array([0, 0, 0.08])
-    lo, hi = _ellipse_shadow(H, vr, vi, c, 1.96)
-    assert np.allclose([lo[0], hi[0]], [10 - 1.96, 10 + 1.96], rtol=1e-4)  # radial
-    assert lo[1] == 0.0 and np.isclose(hi[1], np.sqrt(0.5) + 1.96, rtol=1e-4)  # 0 inside
-    # the third against the ellipse filled densely
-    L = np.linalg.cholesky(np.array([[0.3, 0.08], [0.08, 0.05]]))
-    g = np.linspace(-1.96, 1.96, 801)
-    a, b = np.meshgrid(g, g)
-    disc = a**2 + b**2 <= 1.96**2
-    pts = L @ np.stack([a[disc], b[disc]])
-    r = np.hypot(1.0 + pts[0], 3.0 + pts[1])
-    assert np.isclose(lo[2], r.min(), rtol=1e-3) and np.isclose(hi[2], r.max(), rtol=1e-3)
+def test_the_band_is_radial_and_reaches_zero_where_the_ellipse_holds_the_origin():
+    H = np.array([10.0 + 0j, 0.5 + 0.5j, 3j, 1.0 + 1j])
+    vr = np.array([1.0, 1.0, 0.04, 0.3])
+    vi = np.array([4.0, 1.0, 25.0, 0.3])
+    c = np.array([0.0, 0.0, 0.0, -0.29])
+    lo, hi = _magnitude_band(H, vr, vi, c, 1.96)
+    assert np.allclose([lo[0], hi[0]], [10 - 1.96, 10 + 1.96])  # the radial σ only
+    assert lo[1] == 0.0 and np.isclose(hi[1], np.sqrt(0.5) + 1.96)  # the origin inside
+    # radial σ² = 25 along Im: |3j| ± 1.96·5, the lower end clipped at 0
+    assert lo[2] == 0.0 and np.isclose(hi[2], 3 + 1.96 * 5)
+    # long along the tangent (1, −1), short (σ = 0.1) along the radius: a narrow band
+    assert np.allclose([lo[3], hi[3]], [np.sqrt(2) - 0.196, np.sqrt(2) + 0.196])
 
 
 def test_latent_coordinates_have_a_gauge_and_no_matrix_intervals():
@@ -205,6 +203,30 @@ def test_latent_coordinates_have_a_gauge_and_no_matrix_intervals():
     modes = unc.modes(shapes=True)
     assert np.all(modes.determined) and np.all(np.isfinite(modes.std_frequency_hz))
     assert np.all(np.isfinite(unc.frf(omega[::5]).upper))
+
+
+@pytest.mark.parametrize("latent", [False, True])
+def test_the_matrix_free_path_gives_the_dense_variances(latent):
+    """Solves by preconditioned CG in the undamped modal coordinates against the dense
+    covariance: the modes, the shapes and the FRF band, with correlated lines; with a
+    latent coordinate (a gauge: N singular) too."""
+    system, omega, H, U, F, var = _frf_data(s=60)
+    k = 3 if latent else 4
+    args = (system, U[:, :k], F[:, :k], omega)
+    kw = dict(basis=np.eye(k), noise_variance=var[:, :k], line_correlation=(0.4, 0.05))
+    dense = pr.model_uncertainty(*args, solver="dense", **kw)
+    free = pr.model_uncertainty(*args, solver="matrix-free", **kw)
+    assert free.solver == "matrix-free" and free.rank == dense.rank
+    a, b = dense.modes(shapes=True), free.modes(shapes=True)
+    assert np.allclose(b.std_frequency_hz, a.std_frequency_hz, rtol=1e-5)
+    assert np.allclose(b.std_damping, a.std_damping, rtol=1e-5)
+    assert np.allclose(b.std_shapes_real, a.std_shapes_real, rtol=1e-4, atol=1e-9)
+    fa, fb = dense.frf(omega[::9]), free.frf(omega[::9])
+    assert np.allclose(fb.lower, fa.lower, rtol=1e-5) and np.allclose(fb.upper, fa.upper,
+                                                                       rtol=1e-5)
+    if not latent:
+        with pytest.raises(ValueError, match="matrix-free"):
+            free.matrices()
 
 
 def test_rank_deficiency_gives_no_interval_rather_than_a_huge_one():
@@ -272,7 +294,8 @@ def test_noise_from_the_residuals_matches_the_known_noise():
         ({"coherence": 1.5, "averages": 10}, r"coherence must lie in \[0, 1\]"),
         ({"coherence": -0.1, "averages": 10}, r"coherence must lie in \[0, 1\]"),
         ({"coherence": np.nan, "averages": 10}, "coherence contains NaN"),
-        ({"coherence": 0.9, "averages": 0}, "averages must be at least 1"),
+        ({"coherence": 0.9, "averages": 0}, "averages must be more than 1"),
+        ({"coherence": 0.9, "averages": 1}, "averages must be more than 1"),
         ({"coherence": 0.9}, "coherence needs averages"),
         ({"averages": 10}, "averages goes with coherence"),
         ({"noise_variance": 1.0, "coherence": 0.9, "averages": 3}, "not both"),

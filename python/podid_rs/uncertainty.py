@@ -40,6 +40,7 @@ from ._arrays import as_array, as_omega
 from .identification.covariance import (
     DenseCovariance,
     LinearisedFit,
+    MatrixFreeCovariance,
     NoiseModel,
     Objective,
     check_variance,
@@ -57,6 +58,9 @@ from .systems import SecondOrderSystem
 
 #: default confidence level
 LEVEL = 0.95
+#: ``solver="auto"`` forms N densely up to this order (3m(m+1)/2 = 2460 coordinates, as
+#: the refinement's dense step) and solves with it matrix-free beyond
+AUTO_DENSE_MAX_M = 40
 
 
 def _check_level(level: object) -> float:
@@ -122,12 +126,11 @@ class ModeIntervals:
 class FRFBand:
     """The model's FRF on the measured DOFs with a confidence band per line.
 
-    Each value Ĥ has a 2 × 2 covariance of its real and imaginary parts; its
-    confidence region at the level is the ellipse (h − Ĥ)ᵀ Σ⁻¹ (h − Ĥ) ≤ z², and the
-    band on |H| is that ellipse's shadow, [min |h|, max |h|] over it — the interval
-    the likelihood ratio gives for |H| with the phase unknown. Where |Ĥ| is many
-    standard deviations from 0 it is |Ĥ| ± z σ_|H|; where the ellipse holds 0 (an
-    FRF below its own uncertainty, e.g. at an anti-resonance) it reaches down to 0.
+    Each value Ĥ has a 2 × 2 covariance Σ of its real and imaginary parts. The band on
+    |H| is |Ĥ| ± z σ_r, σ_r the standard deviation of the magnitude, Re(H̄ δH)/|H|; it
+    reaches down to 0 where the confidence ellipse (h − Ĥ)ᵀ Σ⁻¹ (h − Ĥ) ≤ z² holds the
+    origin — an FRF below its own uncertainty, e.g. at an anti-resonance, whose
+    magnitude the first-order σ_r does not bound from below.
 
     Attributes
     ----------
@@ -171,29 +174,23 @@ class FRFBand:
             return 20 / np.log(10) * np.sqrt(np.maximum(var, 0.0)) / np.abs(H) ** 2
 
 
-#: points on the boundary of a confidence ellipse searched for the band's ends
-ELLIPSE_POINTS = 720
-
-
-def _ellipse_shadow(
+def _magnitude_band(
     H: np.ndarray, vr: np.ndarray, vi: np.ndarray, cri: np.ndarray, z: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """[min |h|, max |h|] over the ellipses (h − H)ᵀ Σ⁻¹ (h − H) ≤ z², Σ = [[vr, cri],
-    [cri, vi]] per entry (flat arrays); 0 below where the ellipse holds the origin."""
-    cov = np.stack([np.stack([vr, cri], -1), np.stack([cri, vi], -1)], -2)  # (k, 2, 2)
-    lam, V = np.linalg.eigh(np.nan_to_num(cov))
-    L = V * np.sqrt(np.maximum(lam, 0.0))[:, None, :]  # Σ = L Lᵀ
-    t = np.linspace(0.0, 2 * np.pi, ELLIPSE_POINTS, endpoint=False)
-    circle = z * np.stack([np.cos(t), np.sin(t)])  # (2, T)
-    pts = np.stack([H.real, H.imag], -1)[:, :, None] + L @ circle  # (k, 2, T)
-    radius = np.hypot(pts[:, 0], pts[:, 1])
-    upper, lower = radius.max(axis=1), radius.min(axis=1)
-    # the origin inside: ‖L⁻¹ H‖ ≤ z in the ellipse's own coordinates
+    """The band on |H|: |Ĥ| ± z σ_r, σ_r the standard deviation of the radial part
+    Re(H̄ δH)/|H|; the lower end 0 where the confidence ellipse (h − Ĥ)ᵀ Σ⁻¹ (h − Ĥ) ≤ z²
+    (Σ = [[vr, cri], [cri, vi]] per entry, flat arrays) holds the origin, or below 0."""
+    a, b = H.real, H.imag
+    mag = np.abs(H)
     with np.errstate(divide="ignore", invalid="ignore"):
-        proj = np.einsum("kij,ki->kj", V, np.stack([H.real, H.imag], -1))
-        inside = np.sum(np.where(lam > 0, proj**2 / lam, np.where(proj == 0, 0.0, np.inf)),
-                        axis=1) <= z**2
-    lower = np.where(inside, 0.0, lower)
+        var_r = (a**2 * vr + b**2 * vi + 2 * a * b * cri) / mag**2
+        det = vr * vi - cri**2
+        # aᵀ Σ⁻¹ a for the origin's offset −Ĥ; a singular Σ holds the origin only on its line
+        dist2 = np.where(det > 0, (vi * a**2 - 2 * cri * a * b + vr * b**2) / det, np.inf)
+    var_r = np.where(mag > 0, var_r, vr + vi)
+    half = z * np.sqrt(np.maximum(var_r, 0.0))
+    lower = np.where(dist2 <= z**2, 0.0, np.maximum(mag - half, 0.0))
+    upper = mag + half
     bad = ~(np.isfinite(vr) & np.isfinite(vi) & np.isfinite(cri))
     return np.where(bad, np.nan, lower), np.where(bad, np.nan, upper)
 
@@ -256,15 +253,18 @@ class ModelUncertainty:
     dof : int or None
         Degrees of freedom of an estimated variance (None when given).
     solver : str
-        ``"dense"``.
+        ``"dense"`` or ``"matrix-free"``.
     seconds : float
         Time to form the covariance.
-    cov : DenseCovariance
-        The covariance of M, C, K.
+    cov : DenseCovariance or MatrixFreeCovariance
+        The covariance of M, C, K, in the coordinates of ``fit``.
     omega : numpy.ndarray
         ``(s,)`` every line of the data (the FRF band's default lines).
     driven : numpy.ndarray of int
         The measured DOFs where the data have forces (the FRF band's default columns).
+    coordinates : numpy.ndarray, optional
+        T ``(m, m)`` when ``fit`` is in the coordinates q = T q̂ (the model's undamped
+        modes on the matrix-free path): X̂ = Tᵀ X T; None for the model's own.
 
     Attributes
     ----------
@@ -281,8 +281,9 @@ class ModelUncertainty:
     """
 
     def __init__(self, model, fit: LinearisedFit, variance: np.ndarray, noise: str,
-                 dof: int | None, solver: str, seconds: float, cov: DenseCovariance,
-                 omega: np.ndarray, driven: np.ndarray) -> None:
+                 dof: int | None, solver: str, seconds: float,
+                 cov: DenseCovariance | MatrixFreeCovariance, omega: np.ndarray,
+                 driven: np.ndarray, coordinates: np.ndarray | None = None) -> None:
         self.M, self.C, self.K = (np.asarray(X, dtype=np.float64) for X in
                                   (model.M, model.C, model.K))
         self._fit = fit
@@ -292,10 +293,11 @@ class ModelUncertainty:
         self.dof = dof
         self.solver = solver
         self.seconds = seconds
-        self.R = fit.R
+        self.R = fit.R if coordinates is None else fit.R @ np.linalg.inv(coordinates)
+        self._Tinv = None if coordinates is None else np.linalg.inv(coordinates)
         self.omega = omega
         self.driven = driven
-        self._observed = observed_count(fit.R) if fit.R.shape[0] else fit.m
+        self._observed = observed_count(self.R)
 
     @property
     def m(self) -> int:
@@ -346,6 +348,8 @@ class ModelUncertainty:
     def _scaled(self, grads: list[np.ndarray]) -> np.ndarray:
         """Gradients per block (∂g/∂X_b as (..., m, m) for b = M, C, K, the caller's
         units) → the covariance's coordinates (..., n_params)."""
+        if self._Tinv is not None:  # X = T⁻ᵀ X̂ T⁻¹: ∂g/∂X̂ = T⁻¹ (∂g/∂X) T⁻ᵀ
+            grads = [self._Tinv @ g @ self._Tinv.T for g in grads]
         parts = [sym_gradient(g) * c for g, c in zip(grads, self._fit.scales, strict=True)]
         return np.concatenate(parts, axis=-1)
 
@@ -481,7 +485,7 @@ class ModelUncertainty:
             var_re[i] = self._cov.variances(grad.real).reshape(r, c)
             var_im[i] = self._cov.variances(grad.imag).reshape(r, c)
             cov_ri[i] = self._cov.covariances(grad.real, grad.imag).reshape(r, c)
-        lower, upper = _ellipse_shadow(values.reshape(-1), var_re.reshape(-1),
+        lower, upper = _magnitude_band(values.reshape(-1), var_re.reshape(-1),
                                        var_im.reshape(-1), cov_ri.reshape(-1), z)
         sd_re, sd_im = np.sqrt(var_re), np.sqrt(var_im)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -516,15 +520,20 @@ class ModelUncertainty:
                 f"of dimension {self.gauge} (docs/design.md §11) and their entries are not "
                 "determined by the data; the modes and FRFs are (modes(), frf())"
             )
+        if self.solver != "dense":
+            raise ValueError(
+                f"every entry of M, C, K is a solve with the Gauss–Newton matrix on the "
+                f"matrix-free path ({self.n_parameters} of them at m = {self.m}): use "
+                "solver='dense' (its memory: the square of that count in doubles)"
+            )
         m = self.m
-        nb = m * (m + 1) // 2
         rows, cols = np.triu_indices(m)
+        E = np.zeros((rows.size, m, m))
+        E[np.arange(rows.size), rows, cols] = 1.0  # X_jk as a function of the entries
+        zero = np.zeros_like(E)
         out = []
         for b in range(3):
-            G = np.zeros((nb, self.n_parameters))
-            # X_jk = c_b · θ_p / √2 off the diagonal, c_b · θ_p on it
-            G[np.arange(nb), b * nb + np.arange(nb)] = np.where(
-                rows == cols, 1.0, 1 / np.sqrt(2.0)) * self._fit.scales[b]
+            G = self._scaled([E if k == b else zero for k in range(3)])
             sd = np.sqrt(self._cov.variances(G))
             S = np.empty((m, m))
             S[rows, cols] = sd
@@ -532,13 +541,17 @@ class ModelUncertainty:
             out.append(S)
         return MatrixIntervals(self.M, self.C, self.K, *out, _check_level(level), z)
 
-    def summary(self, level: float = LEVEL) -> str:
+    def summary(self, level: float = LEVEL, select: object = None) -> str:
         """One line: how the covariance was made, and the typical interval of the modes.
 
         Parameters
         ----------
         level : float
             Confidence level, in (0, 1).
+        select : array_like of bool, optional
+            Which modes (of :meth:`modes`) the typical interval is of, e.g. the
+            structure's modes apart from a fit's residual terms; default every
+            oscillatory mode.
 
         Returns
         -------
@@ -547,14 +560,17 @@ class ModelUncertainty:
         """
         modes = self.modes(level)
         osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0)
+        if select is not None:
+            osc &= np.asarray(select, dtype=bool)
         text = (f"{100 * level:g} % intervals from the sandwich covariance at the optimum "
                 f"({self.solver}, {self.n_parameters} parameters, rank {self.rank}"
                 + (f", gauge {self.gauge}" if self.gauge else "") + f"); noise {self.noise}")
         if np.any(osc):
             hf = modes.z * modes.std_frequency_hz[osc] / modes.frequencies_hz[osc]
             hz = modes.z * modes.std_damping[osc] / np.maximum(modes.damping_ratios[osc], 1e-300)
-            text += (f"; median half-width {100 * np.median(hf):.2g} % of the natural "
-                     f"frequency, {100 * np.median(hz):.2g} % of the damping ratio")
+            text += (f"; median half-width over {int(osc.sum())} mode(s): "
+                     f"{100 * np.median(hf):.2g} % of the natural frequency, "
+                     f"{100 * np.median(hz):.2g} % of the damping ratio")
         undetermined = int(np.sum(~modes.determined))
         if undetermined:
             text += f"; {undetermined} mode(s) not determined by the data"
@@ -576,6 +592,7 @@ def model_uncertainty(
     averages: object = None,
     noise: NoiseModel = "channel",
     line_correlation: object = (),
+    solver: str = "auto",
 ) -> ModelUncertainty:
     """The covariance of a model refined to these data, and its intervals.
 
@@ -605,9 +622,11 @@ def model_uncertainty(
         per line ``(s,)``, per line and DOF ``(s, n)`` or per entry ``(s, n, p)``.
     coherence : array_like, (s, n) or (s, n, p), optional
         With ``averages``: U are H1 estimates, whose variance is
-        |H|²(1 − γ²)/(γ² n_d) (Bendat & Piersol; γ² the coherence).
+        |H|²(1 − γ²)/(γ² (n_d − 1)) (Bendat & Piersol's random error, with n_d − 1 as
+        for Gaussian data; γ² the coherence).
     averages : float, optional
-        The number of independent averages n_d of the H1 estimates.
+        The number of independent averages n_d of the H1 estimates, more than 1
+        (:func:`podid_rs.h1_coherence` gives what overlapping segments are worth).
     noise : {"channel", "line", "global"}
         Without a variance or coherence: the noise is estimated from the residuals,
         one variance per channel (measured DOF and load case) over the lines, per line,
@@ -617,6 +636,13 @@ def model_uncertainty(
         apart (default none: independent lines). H1 estimates from windowed
         segments are correlated between neighbouring lines (Hann: 4/9, then 1/36, for
         white input and noise; :func:`podid_rs.h1_coherence` gives them).
+    solver : {"auto", "dense", "matrix-free"}
+        ``"dense"`` forms the Gauss–Newton matrix ((3m(m+1)/2)² doubles) and
+        eigendecomposes it, which also finds the directions the data do not determine;
+        ``"matrix-free"`` solves with it by preconditioned CG for each variance asked
+        (J·v and Jᴴ·u line by line, memory O(s·m²) as the refinement's matrix-free
+        step), in the model's undamped modal coordinates; ``"auto"`` dense up to
+        m = 40.
 
     Returns
     -------
@@ -629,7 +655,8 @@ def model_uncertainty(
     ValueError
         For malformed data or options, negative or NaN variances, a coherence outside
         [0, 1], fewer than one average, both a variance and a coherence, a
-        coherence without averages, or a line correlation outside (−1, 1).
+        coherence without averages, a line correlation outside (−1, 1), or an unknown
+        solver.
     """
     t0 = time.perf_counter()
     if not isinstance(model, IdentificationResult | SecondOrderSystem):
@@ -677,10 +704,22 @@ def model_uncertainty(
     if rho.ndim != 1 or not np.all(np.abs(rho) < 1):
         raise ValueError(f"line_correlation must be coefficients in (−1, 1), got "
                          f"{line_correlation!r}")
-    fit = LinearisedFit(M, C, K, Ua[keep], Fa[keep], w[keep], R, W_all[keep], objective,
-                        grid=np.flatnonzero(keep))
-    N = gauss_newton_matrix(fit, fit.bread())
-    cov = DenseCovariance(N)
+    if solver not in ("auto", "dense", "matrix-free"):
+        raise ValueError(f"solver must be 'auto', 'dense' or 'matrix-free', got {solver!r}")
+    dense = solver == "dense" or (solver == "auto" and m <= AUTO_DENSE_MAX_M)
+    T = None
+    if dense:
+        fit = LinearisedFit(M, C, K, Ua[keep], Fa[keep], w[keep], R, W_all[keep], objective,
+                            grid=np.flatnonzero(keep))
+        cov: DenseCovariance | MatrixFreeCovariance = DenseCovariance(
+            gauss_newton_matrix(fit, fit.bread()))
+    else:
+        # the undamped modes: TᵀMT = I, TᵀKT = Ω² (where N is nearly block diagonal)
+        _, T = scipy.linalg.eigh(K, M)
+        fit = LinearisedFit(T.T @ M @ T, T.T @ C @ T, T.T @ K @ T, Ua[keep], Fa[keep], w[keep],
+                            R @ T, W_all[keep], objective, grid=np.flatnonzero(keep))
+        observed = observed_count(R)
+        cov = MatrixFreeCovariance(fit, fit.n_params - gauge_dimension(m, observed))
     dof = None
     if noise_variance is not None:
         variance = check_variance(noise_variance, Ua.shape)[keep]
@@ -696,10 +735,12 @@ def model_uncertainty(
         what = {"channel": "per channel (DOF and load case)", "line": "per line",
                 "global": "one for all entries"}[noise]
         source = f"estimated from the residuals, {what}, {dof} degrees of freedom"
-    cov.set_meat(gauss_newton_matrix(fit, fit.meat(variance, tuple(float(r) for r in rho))))
+    meat = fit.meat(variance, tuple(float(r) for r in rho))
+    cov.set_meat(gauss_newton_matrix(fit, meat) if dense else meat)
     driven = np.flatnonzero(np.any(Fa != 0, axis=(0, 2)))
-    return ModelUncertainty(model, fit, variance, source, dof, "dense",
-                            time.perf_counter() - t0, cov, w, driven)
+    return ModelUncertainty(model, fit, variance, source, dof,
+                            "dense" if dense else "matrix-free", time.perf_counter() - t0, cov,
+                            w, driven, T)
 
 
 def _refinement_weights(model: IdentificationResult) -> tuple[str, Objective]:
@@ -730,6 +771,7 @@ def fit_uncertainty(
     averages: object = None,
     noise: NoiseModel = "channel",
     line_correlation: object = (),
+    solver: str = "auto",
 ) -> ModelUncertainty:
     """The covariance of a model fitted to measured data by :meth:`MeasuredData.fit`.
 
@@ -750,6 +792,8 @@ def fit_uncertainty(
         The order sweep, when the final fit kept its held-out fit.
     noise_variance, coherence, averages, noise, line_correlation
         The noise, as for :func:`model_uncertainty`.
+    solver : {"auto", "dense", "matrix-free"}
+        As for :func:`model_uncertainty`.
 
     Returns
     -------
@@ -775,5 +819,5 @@ def fit_uncertainty(
     return model_uncertainty(
         model, data.U, data.forces_on_dofs(), data.omega, basis=basis, weights=weights,
         objective=objective, lines=lines, noise_variance=noise_variance, coherence=coherence,
-        averages=averages, noise=noise, line_correlation=line_correlation,
+        averages=averages, noise=noise, line_correlation=line_correlation, solver=solver,
     )

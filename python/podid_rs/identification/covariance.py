@@ -34,7 +34,8 @@ it, and only quantities it leaves unchanged have a variance.
 **The noise.** Given per entry (``noise_variance``), from the coherence γ² and the
 number of averages n_d of H1 estimates (Bendat & Piersol: the normalised random
 error of |Ĥ| and the error of its phase in radians are each
-√(1 − γ²)/(|γ|√(2n_d)), so E|δĤ|² = |Ĥ|²(1 − γ²)/(γ² n_d)), or estimated from the
+√(1 − γ²)/(|γ|√(2n_d)), so E|δĤ|² ≈ |Ĥ|²(1 − γ²)/(γ² n_d); n_d − 1 in place of n_d,
+exact for Gaussian data, :func:`h1_variance`), or estimated from the
 residuals ŷ − u of the fit: one variance per channel (measured DOF and load case)
 over the lines, by default, or per line, or one for all; the residuals have
 2·entries − rank real degrees of freedom, and the variances are scaled by their ratio.
@@ -257,25 +258,75 @@ class LinearisedFit:
 
     # ------------------------------------------------------------------ matrix-free products
     def apply_jacobian(self, theta: np.ndarray) -> np.ndarray:
-        """J·θ: ``(n_params, k)`` → δŷ ``(s, n, p, k)``."""
-        nb = self.n_params // 3
-        dX = [sym_matrix(theta[b * nb:(b + 1) * nb].T, self.m) for b in range(3)]  # (k, m, m)
-        dD = (self.phi[0][:, None, None, None] * dX[0][None] + self.phi[1][:, None, None, None]
-              * dX[1][None] + dX[2][None].astype(complex))  # (s, k, m, m)
-        v = np.einsum("skij,sjp->skip", dD, self.x)  # δD x
-        dx = -np.einsum("sij,skjp->skip", self.Dinv, v)
-        return np.einsum("nm,skmp->snpk", self.R, dx)
+        """J·θ: ``(n_params, k)`` → δŷ ``(s, n, p, k)``.
+
+        δX_b x for every column by one matrix product per block, then per line
+        −D⁻¹(Σ_b φ_b δX_b x): memory O(s·m·p·k).
+        """
+        nb, m, s, p = self.n_params // 3, self.m, self.s, self.p
+        k = theta.shape[1]
+        X = self.x.transpose(1, 0, 2).reshape(m, s * p)  # (m, s·p)
+        y = np.zeros((s, m, p, k), dtype=complex)
+        for b in range(3):
+            dX = sym_matrix(theta[b * nb:(b + 1) * nb].T, m)  # (k, m, m)
+            Pb = (dX.reshape(k * m, m) @ X).reshape(k, m, s, p)
+            y += self.phi[b][:, None, None, None] * Pb.transpose(2, 1, 3, 0)
+        dx = -(self.Dinv @ y.reshape(s, m, p * k)).reshape(s, m, p, k)
+        return np.einsum("nm,smpk->snpk", self.R, dx, optimize=True)
 
     def apply_adjoint(self, t: np.ndarray) -> np.ndarray:
         """Re(Jᴴ t): ``(s, n, p, k)`` complex → ``(n_params, k)``."""
-        z = np.einsum("nm,snpk->smpk", self.R, t)
-        z = np.einsum("sji,sjpk->sipk", self.Dinv.conj(), z)  # D⁻ᴴ Rᵀ t
+        s, m, p = self.s, self.m, self.p
+        k = t.shape[3]
+        z = np.einsum("nm,snpk->smpk", self.R, t, optimize=True).reshape(s, m, p * k)
+        z = (self.Dinv.conj().transpose(0, 2, 1) @ z).reshape(s, m, p, k)  # D⁻ᴴ Rᵀ t
+        X = self.x.transpose(1, 0, 2).reshape(m, s * p)
         out = []
         for b in range(3):
-            # ∂/∂X_ij of Re Σ t̄ᵀ J δX = −Re Σ φ̄_b z̄_i x_j ... as the conjugate pairing
-            G = -np.einsum("s,sipk,sjp->kij", self.phi[b], z.conj(), self.x)
-            out.append(sym_gradient(G.real).T)
+            # ∂/∂X_ij of Re Σ t̄ J δX = −Re Σ_c φ_b z̄_i x_j
+            Z = (z.conj() * self.phi[b][:, None, None, None]).transpose(3, 1, 0, 2)
+            G = -(Z.reshape(k * m, s * p) @ X.T).real.reshape(k, m, m)
+            out.append(sym_gradient(G).T)
         return np.concatenate(out, axis=0)
+
+    def pair_blocks(self, weights: EntryWeights, chunk: int = 64) -> np.ndarray:
+        """The 3 × 3 diagonal blocks of the matrix of ``weights`` (lag-0 pairs only) per
+        symmetric coordinate: ``(n_params / 3, 3, 3)``, block (b, b′) of coordinate
+        (j, k) = Re Σ_c φ̄_b φ_b′ (E x_c)ᴴ G_c (E x_c), E the coordinate's matrix."""
+        m, nb = self.m, self.n_params // 3
+        rows, cols, f = sym_pairs(m)
+        # E x = f′(e_j x_k + e_k x_j): f′ = 1/√2 off the diagonal, 1/2 on it
+        f2 = np.where(rows == cols, 0.25, 0.5)
+        out = np.zeros((nb, 3, 3))
+        c = np.array([-1.0, 1j, 1.0])
+        d = (2, 1, 0)
+        diag = weights.diagonal
+        lines = weights.left[diag]
+        for start in range(0, lines.size, chunk):
+            sel = np.flatnonzero(diag)[start:start + chunk]
+            li = weights.left[sel]
+            for h, conj in ((weights.hermitian[sel], True),
+                            (None if weights.symmetric is None else weights.symmetric[sel],
+                             False)):
+                if h is None:
+                    continue
+                Q = self.R.T @ (h.transpose(0, 2, 1)[..., None] * self.R)  # (P, p, m, m)
+                left = self.Dinv[li].conj() if conj else self.Dinv[li]
+                G = left.transpose(0, 2, 1)[:, None] @ Q @ self.Dinv[li][:, None]
+                x = self.x[li].transpose(0, 2, 1)  # (P, p, m)
+                xl = x.conj() if conj else x
+                Gjj = G[..., rows, rows]
+                Gkk = G[..., cols, cols]
+                Gjk = G[..., rows, cols]
+                t = f2 * (xl[..., cols] * x[..., cols] * Gjj + xl[..., rows] * x[..., rows] * Gkk
+                          + xl[..., cols] * x[..., rows] * Gjk + xl[..., rows] * x[..., cols]
+                          * G[..., cols, rows])  # (P, p, nb)
+                for b in range(3):
+                    for bb in range(3):
+                        cb = c[b].conj() if conj else c[b]
+                        coef = cb * c[bb] * self.w[li] ** (d[b] + d[bb])  # (P,)
+                        out[:, b, bb] += np.einsum("P,Ppq->q", coef, t).real
+        return out
 
     def product(self, weights: EntryWeights, theta: np.ndarray) -> np.ndarray:
         """The matrix of ``weights`` times ``theta`` ``(n_params,)`` or ``(n_params, k)``."""
@@ -406,11 +457,15 @@ def h1_variance(H: np.ndarray, coherence: object, averages: object) -> np.ndarra
 
     Bendat & Piersol (*Random Data*, §9.2.2): the normalised random error of |Ĥ| and
     the random error of its phase (radians) are each ε = √(1 − γ²)/(|γ|√(2 n_d)), so
-    the complex estimate scatters by E|δĤ|² = 2ε²|Ĥ|² = |Ĥ|²(1 − γ²)/(γ² n_d). Exact
-    for one input (ordinary coherence); with several, give each entry's partial
-    coherence. ``H`` and ``coherence`` are ``(s, n, p)`` (or ``(s, n)`` for coherence).
+    the complex estimate scatters by 2ε²|Ĥ|² = |Ĥ|²(1 − γ²)/(γ² n_d) — a large-n_d
+    form: for Gaussian data, conditional on the input the error's variance is
+    G_nn / Σ|X|², and the mean of the inverse of n_d averaged input powers is
+    1/((n_d − 1) G_xx), so |Ĥ|²(1 − γ²)/(γ² (n_d − 1)) is used (n_d > 1; one average
+    has coherence 1 and says nothing of the noise). Exact for one input (ordinary
+    coherence); with several, give each entry's partial coherence. ``H`` and
+    ``coherence`` are ``(s, n, p)`` (or ``(s, n)`` for coherence).
 
-    Raises ``ValueError`` for a coherence outside [0, 1] or NaN, or averages < 1.
+    Raises ``ValueError`` for a coherence outside [0, 1] or NaN, or averages ≤ 1.
     """
     g = np.asarray(coherence, dtype=np.float64)
     if np.any(np.isnan(g)):
@@ -424,13 +479,13 @@ def h1_variance(H: np.ndarray, coherence: object, averages: object) -> np.ndarra
         raise ValueError(f"coherence must have shape (s, n) or (s, n, p) = {H.shape}, "
                          f"got {g.shape}")
     if isinstance(averages, bool) or not np.isscalar(averages):
-        raise ValueError(f"averages must be a positive number, got {averages!r}")
+        raise ValueError(f"averages must be a number, got {averages!r}")
     nd = float(averages)
-    if not np.isfinite(nd) or nd < 1:
-        raise ValueError(f"averages must be at least 1 (the number of averaged segments), "
-                         f"got {averages!r}")
+    if not np.isfinite(nd) or nd <= 1:
+        raise ValueError(f"averages must be more than 1 (the number of averaged segments; one "
+                         f"has coherence 1 whatever the noise), got {averages!r}")
     g = np.maximum(g, COHERENCE_FLOOR)
-    return np.abs(H) ** 2 * (1 - g) / (g * nd)
+    return np.abs(H) ** 2 * (1 - g) / (g * (nd - 1))
 
 
 def residual_variance(
@@ -588,4 +643,121 @@ class DenseCovariance:
     def variances(self, G: np.ndarray) -> np.ndarray:
         """Variances gᵀ cov g of the rows of ``G`` ``(k, q)``; NaN for a row with a
         component along an undetermined direction."""
+        return np.maximum(self.covariances(G, G), 0.0)
+
+
+#: relative residual at which the matrix-free solves stop, and their iteration cap
+CG_TOL = 1e-8
+CG_MAX_ITER = 2000
+#: right-hand sides solved together (memory grows with it)
+CG_BLOCK = 16
+
+
+class MatrixFreeCovariance:
+    """cov θ̂ = N⁻¹ S N⁻¹ applied by solves with N: only the variances asked for.
+
+    Every variance gᵀ N⁻¹ S N⁻¹ g is one preconditioned CG solve N a = g (products
+    J·v and Jᴴ·u line by line, :meth:`LinearisedFit.product`) and one product S a;
+    right-hand sides go in blocks of ``CG_BLOCK``. The preconditioner is the inverse
+    of N's 3 × 3 diagonal blocks (M, C, K) per symmetric coordinate — nearly all of N
+    in the model's undamped modal coordinates, where the fit should be linearised.
+    N is singular along a gauge (latent coordinates); g orthogonal to it (every
+    gauge-invariant quantity) lies in N's range, and S shares N's null space, so
+    aᵀ S a does not depend on which solution CG finds. A solve that does not reach
+    ``tol`` gives NaN.
+
+    Parameters
+    ----------
+    fit : LinearisedFit
+        The linearised fit.
+    rank : int
+        The determined directions (n_params less the gauge): not measured here.
+    tol : float
+        Relative residual of the solves.
+
+    Attributes
+    ----------
+    rank : int
+        As given.
+    iterations : list of int
+        CG iterations of every block solved so far.
+    """
+
+    def __init__(self, fit: LinearisedFit, rank: int, tol: float = CG_TOL) -> None:
+        self.fit = fit
+        self.rank = int(rank)
+        self.tol = float(tol)
+        self.bread = fit.bread()
+        blocks = fit.pair_blocks(self.bread)
+        scale = np.maximum(np.abs(blocks).max(axis=(1, 2)), np.finfo(float).tiny)
+        blocks = blocks + 1e-12 * scale[:, None, None] * np.eye(3)
+        self._pinv = np.linalg.inv(blocks)  # (nb, 3, 3)
+        self.meat: EntryWeights | None = None
+        self.iterations: list[int] = []
+
+    def set_meat(self, meat: EntryWeights) -> None:
+        """The noise's weights (the sandwich's meat)."""
+        self.meat = meat
+
+    def _precondition(self, r: np.ndarray) -> np.ndarray:
+        nb = self.fit.n_params // 3
+        R3 = r.reshape(3, nb, -1).transpose(1, 0, 2)  # (nb, 3, k)
+        return (self._pinv @ R3).transpose(1, 0, 2).reshape(r.shape)
+
+    def solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """N X = B for ``B`` ``(n_params, k)`` by preconditioned CG, column by column
+        (all at once); returns X and whether each column reached the tolerance."""
+        x = np.zeros_like(B)
+        r = B.copy()
+        z = self._precondition(r)
+        d = z.copy()
+        rz = np.sum(r * z, axis=0)
+        norm_b = np.linalg.norm(B, axis=0)
+        done = norm_b == 0
+        it = 0
+        while it < CG_MAX_ITER and not done.all():
+            it += 1
+            act = ~done
+            Nd = self.fit.product(self.bread, d[:, act])
+            dNd = np.sum(d[:, act] * Nd, axis=0)
+            alpha = np.where(dNd > 0, rz[act] / np.where(dNd > 0, dNd, 1.0), 0.0)
+            x[:, act] += alpha * d[:, act]
+            r[:, act] -= alpha * Nd
+            res = np.linalg.norm(r[:, act], axis=0) / norm_b[act]
+            idx = np.flatnonzero(act)
+            finished = (res <= self.tol) | (dNd <= 0)
+            done[idx[finished]] = True
+            z_act = self._precondition(r[:, act])
+            rz_new = np.sum(r[:, act] * z_act, axis=0)
+            beta = rz_new / np.where(rz[act] != 0, rz[act], 1.0)
+            d[:, act] = z_act + beta * d[:, act]
+            rz[act] = rz_new
+        self.iterations.append(it)
+        res = np.linalg.norm(B - self.fit.product(self.bread, x), axis=0) / np.where(
+            norm_b > 0, norm_b, 1.0)
+        return x, res <= 10 * self.tol
+
+    def undetermined(self, G: np.ndarray) -> np.ndarray:
+        """Not measured on this path: all False."""
+        return np.zeros(np.atleast_2d(G).shape[0], dtype=bool)
+
+    def covariances(self, G: np.ndarray, H: np.ndarray) -> np.ndarray:
+        """gᵀ N⁻¹ S N⁻¹ h of the rows of ``G`` and ``H`` ``(k, q)``; NaN where a solve
+        did not converge."""
+        G, H = np.atleast_2d(G), np.atleast_2d(H)
+        same = G is H or (G.shape == H.shape and np.array_equal(G, H))
+        out = np.empty(G.shape[0])
+        for start in range(0, G.shape[0], CG_BLOCK):
+            sl = slice(start, start + CG_BLOCK)
+            a, ok_a = self.solve(G[sl].T)
+            if same:
+                b, ok_b = a, ok_a
+            else:
+                b, ok_b = self.solve(H[sl].T)
+            Sb = self.fit.product(self.meat, b)
+            out[sl] = np.where(ok_a & ok_b, np.sum(a * Sb, axis=0), np.nan)
+        return out
+
+    def variances(self, G: np.ndarray) -> np.ndarray:
+        """Variances gᵀ cov g of the rows of ``G`` ``(k, q)`` (NaN where not solved)."""
         return np.maximum(self.covariances(G, G), 0.0)
