@@ -51,13 +51,18 @@ ANNOTATE_MAX_CELLS = 400
 class Curve:
     """One FRF line of a comparison: ``values`` ``(s, 2)`` complex, one column per entry.
 
-    ``kind`` picks the style (a key of :data:`STYLES`); ``style`` overrides it.
+    ``kind`` picks the style (a key of :data:`STYLES`); ``style`` overrides it. ``band``
+    ``(s, 2, 2)`` — the lower and upper |H| of each entry per line (a confidence band,
+    :meth:`podid_rs.ModelUncertainty.frf`), labelled ``band_label`` — is shaded in the
+    curve's colour.
     """
 
     label: str
     values: np.ndarray
     kind: str = "original"
     style: Mapping = field(default_factory=dict)
+    band: np.ndarray | None = None
+    band_label: str = ""
 
 
 def _entry_name(entry: tuple[int | str, int | str]) -> str:
@@ -208,14 +213,19 @@ def plot_frf_comparison(
     ``band_hz`` is given, so in-band and out-of-band behaviour read apart.
     """
     # legend entries: the curves and the band; at most three side by side
-    n_items = len(curves) + (band_hz is not None)
+    n_items = len(curves) + (band_hz is not None) + sum(
+        c.band is not None and bool(c.band_label) for c in curves)
     ncols = min(n_items, 3)
     legend_rows = -(-n_items // ncols)
     fig, axes = _new_figure(11.0, 4.35 + 0.25 * legend_rows, 2, legend_rows=legend_rows)
     for i, (ax, entry) in enumerate(zip(axes[0], entries, strict=True)):
         for c in curves:
             style = {**STYLES.get(c.kind, {}), **c.style}
-            ax.plot(freq_hz, np.abs(c.values[:, i]), label=c.label, **style)
+            line = ax.plot(freq_hz, np.abs(c.values[:, i]), label=c.label, **style)[0]
+            if c.band is not None:
+                ax.fill_between(freq_hz, c.band[:, i, 0], c.band[:, i, 1], lw=0, alpha=0.25,
+                                color=line.get_color(), zorder=line.get_zorder() - 0.5,
+                                label=c.band_label or None)
         if band_hz is not None:
             ax.axvspan(*band_hz, color="gold", alpha=0.15, lw=0, zorder=0,
                        label=f"measured band {band_hz[0]:g}–{band_hz[1]:g} Hz")

@@ -73,6 +73,7 @@ from ..physical import make_physical, modal_parameters, modal_table, table_csv, 
 from ..plotting import Curve, plot_frf_comparison, plot_mac, plot_order_sweep, plot_stabilisation
 from ..pod import PODResult
 from ..stabilisation import is_physical, pod_fit, stabilisation_chart
+from ..uncertainty import LEVEL, ModelUncertainty, fit_uncertainty
 
 MAX_OVERLAYS = 4
 #: the chart runs to order max(STABILISATION_ORDERS, m + 5), at most n
@@ -87,7 +88,9 @@ class IdentifyRun:
     ``paper_estimator`` the paper's (made physical when asked). ``least_squares`` is
     the paper's estimator at the same order (eq. 49); ``sweep`` the order sweep
     (None with ``paper_estimator``); ``timings`` the wall time (s) of each phase, in
-    the order they ran (the summary's last line).
+    the order they ran (the summary's last line); ``uncertainty`` the covariance of the
+    refined model (:func:`podid_rs.fit_uncertainty`; None with ``paper_estimator``, or
+    when it could not be formed: ``uncertainty_note`` says why).
     """
 
     source: Path
@@ -98,6 +101,8 @@ class IdentifyRun:
     files: list[Path] = field(default_factory=list)
     sweep: OrderSweep | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    uncertainty: ModelUncertainty | None = None
+    uncertainty_note: str = ""
 
     def frf_errors(self, model: IdentificationResult) -> tuple[float, float]:
         """Median and 95th percentile |dB| of ``model``'s responses (R H_m Rᵀ F) against
@@ -196,6 +201,12 @@ class IdentifyRun:
             f"- stable: {'yes' if modes.stable else 'no'} "
             f"(largest Re λ = {modes.max_real_part:.4g})"
         )
+        if self.uncertainty is not None:
+            structural = pole_kinds(r, self.basis, d) == STRUCTURAL
+            lines.append(f"- intervals: {self.uncertainty.summary(LEVEL, structural)} "
+                         "(the structure's modes)")
+        elif self.uncertainty_note:
+            lines.append(f"- intervals: none — {self.uncertainty_note}")
         if self.timings:
             lines.append("- wall time: " + ", ".join(
                 f"{name} {seconds:.1f} s" for name, seconds in self.timings.items()))
@@ -233,7 +244,13 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
         curves = [Curve("measured", seen, kind="original")] if d.is_frf else []
         for label, r, style in models:
             values = _model_frf(r, run.basis[:, : r.m], d.omega, rows, col)
-            curves.append(Curve(label, values, kind="identified", style=style))
+            band, band_label = None, ""
+            if r is run.result and run.uncertainty is not None:
+                frf = run.uncertainty.frf(d.omega, rows=rows, cols=[col], level=LEVEL)
+                band = np.stack([frf.lower[:, :, 0], frf.upper[:, :, 0]], axis=-1)
+                band_label = f"{100 * LEVEL:g} % confidence band"
+            curves.append(Curve(label, values, kind="identified", style=style, band=band,
+                                band_label=band_label))
         driven = _dof_name(d.dofs[col])
         what = "measured and identified" if d.is_frf else "identified (the data are not FRFs)"
         if d.is_frf and not d.measured[col, k]:
@@ -261,13 +278,37 @@ def pole_kinds(result: IdentificationResult, R: np.ndarray, data: MeasuredData) 
     return mode_kinds(shapes, data.omega)
 
 
+def with_intervals(rows: list[dict], unc: ModelUncertainty, level: float = LEVEL) -> list[dict]:
+    """The rows of :func:`~podid_rs.physical.modal_table` with the half-widths of the
+    intervals of f and ζ at ``level`` beside them (``f_hz_pm95``, ``zeta_pm95`` at 95 %;
+    ``undetermined`` where the data do not fix the mode)."""
+    modes = unc.modes(level)
+    tag = f"pm{100 * level:g}"
+    out = []
+    for row, df, dz, ok in zip(rows, modes.z * modes.std_frequency_hz,
+                               modes.z * modes.std_damping, modes.determined, strict=True):
+        new: dict = {}
+        for key, value in row.items():
+            new[key] = value
+            if key in ("f_hz", "zeta"):
+                new[f"{key}_{tag}"] = float(df if key == "f_hz" else dz) if ok else "undetermined"
+        out.append(new)
+    return out
+
+
 def modes_markdown(summary: str, rows: list[dict]) -> str:
     """``modes.md``: the run's summary, the structure's modes, then the fit's other poles."""
     structural = [r for r in rows if r.get("kind", STRUCTURAL) == STRUCTURAL]
     others = [r for r in rows if r.get("kind", STRUCTURAL) != STRUCTURAL]
     text = (f"# podid-rs identify\n\n{summary}\n## Modes of the structure\n\n"
             "In-band resonances of the measured data (the poles `modes.csv` marks "
-            f"`{STRUCTURAL}`); these go to `model.uff` (dataset 55).\n\n")
+            f"`{STRUCTURAL}`); these go to `model.uff` (dataset 55).")
+    pm = [key for key in (rows[0] if rows else {}) if key.startswith("f_hz_pm")]
+    if pm:
+        text += (f" `f_hz_{pm[0][5:]}`, `zeta_{pm[0][5:]}`: the half-width of the "
+                 f"{pm[0][7:]} % confidence interval (estimate ± it), from the output-error "
+                 "fit's covariance.")
+    text += "\n\n"
     text += table_markdown(structural) if structural else "None.\n"
     if others:
         text += (
@@ -351,9 +392,17 @@ def run_identify(
         result = make_physical(ls, U_m, F_m, data.omega)
     else:
         result = ls
+    unc, note = None, ""
+    if sweep is not None:
+        try:
+            unc = fit_uncertainty(data, result, R, sweep)
+        except ValueError as exc:  # e.g. no degrees of freedom left for the noise
+            note = str(exc)
+        clock.lap("covariance")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    run = IdentifyRun(source, data, ls, result, R, sweep=sweep, timings=clock.laps)
+    run = IdentifyRun(source, data, ls, result, R, sweep=sweep, timings=clock.laps,
+                      uncertainty=unc, uncertainty_note=note)
     files = [
         save_model(
             out / "model.npz",
@@ -368,6 +417,8 @@ def run_identify(
     clock.lap("FRF overlays")
     kinds = pole_kinds(result, R, data)
     rows = modal_table(result, kinds=kinds)
+    if unc is not None:
+        rows = with_intervals(rows, unc)
     (out / "modes.csv").write_text(table_csv(rows))
     (out / "modes.md").write_text(modes_markdown(run.summary(), rows))
     files += [out / "modes.csv", out / "modes.md"]
@@ -392,7 +443,7 @@ def run_identify(
                                         physical=physical, progress=progress, pod=pod,
                                         kinds=kinds)
     clock.lap("modal table, model.uff, stabilisation chart, MAC")
-    return IdentifyRun(source, data, ls, result, R, files, sweep, clock.laps)
+    return IdentifyRun(source, data, ls, result, R, files, sweep, clock.laps, unc, note)
 
 
 class _Clock:
