@@ -1,0 +1,278 @@
+"""Are the confidence intervals right? Monte Carlo coverage and sharpness of ``model_uncertainty``.
+
+On systems whose model class contains the truth — the full-order chain, observed at every
+DOF on its POD basis (m = n) — over many noise seeds, for every natural frequency, every
+damping ratio and the FRF band at every line and entry:
+
+* **coverage**: the fraction of seeds whose interval (95 % unless ``--level``) holds the
+  true value (the noise-free FRF for the band); its sampling error over N seeds is
+  ±2√(0.95·0.05/N) (±3.1 % at 200);
+* **sharpness**: the median half-width over 1.96 × the standard deviation of the
+  estimate over the seeds (ideal 1).
+
+Cases:
+
+* **additive**: FRFs plus circular complex Gaussian noise of known variance, per
+  channel (response DOF and input) σ² = mean |H|² / 10^(SNR/10), SNR 20 and 10 dB; the
+  maximum-likelihood fit (weights 1/σ) with σ² given, and with σ² estimated per channel
+  from the residuals; and the refinement's default relative weights 1/‖u‖, which are
+  computed from the noisy data themselves;
+* **H1**: the chain driven at one end by band-limited white noise, responses with white
+  output noise (SNR per channel of the histories), H1 by Welch averaging with
+  :func:`podid_rs.frf_h1` (Hann, half overlap) and uniform weights; the variance from
+  the coherence and the effective number of averages, with and without the correlation
+  of neighbouring lines (:func:`podid_rs.h1_coherence`).
+
+Every fit starts from the true model, so that what is measured is the interval around
+the optimum, not the search for it.
+
+    python3 benches/bench_uncertainty.py                  # 200 seeds (≈ 1 h)
+    python3 benches/bench_uncertainty.py --seeds 40       # a quicker look
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import podid_rs as pr  # noqa: E402
+from _common import host_line, load_average, markdown_table  # noqa: E402
+
+#: the additive case: chain, lines, inputs (0-based DOFs)
+ADDITIVE_N = 8
+ADDITIVE_LINES = 300
+#: the H1 case: chain, sampling, segment length (frequency resolution), segments, SNR
+H1_N = 6
+H1_FS = 128.0
+H1_DF = 0.0125
+H1_SEGMENTS = 25
+H1_SNR_DB = 10.0
+
+
+def chain(n: int, a0: float, a1: float) -> pr.SecondOrderSystem:
+    """A chain of n unit masses (springs 10⁴ N/m, both ends fixed), Rayleigh damping."""
+    return pr.mass_spring_chain(n, m1=1.0, m2=1.0, ku=1e4, a0=a0, a1=a1)
+
+
+def band_of(system: pr.SecondOrderSystem) -> tuple[float, float]:
+    f = pr.modal_parameters(system).frequencies_hz
+    return 0.7 * f[0], 1.15 * f[-1]
+
+
+class Tally:
+    """Estimates, standard deviations and FRF bands of one row over the seeds."""
+
+    def __init__(self) -> None:
+        self.f, self.z, self.sf, self.sz = [], [], [], []
+        self.H, self.lo, self.up = [], [], []
+        self.seconds: list[float] = []
+
+    def add(self, unc: pr.ModelUncertainty, level: float, seconds: float) -> None:
+        modes = unc.modes(level)
+        band = unc.frf(level=level)
+        self.z_value = modes.z
+        self.f.append(modes.frequencies_hz)
+        self.z.append(modes.damping_ratios)
+        self.sf.append(modes.std_frequency_hz)
+        self.sz.append(modes.std_damping)
+        self.H.append(band.values)
+        self.lo.append(band.lower)
+        self.up.append(band.upper)
+        self.seconds.append(seconds)
+
+    def summary(self, truth: pr.SecondOrderSystem, H_true: np.ndarray) -> dict:
+        modes = pr.modal_parameters(truth)
+        f, z, sf, sz = (np.array(v) for v in (self.f, self.z, self.sf, self.sz))
+        zq = self.z_value
+        out = {}
+        for name, est, sd, true in (("f", f, sf, modes.frequencies_hz),
+                                    ("zeta", z, sz, modes.damping_ratios)):
+            cover = np.mean(np.abs(est - true) <= zq * sd, axis=0)
+            sharp = np.median(zq * sd, axis=0) / (1.96 * est.std(axis=0))
+            out[name] = (cover, sharp)
+            out[name + "_bias"] = (est.mean(axis=0) - true) / est.std(axis=0)
+        H, lo, up = (np.array(v) for v in (self.H, self.lo, self.up))
+        true = np.abs(H_true)
+        inside = (true >= lo) & (true <= up)
+        per_line = inside.mean(axis=0)
+        sharp = np.median((up - lo) / 2, axis=0) / (1.96 * np.abs(H).std(axis=0))
+        out["frf"] = (float(inside.mean()), per_line, sharp)
+        out["seconds"] = float(np.median(self.seconds))
+        return out
+
+
+def additive_case(snr_db: float, seeds: int, level: float) -> tuple[list, dict]:
+    n = ADDITIVE_N
+    system = chain(n, 2.0, 1e-4)
+    lo, hi = band_of(system)
+    omega = 2 * np.pi * np.linspace(lo, hi, ADDITIVE_LINES)
+    inputs = [0, n // 2]
+    H = system.frf(omega)[:, :, inputs]
+    F = np.zeros_like(H)
+    for k, i in enumerate(inputs):
+        F[:, i, k] = 1.0
+    var = np.broadcast_to(np.mean(np.abs(H) ** 2, axis=0) / 10 ** (snr_db / 10), H.shape).copy()
+    ml = 1 / np.sqrt(var)
+    rows = {"ML, σ² given": Tally(), "ML, σ² from residuals": Tally(),
+            "relative 1/‖u‖, σ² given": Tally()}
+    t_fit = []
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        e = rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)
+        U = H + np.sqrt(var / 2) * e
+        R = pr.pod_from_frf(U, omega).basis(n)
+        start = tuple(R.T @ X @ R for X in (system.M, system.C, system.K))
+        for weights, names in ((ml, ("ML, σ² given", "ML, σ² from residuals")),
+                               ("relative", ("relative 1/‖u‖, σ² given",))):
+            t0 = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                model = pr.refine(start, U, F, omega, basis=R, weights=weights, max_iter=300)
+            t_fit.append(time.perf_counter() - t0)
+            for name in names:
+                t0 = time.perf_counter()
+                kw = {} if "residuals" in name else {"noise_variance": var}
+                unc = pr.model_uncertainty(model, U, F, omega, basis=R, weights=weights, **kw)
+                rows[name].add(unc, level, time.perf_counter() - t0)
+    setup = (f"chain n = m = {n}, {ADDITIVE_LINES} lines {lo:.2f}–{hi:.2f} Hz, inputs at DOFs "
+             f"{inputs[0] + 1} and {inputs[1] + 1}, SNR {snr_db:g} dB per channel")
+    return [(setup, name, t.summary(system, H)) for name, t in rows.items()], {
+        "refine_s": float(np.median(t_fit))}
+
+
+def h1_case(seeds: int, level: float) -> tuple[list, dict]:
+    n = H1_N
+    system = chain(n, 6.0, 3e-4)
+    lo, hi = band_of(system)
+    dt = 1 / H1_FS
+    nperseg = round(H1_FS / H1_DF)
+    step = nperseg - nperseg // 2
+    r = step * (H1_SEGMENTS - 1) + nperseg
+    freq = np.fft.rfftfreq(r, dt)
+    forced = (freq >= 0.8 * lo) & (freq <= 1.2 * hi)
+    H_forced = system.frf(2 * np.pi * freq[forced])
+    rows = {"uniform, H1 variance, neighbouring lines correlated": Tally(),
+            "uniform, H1 variance, lines taken independent": Tally()}
+    H_true = None
+    t_fit = []
+    for seed in range(seeds):
+        rng = np.random.default_rng(10_000 + seed)
+        X = np.zeros(freq.size, complex)
+        X[forced] = rng.standard_normal(forced.sum()) + 1j * rng.standard_normal(forced.sum())
+        x = np.fft.irfft(X, n=r)
+        Y = np.zeros((freq.size, n), complex)
+        Y[forced] = H_forced[:, :, 0] * X[forced][:, None]
+        y = np.fft.irfft(Y, n=r, axis=0)
+        y = y + rng.standard_normal(y.shape) * np.sqrt(y.var(axis=0) / 10 ** (H1_SNR_DB / 10))
+        omega, H1 = pr.frf_h1(x[:, None], y, dt, nperseg=nperseg, band_hz=(lo, hi))
+        stats = pr.h1_coherence(x[:, None], y, dt, nperseg=nperseg, band_hz=(lo, hi))
+        if H_true is None:
+            H_true = system.frf(omega)[:, :, [0]]
+        F = np.zeros_like(H1)
+        F[:, 0, 0] = 1.0
+        R = pr.pod_from_frf(H1, omega).basis(n)
+        start = tuple(R.T @ M @ R for M in (system.M, system.C, system.K))
+        t0 = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = pr.refine(start, H1, F, omega, basis=R, weights="uniform", max_iter=300)
+        t_fit.append(time.perf_counter() - t0)
+        for name, rho in zip(rows, (stats.line_correlation, ()), strict=True):
+            t0 = time.perf_counter()
+            unc = pr.model_uncertainty(model, H1, F, omega, basis=R, weights="uniform",
+                                       coherence=stats.coherence, averages=stats.averages,
+                                       line_correlation=rho)
+            rows[name].add(unc, level, time.perf_counter() - t0)
+    setup = (f"chain n = m = {n}, force at DOF 1, {H_true.shape[0]} lines {lo:.2f}–{hi:.2f} Hz "
+             f"({H1_DF:g} Hz apart), {H1_SEGMENTS} Hann segments half overlapping "
+             f"(worth {stats.averages:.1f} averages), output noise SNR {H1_SNR_DB:g} dB")
+    return [(setup, name, t.summary(system, H_true)) for name, t in rows.items()], {
+        "refine_s": float(np.median(t_fit))}
+
+
+def table(results: list, seeds: int) -> str:
+    header = ["case", "fit and noise", "f coverage (min–max over modes)",
+              "f sharpness", "ζ coverage", "ζ sharpness", "FRF band coverage (all / lines 5–95 %)",
+              "FRF sharpness (5 / 50 / 95 %)", "s per interval set"]
+    rows = []
+    for setup, name, s in results:
+        (cf, hf), (cz, hz) = s["f"], s["zeta"]
+        frf_all, per_line, sharp = s["frf"]
+        q = np.percentile(sharp[np.isfinite(sharp)], [5, 50, 95])
+        pl = np.percentile(per_line, [5, 95])
+        rows.append([setup, name, f"{cf.min():.3f}–{cf.max():.3f}",
+                     f"{hf.min():.2f}–{hf.max():.2f}",
+                     f"{cz.min():.3f}–{cz.max():.3f}", f"{hz.min():.2f}–{hz.max():.2f}",
+                     f"{frf_all:.3f} ({pl[0]:.2f}–{pl[1]:.2f})",
+                     f"{q[0]:.2f} / {q[1]:.2f} / {q[2]:.2f}", f"{s['seconds']:.2f}"])
+    return markdown_table(header, rows)
+
+
+def per_mode(results: list) -> str:
+    lines = []
+    for setup, name, s in results:
+        (cf, hf), (cz, hz) = s["f"], s["zeta"]
+        lines.append(f"- {setup}; {name}: f coverage " + " ".join(f"{v:.3f}" for v in cf)
+                     + "; ζ coverage " + " ".join(f"{v:.3f}" for v in cz)
+                     + "; f sharpness " + " ".join(f"{v:.2f}" for v in hf)
+                     + "; ζ sharpness " + " ".join(f"{v:.2f}" for v in hz)
+                     + "; bias of f / its standard deviation "
+                     + " ".join(f"{v:+.2f}" for v in s["f_bias"])
+                     + "; of ζ " + " ".join(f"{v:+.2f}" for v in s["zeta_bias"]))
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=200)
+    ap.add_argument("--level", type=float, default=0.95)
+    ap.add_argument("--cases", default="additive,h1")
+    ap.add_argument("--out", default="bench-results/uncertainty.md")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    load = [load_average()]
+    results, notes = [], []
+    cases = args.cases.split(",")
+    if "additive" in cases:
+        for snr in (20.0, 10.0):
+            rows, info = additive_case(snr, args.seeds, args.level)
+            results += rows
+            notes.append(f"- additive, SNR {snr:g} dB: refine {info['refine_s']:.2f} s per fit "
+                         "(median)")
+            load.append(load_average())
+            print(table(results, args.seeds), flush=True)
+    if "h1" in cases:
+        rows, info = h1_case(args.seeds, args.level)
+        results += rows
+        notes.append(f"- H1: refine {info['refine_s']:.2f} s per fit (median)")
+        load.append(load_average())
+    se = 2 * np.sqrt(0.95 * 0.05 / args.seeds)
+    loads = [v for v in load if v is not None]
+    text = "\n".join([
+        "# Confidence intervals: Monte-Carlo coverage and sharpness", "",
+        host_line(), "",
+        f"{args.seeds} noise seeds per row, {100 * args.level:g} % intervals; coverage's sampling "
+        f"error ±{se:.3f} (two standard errors); sharpness = median half-width / (1.96 × the "
+        "estimates' standard deviation over the seeds). Command: "
+        f"`python3 benches/bench_uncertainty.py --seeds {args.seeds}`.", "",
+        table(results, args.seeds), "", "Per mode:", "", per_mode(results), "", *notes,
+        f"- total {time.perf_counter() - t0:.0f} s"
+        + (f"; load average {min(loads):.1f}–{max(loads):.1f}" if loads else ""),
+    ])
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text + "\n")
+    print(text)
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
