@@ -289,6 +289,43 @@ class LinearisedFit:
             out.append(sym_gradient(G).T)
         return np.concatenate(out, axis=0)
 
+    def sample_noise_gradients(
+        self, variance: np.ndarray, correlation: tuple[float, ...], k: int,
+        rng: np.random.Generator,
+    ) -> np.ndarray:
+        """k draws of the gradient's perturbation Jᵣᵀ (∂r/∂u) δu by the noise itself:
+        ``(n_params, k)`` whose covariance is the meat S of :meth:`meat`.
+
+        δu is circular complex Gaussian of ``variance`` per entry, correlated along the
+        data's grid of lines by ``correlation`` (a stationary sequence: white noise
+        filtered by the square root of its spectrum 1 + 2 Σ_ℓ ρ_ℓ cos ℓθ, which must
+        not be negative).
+        """
+        n, p = self.n, self.p
+        length = int(self.grid.max()) + 1 + 2 * len(correlation) + 8
+        white = rng.standard_normal((length, n, p, k)) + 1j * rng.standard_normal(
+            (length, n, p, k))
+        white /= np.sqrt(2.0)
+        if correlation:
+            theta = 2 * np.pi * np.fft.fftfreq(length)
+            spectrum = 1 + 2 * sum(r * np.cos((lag + 1) * theta)
+                                   for lag, r in enumerate(correlation))
+            if np.any(spectrum < -1e-12):
+                raise ValueError(f"line_correlation {correlation!r} is not a correlation "
+                                 "sequence (its spectrum is negative somewhere)")
+            white = np.fft.ifft(np.sqrt(np.maximum(spectrum, 0.0))[:, None, None, None]
+                                * np.fft.fft(white, axis=0), axis=0)
+        du = np.sqrt(variance / self.su**2)[..., None] * white[self.grid]  # (s, n, p, k)
+        W2 = (self.W**2)[..., None]
+        if self.objective == "complex":
+            t = W2 * du
+        else:
+            used = (self.W > 0)[..., None]
+            u = np.where(used, self.u[..., None], 1.0)
+            y = np.where(used, self.y[..., None], 1.0)
+            t = np.where(used, W2 * np.real(du / u) / np.conj(y), 0.0)
+        return self.apply_adjoint(t)
+
     def pair_blocks(self, weights: EntryWeights, chunk: int = 64) -> np.ndarray:
         """The 3 × 3 diagonal blocks of the matrix of ``weights`` (lag-0 pairs only) per
         symmetric coordinate: ``(n_params / 3, 3, 3)``, block (b, b′) of coordinate
@@ -645,12 +682,20 @@ class DenseCovariance:
         component along an undetermined direction."""
         return np.maximum(self.covariances(G, G), 0.0)
 
+    def pair_moments(self, G: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(var g, var h, cov(g, h)) of the rows of ``G`` and ``H``, e.g. the real and
+        imaginary parts of complex quantities."""
+        return self.variances(G), self.variances(H), self.covariances(G, H)
+
 
 #: relative residual at which the matrix-free solves stop, and their iteration cap
 CG_TOL = 1e-8
 CG_MAX_ITER = 2000
 #: right-hand sides solved together (memory grows with it)
 CG_BLOCK = 16
+#: draws of the matrix-free path's sampled covariance (FRF bands), and their seed
+SAMPLES = 200
+SAMPLES_SEED = 20261125
 
 
 class MatrixFreeCovariance:
@@ -761,3 +806,35 @@ class MatrixFreeCovariance:
     def variances(self, G: np.ndarray) -> np.ndarray:
         """Variances gᵀ cov g of the rows of ``G`` ``(k, q)`` (NaN where not solved)."""
         return np.maximum(self.covariances(G, G), 0.0)
+
+    def set_noise(self, variance: np.ndarray, correlation: tuple[float, ...]) -> None:
+        """The noise the meat came from, for :meth:`pair_moments`' draws."""
+        self._noise = (variance, correlation)
+        self._draws: np.ndarray | None = None
+
+    def draws(self) -> np.ndarray:
+        """``SAMPLES`` draws z = N⁻¹ ξ, ξ the noise's perturbation of the gradient:
+        ``(n_params, SAMPLES)`` whose covariance is N⁻¹ S N⁻¹ (seeded: reproducible)."""
+        if self._draws is None:
+            xi = self.fit.sample_noise_gradients(*self._noise, SAMPLES,
+                                                 np.random.default_rng(SAMPLES_SEED))
+            parts, ok = [], []
+            for start in range(0, SAMPLES, CG_BLOCK):
+                z, good = self.solve(xi[:, start:start + CG_BLOCK])
+                parts.append(z)
+                ok.append(good)
+            self._draws = np.concatenate(parts, axis=1)[:, np.concatenate(ok)]
+        return self._draws
+
+    def pair_moments(self, G: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(var g, var h, cov(g, h)) of the rows of ``G`` and ``H`` from :meth:`draws`:
+        for many quantities at once (an FRF band over every line), at the cost of
+        ``SAMPLES`` solves instead of one per quantity; each variance is then known to
+        √(2/SAMPLES) relative (10 % at 200)."""
+        Z = self.draws()
+        if Z.shape[1] == 0:
+            nan = np.full(np.atleast_2d(G).shape[0], np.nan)
+            return nan, nan, nan
+        a, b = np.atleast_2d(G) @ Z, np.atleast_2d(H) @ Z
+        k = Z.shape[1]
+        return (np.sum(a * a, axis=1) / k, np.sum(b * b, axis=1) / k, np.sum(a * b, axis=1) / k)
