@@ -146,6 +146,8 @@ def run_sdypy(data, band: tuple[float, float]) -> dict:
             if best is None or med < best["median"]:
                 best = dict(method="sdypy-EMA LSCF + LSFD (best)", m=len(model.nat_freq),
                             median=med, p95=p95, stable=stable,
+                            freqs_hz=np.asarray(model.nat_freq, dtype=float),
+                            zetas=np.asarray(model.nat_xi, dtype=float),
                             nat_freq=np.asarray(model.nat_freq, dtype=float),
                             nat_xi=np.asarray(model.nat_xi, dtype=float),
                             note=f"order {order}, peak prominence {prominence}, "
