@@ -26,8 +26,15 @@ Cases:
 Every fit starts from the true model, so that what is measured is the interval around
 the optimum, not the search for it.
 
+``--cases beam``: ``podid-rs identify``'s run on the shared roving-hammer beam
+(``tests/data/ufsc_beam``) in each band, timed, with the time the intervals take in it
+(the covariance, the modes' intervals and the overlays' bands), and the structure's modes
+with their intervals beside sdypy-EMA's natural frequencies and damping ratios for the
+same modes (its best LSCF + LSFD fit, ``bench_measured.py``'s harness, the same run).
+
     python3 benches/bench_uncertainty.py                  # 200 seeds (≈ 1 h)
     python3 benches/bench_uncertainty.py --seeds 40       # a quicker look
+    python3 benches/bench_uncertainty.py --cases beam     # the beam against sdypy-EMA
 """
 
 from __future__ import annotations
@@ -197,6 +204,58 @@ def h1_case(seeds: int, level: float) -> tuple[list, dict]:
         "refine_s": float(np.median(t_fit))}
 
 
+def beam_case(bands: list[tuple[float, float]], out_dir: Path) -> str:
+    """identify on the beam, timed, its structural modes' intervals beside sdypy-EMA's."""
+    from bench_measured import BEAM, run_sdypy
+    from podid_rs.apps.identify import pole_kinds, run_identify
+    from podid_rs.modes import STRUCTURAL
+
+    parts = []
+    for band in bands:
+        t0 = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            run = run_identify(BEAM, out_dir / f"beam_{band[0]:g}_{band[1]:g}", band_hz=band,
+                               progress=False)
+        t_identify = time.perf_counter() - t0
+        d = run.data
+        # what identify spends on the intervals: the covariance, the modes', the overlays'
+        t0 = time.perf_counter()
+        unc = pr.fit_uncertainty(d, run.result, run.basis, run.sweep)
+        modes = unc.modes()
+        for k in range(min(d.inputs.size, 4)):
+            col = int(d.inputs[k])
+            far = int(np.argmax(np.abs(d.dofs[:, 0] - d.dofs[col, 0])))
+            unc.frf(d.omega, rows=[col, far], cols=[col])
+        t_intervals = time.perf_counter() - t0
+        structural = np.flatnonzero(pole_kinds(run.result, run.basis, d) == STRUCTURAL)
+        t0 = time.perf_counter()
+        sd = run_sdypy(d, band)
+        t_sdypy = time.perf_counter() - t0
+        rows = []
+        for k in structural:
+            f, z = modes.frequencies_hz[k], modes.damping_ratios[k]
+            j = int(np.argmin(np.abs(sd["freqs_hz"] - f)))
+            fs, zs = sd["freqs_hz"][j], sd["zetas"][j]
+            close = abs(fs - f) <= 0.02 * f
+            rows.append([str(k + 1), f"{f:.3f} ± {modes.z * modes.std_frequency_hz[k]:.3f}",
+                         f"{100 * z:.3f} ± {100 * modes.z * modes.std_damping[k]:.3f}",
+                         f"{fs:.3f}" if close else "—", f"{100 * zs:.3f}" if close else "—",
+                         f"{(fs - f) / (modes.z * modes.std_frequency_hz[k]):+.1f}"
+                         if close else "—"])
+        parts += [
+            f"### {band[0]:g}–{band[1]:g} Hz: m = {run.result.m}, {d.s} lines", "",
+            f"- `podid-rs identify`'s run {t_identify:.1f} s, of which the intervals "
+            f"{t_intervals:.1f} s ({100 * t_intervals / (t_identify - t_intervals):.0f} % "
+            f"added to the rest); sdypy-EMA {t_sdypy:.1f} s ({sd['note']})",
+            f"- {unc.summary(select=np.isin(np.arange(modes.frequencies_hz.size), structural))}",
+            "",
+            markdown_table(["mode", "podid_rs f (Hz) ± 95 %", "ζ (%) ± 95 %", "sdypy-EMA f (Hz)",
+                            "sdypy-EMA ζ (%)", "(f_sdypy − f) / half-width"], rows), "",
+        ]
+    return "\n".join(parts)
+
+
 def table(results: list, seeds: int) -> str:
     header = ["case", "fit and noise", "f coverage (min–max over modes)",
               "f sharpness", "ζ coverage", "ζ sharpness", "FRF band coverage (all / lines 5–95 %)",
@@ -253,6 +312,19 @@ def main(argv=None) -> int:
         results += rows
         notes.append(f"- H1: refine {info['refine_s']:.2f} s per fit (median)")
         load.append(load_average())
+    if "beam" in cases:
+        beam = beam_case([(50.0, 300.0), (20.0, 800.0)], Path(args.out).parent)
+        load.append(load_average())
+        if not results:
+            text = "\n".join(["# Intervals on the beam beside sdypy-EMA", "", host_line(), "",
+                              "Command: `python3 benches/bench_uncertainty.py --cases beam`.",
+                              "", beam])
+            out = Path(args.out)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            out.write_text(text + "\n")
+            print(text)
+            return 0
+        notes.append(beam)
     se = 2 * np.sqrt(0.95 * 0.05 / args.seeds)
     loads = [v for v in load if v is not None]
     text = "\n".join([
