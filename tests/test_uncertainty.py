@@ -142,7 +142,7 @@ def _uncertainty_with_covariance(unc: pr.ModelUncertainty, v: np.ndarray) -> Non
 def _perturbed(unc: pr.ModelUncertainty, v: np.ndarray, h: float):
     nb = unc.n_parameters // 3
     return tuple(X + c * sym_matrix(h * v[b * nb:(b + 1) * nb], unc.m)
-                 for b, (X, c) in enumerate(zip((unc.M, unc.C, unc.K), unc._fit.scales,
+                 for b, (X, c) in enumerate(zip((unc.M, unc.C, unc.K), unc._scales,
                                                 strict=True)))
 
 

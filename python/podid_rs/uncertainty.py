@@ -50,6 +50,7 @@ from .identification.covariance import (
     residual_variance,
     sym_gradient,
 )
+from .identification.holes import check_measured
 from .identification.latent import gauge_dimension, observation_matrix, observed_count
 from .identification.order import OrderSweep
 from .identification.result import IdentificationResult
@@ -286,7 +287,8 @@ class ModelUncertainty:
                  driven: np.ndarray, coordinates: np.ndarray | None = None) -> None:
         self.M, self.C, self.K = (np.asarray(X, dtype=np.float64) for X in
                                   (model.M, model.C, model.K))
-        self._fit = fit
+        # what the intervals need of the fit: the dense path then lets go of its data
+        self._m, self._n_params, self._scales = fit.m, fit.n_params, fit.scales
         self._cov = cov
         self.variance = variance
         self.noise = noise
@@ -302,7 +304,7 @@ class ModelUncertainty:
     @property
     def m(self) -> int:
         """The model's order."""
-        return self._fit.m
+        return self._m
 
     @property
     def latent(self) -> int:
@@ -317,7 +319,7 @@ class ModelUncertainty:
     @property
     def n_parameters(self) -> int:
         """3 m(m+1)/2: the symmetric M, C, K's free entries."""
-        return self._fit.n_params
+        return self._n_params
 
     @property
     def rank(self) -> int:
@@ -350,7 +352,7 @@ class ModelUncertainty:
         units) → the covariance's coordinates (..., n_params)."""
         if self._Tinv is not None:  # X = T⁻ᵀ X̂ T⁻¹: ∂g/∂X̂ = T⁻¹ (∂g/∂X) T⁻ᵀ
             grads = [self._Tinv @ g @ self._Tinv.T for g in grads]
-        parts = [sym_gradient(g) * c for g, c in zip(grads, self._fit.scales, strict=True)]
+        parts = [sym_gradient(g) * c for g, c in zip(grads, self._scales, strict=True)]
         return np.concatenate(parts, axis=-1)
 
     def modes(self, level: float = LEVEL, *, shapes: bool = False) -> ModeIntervals:
@@ -588,6 +590,7 @@ def model_uncertainty(
     weights: object = "relative",
     objective: Objective = "complex",
     lines: object = None,
+    measured: object = None,
     noise_variance: object = None,
     coherence: object = None,
     averages: object = None,
@@ -618,6 +621,11 @@ def model_uncertainty(
     lines : array_like of bool, (s,), optional
         The lines the model was fitted to (e.g. the order sweep's training lines);
         default all.
+    measured : array_like of bool, (n, p), optional
+        With ``basis``: True where the response was measured, as given to
+        :func:`podid_rs.refine` (:attr:`podid_rs.MeasuredData.measured`). The other
+        entries weigh nothing: they add nothing to N or S and no degree of freedom to
+        the noise estimated from the residuals. Default: every entry.
     noise_variance : float or array_like, optional
         Variance E|δu|² of the complex noise on each measured entry of U: a scalar,
         per line ``(s,)``, per line and DOF ``(s, n)`` or per entry ``(s, n, p)``.
@@ -696,7 +704,14 @@ def model_uncertainty(
     keep = np.ones(w.size, bool) if lines is None else np.asarray(lines)
     if keep.shape != (w.size,) or keep.dtype != bool or not keep.any():
         raise ValueError(f"lines must be a boolean mask of the {w.size} lines, with a line in it")
+    if measured is not None and basis is None:
+        raise ValueError("measured (a mask over the measured DOFs) needs basis=")
+    mask = check_measured(measured, Ua.shape[1], Ua.shape[2])
+    if mask is not None:
+        Ua = np.where(mask, Ua, 0.0)  # what the holes hold never enters
     W_all = entry_weights(weights, Ua, objective, on_dofs)
+    if mask is not None:
+        W_all = W_all * mask  # an entry that was not measured weighs nothing
     if noise_variance is not None and coherence is not None:
         raise ValueError("give noise_variance or coherence (with averages), not both")
     if coherence is None and averages is not None:
@@ -756,7 +771,9 @@ def _refinement_weights(model: IdentificationResult) -> tuple[str, Objective]:
                          "that of the cost refine() minimised; use model_uncertainty with the "
                          "data and options of the fit")
     objective = ref["objective"]
-    label = ref["weights"]
+    # the holes of measured data are a mask, not the user's weights (fit_uncertainty
+    # passes the data's own)
+    label = ref["weights"].removesuffix(", measured entries")
     if label in ("relative", "uniform"):
         return label, objective
     if label == "log-magnitude, uniform per entry":
@@ -783,7 +800,9 @@ def fit_uncertainty(
     The weights, the objective and the lines of the fit are read from the model's
     report (``info["refinement"]``): the final fit keeps a complex refit, a
     log-magnitude refit or the order sweep's fit on its training lines (which then
-    needs ``sweep``).
+    needs ``sweep``); on a long test the refits fitted the sweep's informative lines
+    (:attr:`OrderSweep.lines`, which then need ``sweep`` too). The entries the data
+    did not measure (:attr:`MeasuredData.measured`) weigh nothing, as in the fit.
 
     Parameters
     ----------
@@ -794,7 +813,8 @@ def fit_uncertainty(
     basis : array_like, (n, m)
         Its observation matrix.
     sweep : OrderSweep, optional
-        The order sweep, when the final fit kept its held-out fit.
+        The order sweep, when the final fit kept its held-out fit or fitted the
+        informative lines of a long test.
     noise_variance, coherence, averages, noise, line_correlation
         The noise, as for :func:`model_uncertainty`.
     solver : {"auto", "dense", "matrix-free"}
@@ -809,20 +829,28 @@ def fit_uncertainty(
     ------
     ValueError
         For a model that is not refined, or refined with the user's weights; a held-out
-        fit without its sweep; or as :func:`model_uncertainty`.
+        fit or a fit on part of the lines without its sweep; or as
+        :func:`model_uncertainty`.
     """
     if not isinstance(data, MeasuredData):
         raise ValueError(f"data must be a MeasuredData, got {type(data).__name__}")
     weights, objective = _refinement_weights(model)
     lines = None
-    kept = model.info["refinement"].get("final_refit", {}).get("kept")
-    if kept == "held-out fit":
+    final = model.info["refinement"].get("final_refit", {})
+    fitted = final.get("lines_fitted", data.s)
+    if final.get("kept") == "held-out fit":
         if sweep is None:
             raise ValueError("the final fit kept the order sweep's held-out fit (fitted on its "
                              "training lines): give the sweep")
-        lines = ~np.asarray(sweep.test_lines)
+        lines = np.asarray(sweep.lines) & ~np.asarray(sweep.test_lines)
+    elif fitted != data.s:
+        if sweep is None or int(np.sum(sweep.lines)) != fitted:
+            raise ValueError(f"the final fit fitted {fitted} of the {data.s} lines (the order "
+                             "sweep's informative lines): give the sweep")
+        lines = np.asarray(sweep.lines)
     return model_uncertainty(
         model, data.U, data.forces_on_dofs(), data.omega, basis=basis, weights=weights,
-        objective=objective, lines=lines, noise_variance=noise_variance, coherence=coherence,
+        objective=objective, lines=lines, measured=None if data.complete else data.measured,
+        noise_variance=noise_variance, coherence=coherence,
         averages=averages, noise=noise, line_correlation=line_correlation, solver=solver,
     )

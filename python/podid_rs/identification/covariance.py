@@ -55,6 +55,7 @@ from typing import Literal
 import numpy as np
 
 from .._arrays import as_array
+from .refinement import LOG_DYNAMIC_RANGE
 
 Objective = Literal["complex", "log-magnitude"]
 NoiseModel = Literal["channel", "line", "global"]
@@ -383,6 +384,10 @@ class LinearisedFit:
         return out[:, 0] if vec else out
 
 
+#: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
+PAIR_CHUNK_ELEMENTS = 1 << 18
+
+
 def _pair_sum(fit: LinearisedFit, weights: EntryWeights) -> np.ndarray:
     """Σ_P A_P (unsymmetrised) of :class:`EntryWeights`, dense, ``(n_params,)²``."""
     m, nb = fit.m, fit.n_params // 3
@@ -393,8 +398,15 @@ def _pair_sum(fit: LinearisedFit, weights: EntryWeights) -> np.ndarray:
     A = np.zeros((3, 3, m, m, m, m))
 
     def add(h: np.ndarray, conj: bool) -> None:
-        # Rᵀ diag(h) R per column, (P, p, m, m)
-        Q = fit.R.T @ (h.transpose(0, 2, 1)[..., None] * fit.R)
+        # Rᵀ diag(h) R per column, (P, p, m, m), in chunks of lines: (chunk, p, n, m)
+        # at a time, never one of every line (n is every measured DOF of a scan)
+        ht = h.transpose(0, 2, 1)
+        if np.all(ht.imag == 0):
+            ht = ht.real
+        Q = np.empty((P, p, m, m), dtype=ht.dtype)
+        chunk = max(1, PAIR_CHUNK_ELEMENTS // max(1, p * fit.n * m))
+        for i in range(0, P, chunk):
+            Q[i:i + chunk] = fit.R.T @ (ht[i:i + chunk, ..., None] * fit.R)
         left = fit.Dinv[lft].conj() if conj else fit.Dinv[lft]
         G = left.transpose(0, 2, 1)[:, None] @ Q @ fit.Dinv[rgt][:, None]  # D_l⁻ᴴ Q D_r⁻¹
         xl = fit.x[lft].transpose(0, 2, 1)  # (P, p, m)
@@ -569,7 +581,8 @@ def entry_weights(
     ``"relative"``: 1/‖u_c‖ per column (complex objective), 1 per entry
     (log-magnitude); ``"uniform"``: 1; an array ``(s,)``, ``(s, p)``, ``(s, n)`` or
     ``(s, n, p)`` (the last two only on measured DOFs, ``observed_basis``). The
-    log-magnitude objective leaves out entries with u = 0.
+    log-magnitude objective leaves out entries with u = 0 or beyond its dynamic range
+    (:data:`~podid_rs.identification.refinement.LOG_DYNAMIC_RANGE`).
     """
     s, n, p = U.shape
     if isinstance(weights, str):
@@ -598,7 +611,10 @@ def entry_weights(
             raise ValueError(f"weights must have shape (s,), (s, p), or per measured entry "
                              f"(s, n) / (s, n, p), got {a.shape}")
     if objective == "log-magnitude":
-        W = np.where(np.abs(U) > 0, W, 0.0)
+        # as refine: entries beyond any dynamic range (LOG_DYNAMIC_RANGE below the largest
+        # of their line and load case) and zeros are left out
+        A = np.abs(U)
+        W = np.where(A > LOG_DYNAMIC_RANGE * A.max(axis=1, keepdims=True), W, 0.0)
     if not np.any(W > 0):
         raise ValueError("weights are all zero: there is nothing fitted")
     return W
