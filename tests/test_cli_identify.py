@@ -177,3 +177,25 @@ def test_identify_runs_as_a_module(uff_file, tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert "- order: m = " in proc.stdout and (out / "model.npz").is_file()
+
+
+def test_identify_writes_the_intervals_of_the_refined_model(uff_file, tmp_path, capsys):
+    """± columns in modes.csv and modes.md, one summary line; the paper's estimator alone
+    has none (its covariance is not the refined model's)."""
+    chain, path = uff_file
+    out = tmp_path / "out"
+    assert main(["identify", str(path), "--band-hz", "5", "200", "--m", "6",
+                 "--out", str(out)]) == 0
+    stdout = capsys.readouterr().out
+    assert "- intervals: 95 % intervals from the sandwich covariance" in stdout
+    rows = read_rows(out / "modes.csv")
+    assert all(key in rows[0] for key in ("f_hz_pm95", "zeta_pm95"))
+    for r in rows:
+        if r["kind"] == "structural":  # exact data: intervals at round-off, but there
+            assert 0 <= float(r["f_hz_pm95"]) < 1e-6 * float(r["f_hz"])
+    assert "f_hz_pm95" in (out / "modes.md").read_text()
+    plain = tmp_path / "plain"
+    assert main(["identify", str(path), "--band-hz", "5", "200", "--m", "6",
+                 "--paper-estimator", "--out", str(plain)]) == 0
+    assert "- intervals" not in capsys.readouterr().out
+    assert "f_hz_pm95" not in read_rows(plain / "modes.csv")[0]

@@ -360,3 +360,81 @@ def test_h1_coherence_of_hann_segments():
     assert stats.averages == pytest.approx(expected)
     with pytest.raises(ValueError, match="one input"):
         pr.h1_coherence(np.stack([x[:, 0], x[:, 0]], 1), y, dt, nperseg=512)
+
+
+def test_holes_weigh_nothing_in_the_covariance():
+    """Entries a test did not measure enter neither N nor S nor the noise's degrees of
+    freedom: whatever the holes hold, the intervals are the same."""
+    system, omega, H, U, F, var = _frf_data(s=60)
+    mask = np.ones((4, 2), dtype=bool)
+    mask[3, 0] = mask[1, 1] = False
+    garbage = U.copy()
+    garbage[:, 3, 0] = 1e3
+    garbage[:, 1, 1] = -7e2j
+    kw = dict(basis=np.eye(4), measured=mask)
+    a = pr.model_uncertainty(system, np.where(mask, U, 0.0), F, omega, **kw)
+    b = pr.model_uncertainty(system, garbage, F, omega, **kw)
+    assert a.dof == b.dof == 2 * U[:, mask].size - a.rank
+    ma, mb = a.modes(), b.modes()
+    assert np.all(np.isfinite(ma.std_frequency_hz))
+    np.testing.assert_allclose(mb.std_frequency_hz, ma.std_frequency_hz, rtol=1e-12)
+    np.testing.assert_allclose(mb.std_damping, ma.std_damping, rtol=1e-12)
+    # the holes' garbage read as data would move them
+    c = pr.model_uncertainty(system, garbage, F, omega, basis=np.eye(4))
+    assert not np.allclose(c.modes().std_damping, ma.std_damping, rtol=0.1)
+    with pytest.raises(ValueError, match="needs basis"):
+        pr.model_uncertainty(system, U, F, omega, measured=mask)
+    # a complex refit on them: its report names the mask, fit_uncertainty passes the data's
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = pr.refine(system, garbage, F, omega, basis=np.eye(4), measured=mask)
+    assert model.info["refinement"]["weights"] == "relative, measured entries"
+    data = from_frf(np.where(mask, U, 0.0), omega, inputs=[0, 2], measured=mask)
+    unc = pr.fit_uncertainty(data, model, np.eye(4))
+    direct = pr.model_uncertainty(model, garbage, F, omega, **kw)
+    np.testing.assert_allclose(unc.modes().std_damping, direct.modes().std_damping, rtol=1e-12)
+
+
+def test_fit_uncertainty_on_data_with_holes():
+    chain = pr.mass_spring_chain(6, m1=1.0, m2=1.0, a0=3.0, a1=1e-4)
+    w = 2 * np.pi * np.arange(5.0, 250.0, 1.0)
+    H = chain.frf(w)[:, :, [1, 4]]
+    mask = np.ones((6, 2), dtype=bool)
+    mask[0, 0] = mask[2, 1] = False
+    rng = np.random.default_rng(1)
+    U = H * (1 + 0.01 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)))
+    data = from_frf(U, w, inputs=[1, 4], measured=mask)
+    model, R, sweep = data.fit(m=6, threads=1)
+    unc = pr.fit_uncertainty(data, model, R, sweep)
+    assert unc.dof == 2 * int(mask.sum()) * w.size - unc.rank
+    modes = unc.modes()
+    assert np.all(modes.determined) and np.all(np.isfinite(modes.std_frequency_hz))
+
+
+def test_fit_uncertainty_on_the_informative_lines_of_a_long_test():
+    """A final fit on the order sweep's informative lines: its covariance is that of those
+    lines, and without the sweep it is refused, naming why."""
+    chain = pr.mass_spring_chain(5)
+    w = 2 * np.pi * np.linspace(10.0, 200.0, 120)
+    F_n = np.zeros((w.size, 5, 1), dtype=complex)
+    F_n[:, 1, 0] = 1.0
+    rng = np.random.default_rng(2)
+    U_n = chain.response(w, F_n)
+    U_n = U_n * (1 + 0.01 * rng.standard_normal(U_n.shape))
+    P = pr.pod_from_frf(U_n, w)
+    sweep = pr.sweep_orders(U_n, F_n, w, P, m=5, sweep_lines=40, threads=1)
+    model, R = pr.final_fit(sweep, U_n, F_n, w, P, threads=1)
+    fitted = model.info["refinement"]["final_refit"]["lines_fitted"]
+    assert fitted == int(sweep.lines.sum()) < w.size
+    data = from_frf(U_n, w, inputs=[1])
+    with pytest.raises(ValueError, match=f"fitted {fitted} of the {w.size} lines"):
+        pr.fit_uncertainty(data, model, R)
+    unc = pr.fit_uncertainty(data, model, R, sweep)
+    weights, objective = ("relative", model.info["refinement"]["objective"])
+    if objective == "log-magnitude":
+        weights = "uniform"
+    direct = pr.model_uncertainty(model, U_n, F_n, w, basis=R, weights=weights,
+                                  objective=objective, lines=sweep.lines)
+    assert unc.dof == direct.dof
+    np.testing.assert_allclose(unc.modes().std_frequency_hz, direct.modes().std_frequency_hz,
+                               rtol=1e-12)
