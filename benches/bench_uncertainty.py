@@ -35,6 +35,16 @@ same modes (its best LSCF + LSFD fit, ``bench_measured.py``'s harness, the same 
     python3 benches/bench_uncertainty.py                  # 200 seeds (≈ 1 h)
     python3 benches/bench_uncertainty.py --seeds 40       # a quicker look
     python3 benches/bench_uncertainty.py --cases beam     # the beam against sdypy-EMA
+    python3 benches/bench_uncertainty.py --cases cost     # what the intervals cost
+
+``--cases cost``: (1) ``podid-rs identify``'s run (``run_identify``) on a full-order chain
+of m = 10, 20, 40 DOFs (FRFs at two inputs, 400 lines, 1 % noise) at that m, timed, with the
+time of what the intervals add to it: the covariance, the modes' intervals and the bands of
+the FRF overlays; (2) at m = 100 (``--large-m``), matrix-free: the chain's responses to
+random forces on every DOF at 1000 lines (``_common.chain_problem``, 0.1 % noise), refined
+from the truth, then ``model_uncertainty(solver="matrix-free")``, every mode's interval and
+the band of two FRF entries at every line — in a fresh process, its peak resident memory
+after the refinement and after the intervals.
 """
 
 from __future__ import annotations
@@ -50,7 +60,16 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import podid_rs as pr  # noqa: E402
-from _common import host_line, load_average, markdown_table  # noqa: E402
+from _common import (  # noqa: E402
+    chain_problem,
+    host_line,
+    load_average,
+    markdown_table,
+    peak_rss_gb,
+    run_worker,
+    worker_main,
+    write_report,
+)
 
 #: the additive case: chain, lines, inputs (0-based DOFs)
 ADDITIVE_N = 8
@@ -220,14 +239,9 @@ def beam_case(bands: list[tuple[float, float]], out_dir: Path) -> str:
         t_identify = time.perf_counter() - t0
         d = run.data
         # what identify spends on the intervals: the covariance, the modes', the overlays'
-        t0 = time.perf_counter()
-        unc = pr.fit_uncertainty(d, run.result, run.basis, run.sweep)
+        unc = run.uncertainty
         modes = unc.modes()
-        for k in range(min(d.inputs.size, 4)):
-            col = int(d.inputs[k])
-            far = int(np.argmax(np.abs(d.dofs[:, 0] - d.dofs[col, 0])))
-            unc.frf(d.omega, rows=[col, far], cols=[col])
-        t_intervals = time.perf_counter() - t0
+        t_intervals = run.timings["covariance"] + intervals_time(run, unc)
         structural = np.flatnonzero(pole_kinds(run.result, run.basis, d) == STRUCTURAL)
         t0 = time.perf_counter()
         sd = run_sdypy(d, band)
@@ -254,6 +268,99 @@ def beam_case(bands: list[tuple[float, float]], out_dir: Path) -> str:
                             "sdypy-EMA ζ (%)", "(f_sdypy − f) / half-width"], rows), "",
         ]
     return "\n".join(parts)
+
+
+def intervals_time(run, unc: pr.ModelUncertainty) -> float:
+    """What ``run_identify`` spends on the intervals beyond the covariance: the modes'
+    (the table and the summary line) and the bands of the FRF overlays, timed again."""
+    from podid_rs.apps.identify import MAX_OVERLAYS
+
+    d = run.data
+    t0 = time.perf_counter()
+    unc.modes()
+    unc.modes()
+    for k in range(min(d.inputs.size, MAX_OVERLAYS)):
+        col = int(d.inputs[k])
+        distance = np.where(d.measured[:, k], np.abs(d.dofs[:, 0] - d.dofs[col, 0]), -1)
+        unc.frf(d.omega, rows=[col, int(np.argmax(distance))], cols=[col])
+    return time.perf_counter() - t0
+
+
+def cost_identify(sizes: list[int], out_dir: Path) -> str:
+    """identify at m = n on chains of each size: its time and the intervals' share."""
+    from podid_rs.apps.identify import run_identify
+    from podid_rs.io.npz import save_data
+    from podid_rs.measured import from_frf
+
+    rows = []
+    for m in sizes:
+        system = chain(m, 2.0, 1e-4)
+        lo, hi = band_of(system)
+        omega = 2 * np.pi * np.linspace(lo, hi, 400)
+        inputs = [0, m // 2]
+        H = system.frf(omega)[:, :, inputs]
+        rng = np.random.default_rng(m)
+        U = H * (1 + 0.01 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+                 / np.sqrt(2))
+        path = save_data(out_dir / f"chain{m}.npz", from_frf(U, omega, inputs=inputs))
+        t0 = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            run = run_identify(path, out_dir / f"chain{m}", band_hz=(lo * 0.99, hi * 1.01),
+                               m=m, progress=False)
+        total = time.perf_counter() - t0
+        unc = run.uncertainty
+        covariance = run.timings["covariance"]
+        extra = intervals_time(run, unc)
+        added = covariance + extra
+        rows.append([str(m), unc.solver, f"{total:.1f}", f"{run.timings['final fit']:.1f}",
+                     f"{covariance:.2f}", f"{extra:.2f}",
+                     f"{100 * added / (total - added):.1f} %"])
+    return markdown_table(["m", "solver", "identify s", "of which the final fit s",
+                           "covariance s", "modes' intervals and bands s",
+                           "added to identify"], rows)
+
+
+def large_worker(case: dict) -> dict:
+    """Refine the chain at m from the truth, then the matrix-free intervals: times and the
+    peak resident memory after each."""
+    m, s = case["m"], case["s"]
+    system, U, F, omega = chain_problem(m, s=s, noise=1e-3, seed=1)
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = pr.refine(system, U, F, omega, max_iter=200)
+    t_refine = time.perf_counter() - t0
+    peak_refine = peak_rss_gb()
+    t0 = time.perf_counter()
+    unc = pr.model_uncertainty(model, U, F, omega, solver="matrix-free")
+    t_cov = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    modes = unc.modes()
+    t_modes = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    band = unc.frf(omega, rows=[0, m - 1], cols=[0])
+    t_band = time.perf_counter() - t0
+    return {"refine_s": t_refine, "steps": model.iterations, "peak_refine_gb": peak_refine,
+            "covariance_s": t_cov, "modes_s": t_modes, "band_s": t_band,
+            "determined": int(np.sum(modes.determined)), "modes": int(modes.determined.size),
+            "finite_band": bool(np.all(np.isfinite(band.upper))),
+            "median_rel_f": float(np.median(modes.std_frequency_hz / modes.frequencies_hz))}
+
+
+def cost_large(m: int, s: int) -> str:
+    r = run_worker(str(Path(__file__).resolve()), {"kind": "large", "m": m, "s": s},
+                   timeout=7200)
+    if "error" in r:
+        return f"- m = {m}, matrix-free: failed — {r['error']}"
+    added = r["covariance_s"] + r["modes_s"] + r["band_s"]
+    return (f"- m = {m}, s = {s}, matrix-free: refine {r['refine_s']:.1f} s ({r['steps']} "
+            f"steps, from the truth), peak {r['peak_refine_gb']:.2f} GB; the intervals "
+            f"{added:.1f} s (covariance {r['covariance_s']:.1f} s, {r['modes']} modes' "
+            f"intervals {r['modes_s']:.1f} s, {r['determined']} determined, median σ_f/f "
+            f"{r['median_rel_f']:.1e}; a band of 2 entries at {s} lines {r['band_s']:.1f} s, "
+            f"finite: {'yes' if r['finite_band'] else 'no'}); peak after them "
+            f"{r['peak_gb']:.2f} GB")
 
 
 def table(results: list, seeds: int) -> str:
@@ -294,6 +401,9 @@ def main(argv=None) -> int:
     ap.add_argument("--level", type=float, default=0.95)
     ap.add_argument("--cases", default="additive,h1")
     ap.add_argument("--out", default="bench-results/uncertainty.md")
+    ap.add_argument("--sizes", default="10,20,40", help="orders of the cost case's identify")
+    ap.add_argument("--large-m", type=int, default=100)
+    ap.add_argument("--large-s", type=int, default=1000)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     load = [load_average()]
@@ -312,19 +422,26 @@ def main(argv=None) -> int:
         results += rows
         notes.append(f"- H1: refine {info['refine_s']:.2f} s per fit (median)")
         load.append(load_average())
-    if "beam" in cases:
-        beam = beam_case([(50.0, 300.0), (20.0, 800.0)], Path(args.out).parent)
-        load.append(load_average())
+    if "beam" in cases or "cost" in cases:
+        parts = []
+        if "beam" in cases:
+            parts += ["## Intervals on the beam beside sdypy-EMA", "",
+                      beam_case([(50.0, 300.0), (20.0, 800.0)], Path(args.out).parent)]
+            load.append(load_average())
+        if "cost" in cases:
+            sizes = [int(v) for v in args.sizes.split(",") if v]
+            parts += ["## What the intervals cost", "",
+                      cost_identify(sizes, Path(args.out).parent), "",
+                      cost_large(args.large_m, args.large_s)]
+            load.append(load_average())
+        loads = [v for v in load if v is not None]
+        parts += ["", f"Command: `python3 benches/bench_uncertainty.py --cases {args.cases}`; "
+                  f"total {time.perf_counter() - t0:.0f} s"
+                  + (f"; load average {min(loads):.1f}–{max(loads):.1f}" if loads else "")]
         if not results:
-            text = "\n".join(["# Intervals on the beam beside sdypy-EMA", "", host_line(), "",
-                              "Command: `python3 benches/bench_uncertainty.py --cases beam`.",
-                              "", beam])
-            out = Path(args.out)
-            out.parent.mkdir(parents=True, exist_ok=True)
-            out.write_text(text + "\n")
-            print(text)
+            write_report("\n".join(parts), args.out)
             return 0
-        notes.append(beam)
+        notes += parts
     se = 2 * np.sqrt(0.95 * 0.05 / args.seeds)
     loads = [v for v in load if v is not None]
     text = "\n".join([
@@ -347,4 +464,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    if len(sys.argv) > 2 and sys.argv[1] == "--worker":
+        worker_main({"large": large_worker})
+    else:
+        raise SystemExit(main())

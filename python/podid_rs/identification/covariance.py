@@ -55,11 +55,14 @@ from typing import Literal
 import numpy as np
 
 from .._arrays import as_array
+from .._linesolve import _one_blas_thread
 from .refinement import LOG_DYNAMIC_RANGE
 
 Objective = Literal["complex", "log-magnitude"]
 NoiseModel = Literal["channel", "line", "global"]
 
+#: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
+PAIR_CHUNK_ELEMENTS = 1 << 18
 #: a coherence below this is taken as this (the variance of that entry is then huge)
 COHERENCE_FLOOR = 1e-12
 
@@ -280,7 +283,8 @@ class LinearisedFit:
         s, m, p = self.s, self.m, self.p
         k = t.shape[3]
         z = np.einsum("nm,snpk->smpk", self.R, t, optimize=True).reshape(s, m, p * k)
-        z = (self.Dinv.conj().transpose(0, 2, 1) @ z).reshape(s, m, p, k)  # D⁻ᴴ Rᵀ t
+        # D⁻ᴴ Rᵀ t as conj(D⁻ᵀ conj(z)): no conjugate copy of every line's D⁻¹
+        z = (self.Dinv.transpose(0, 2, 1) @ z.conj()).conj().reshape(s, m, p, k)
         X = self.x.transpose(1, 0, 2).reshape(m, s * p)
         out = []
         for b in range(3):
@@ -340,6 +344,8 @@ class LinearisedFit:
         d = (2, 1, 0)
         diag = weights.diagonal
         lines = weights.left[diag]
+        # at most PAIR_CHUNK_ELEMENTS of Rᵀ diag(h) R's (lines × p × n × m) at once
+        chunk = max(1, min(chunk, PAIR_CHUNK_ELEMENTS // max(1, self.p * self.n * m)))
         for start in range(0, lines.size, chunk):
             sel = np.flatnonzero(diag)[start:start + chunk]
             li = weights.left[sel]
@@ -382,10 +388,6 @@ class LinearisedFit:
                   + (0 if hS is None else np.conj(hS[off] * u[lft[off]])))
         out = self.apply_adjoint(t)
         return out[:, 0] if vec else out
-
-
-#: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
-PAIR_CHUNK_ELEMENTS = 1 << 18
 
 
 def _pair_sum(fit: LinearisedFit, weights: EntryWeights) -> np.ndarray:
@@ -768,6 +770,10 @@ class MatrixFreeCovariance:
     def solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """N X = B for ``B`` ``(n_params, k)`` by preconditioned CG, column by column
         (all at once); returns X and whether each column reached the tolerance."""
+        with _one_blas_thread():  # small products: OpenBLAS's threads only contend
+            return self._solve(B)
+
+    def _solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.zeros_like(B)
         r = B.copy()
         z = self._precondition(r)
@@ -832,11 +838,13 @@ class MatrixFreeCovariance:
         """``SAMPLES`` draws z = N⁻¹ ξ, ξ the noise's perturbation of the gradient:
         ``(n_params, SAMPLES)`` whose covariance is N⁻¹ S N⁻¹ (seeded: reproducible)."""
         if self._draws is None:
-            xi = self.fit.sample_noise_gradients(*self._noise, SAMPLES,
-                                                 np.random.default_rng(SAMPLES_SEED))
+            rng = np.random.default_rng(SAMPLES_SEED)
             parts, ok = [], []
             for start in range(0, SAMPLES, CG_BLOCK):
-                z, good = self.solve(xi[:, start:start + CG_BLOCK])
+                # a block of draws at a time: the noise is (lines × n × p × draws)
+                xi = self.fit.sample_noise_gradients(*self._noise,
+                                                     min(CG_BLOCK, SAMPLES - start), rng)
+                z, good = self.solve(xi)
                 parts.append(z)
                 ok.append(good)
             self._draws = np.concatenate(parts, axis=1)[:, np.concatenate(ok)]
