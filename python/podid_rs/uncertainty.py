@@ -4,8 +4,9 @@ An output-error fit (:func:`podid_rs.refine`, :meth:`podid_rs.MeasuredData.fit`)
 is linearised at its optimum: the covariance of M, C, K is the sandwich
 N⁺ S N⁺ of :mod:`podid_rs.identification.covariance` (the Gauss–Newton matrix of
 the fitted cost around the noise's), with the noise given per entry, from the
-coherence and averages of H1 estimates, or estimated from the residuals. It is
-carried to what a user reads by first-order perturbation:
+coherence and averages of H1 estimates, or estimated from the residuals; entries the
+test did not measure (:attr:`podid_rs.MeasuredData.measured`) weigh nothing in it, as
+in the fit. It is carried to what a user reads by first-order perturbation:
 
 * eigenvalues of the quadratic problem (λ²M + λC + K)ψ = 0 (M, C, K symmetric):
   dλ = −ψᵀ(λ² dM + λ dC + dK)ψ / ψᵀ(2λM + C)ψ, and from it the natural frequency
@@ -15,7 +16,8 @@ carried to what a user reads by first-order perturbation:
   over all 2m modes of the symmetric first-order form, a_r = ψ_rᵀ(2λ_rM + C)ψ_r,
   dD(λ) = λ² dM + λ dC + dK;
 * the model's FRF on the measured DOFs R D(ω)⁻¹ Rᵀ: dH = −R D⁻¹ dD(iω) D⁻¹ Rᵀ, a band
-  on |H| per line (symmetric in dB);
+  on |H| per line: |Ĥ| ± z σ of the magnitude, down to 0 where the confidence ellipse
+  of Ĥ holds the origin;
 * the entries of M, C, K in the basis they are given in — only when they are
   identifiable: with latent coordinates the matrices have a gauge and no entry has a
   variance (:mod:`podid_rs.identification.latent`).

@@ -318,8 +318,11 @@ def modes_markdown(summary: str, rows: list[dict]) -> str:
             f"{RESIDUAL_ZETA:g}, standing in for modes outside the band; `{WEAK}`: in band but "
             f"not a resonance of the data — under {100 * VISIBLE_FRACTION:g} % of the largest "
             "measured response around it at every DOF, or seen at one line only. They shape "
-            "the fit; they are not resonances of the data.\n\n"
-            + table_markdown(others)
+            "the fit; they are not resonances of the data."
+            + (" Their ± are the same covariance's: how closely the data fix each term of the "
+               "fit (`undetermined` where they do not), not the accuracy of a modal property."
+               if pm else "")
+            + "\n\n" + table_markdown(others)
         )
     return text
 
