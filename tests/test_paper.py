@@ -195,3 +195,16 @@ def test_lambda_rules_choose_per_row_and_plot_the_curve(tmp_path, rule):
 def test_unknown_lambda_rule_is_refused_before_any_work(tmp_path):
     with pytest.raises(ValueError, match="one of"):
         run_paper_study(tmp_path, quick=True, lam="aic", progress=False)
+
+
+def test_refined_rows_give_their_in_band_modes_with_intervals(study):
+    """Each refined row lists its in-band modes as "f ± h Hz, ζ z ± h %" (or says why
+    not); results.md gathers them beside the chain's modes."""
+    for r in study.rows:
+        assert r.refined_modes
+        for part in r.refined_modes.split("; "):
+            assert (" ± " in part and part.endswith(" %")) or part.startswith("(") \
+                or "(not determined)" in part, part
+    text = (study.out_dir / "results.md").read_text()
+    assert "## In-band modes of the refined models, with 95 % intervals" in text
+    assert "the chain's modes:" in text
