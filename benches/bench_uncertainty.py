@@ -404,7 +404,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", default="additive,h1")
     ap.add_argument("--out", default="bench-results/uncertainty.md")
     ap.add_argument("--sizes", default="10,20,40", help="orders of the cost case's identify")
-    ap.add_argument("--large-m", type=int, default=100)
+    ap.add_argument("--large-m", type=int, default=100, help="0: no matrix-free case")
     ap.add_argument("--large-s", type=int, default=1000)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
@@ -432,9 +432,11 @@ def main(argv=None) -> int:
             load.append(load_average())
         if "cost" in cases:
             sizes = [int(v) for v in args.sizes.split(",") if v]
-            parts += ["## What the intervals cost", "",
-                      cost_identify(sizes, Path(args.out).parent), "",
-                      cost_large(args.large_m, args.large_s)]
+            parts += ["## What the intervals cost", ""]
+            if sizes:
+                parts += [cost_identify(sizes, Path(args.out).parent), ""]
+            if args.large_m > 0:
+                parts += [cost_large(args.large_m, args.large_s)]
             load.append(load_average())
         loads = [v for v in load if v is not None]
         parts += ["", f"Command: `python3 benches/bench_uncertainty.py --cases {args.cases}`; "
