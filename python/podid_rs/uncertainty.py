@@ -564,9 +564,9 @@ class ModelUncertainty:
             The line (no trailing newline).
         """
         modes = self.modes(level)
-        osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0)
-        if select is not None:
-            osc &= np.asarray(select, dtype=bool)
+        chosen = (np.ones(modes.determined.size, dtype=bool) if select is None
+                  else np.asarray(select, dtype=bool))
+        osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0) & chosen
         text = (f"{100 * level:g} % intervals from the sandwich covariance at the optimum "
                 f"({self.solver}, {self.n_parameters} parameters, rank {self.rank}"
                 + (f", gauge {self.gauge}" if self.gauge else "") + f"); noise {self.noise}")
@@ -576,7 +576,7 @@ class ModelUncertainty:
             text += (f"; median half-width over {int(osc.sum())} mode(s): "
                      f"{100 * np.median(hf):.2g} % of the natural frequency, "
                      f"{100 * np.median(hz):.2g} % of the damping ratio")
-        undetermined = int(np.sum(~modes.determined))
+        undetermined = int(np.sum(~modes.determined & chosen))
         if undetermined:
             text += f"; {undetermined} mode(s) not determined by the data"
         return text + f"; {self.seconds:.2g} s"
