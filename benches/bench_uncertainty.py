@@ -32,7 +32,7 @@ the optimum, not the search for it.
 with their intervals beside sdypy-EMA's natural frequencies and damping ratios for the
 same modes (its best LSCF + LSFD fit, ``bench_measured.py``'s harness, the same run).
 
-    python3 benches/bench_uncertainty.py                  # 200 seeds (≈ 1 h)
+    python3 benches/bench_uncertainty.py                  # 200 seeds (13 min under load)
     python3 benches/bench_uncertainty.py --seeds 40       # a quicker look
     python3 benches/bench_uncertainty.py --cases beam     # the beam against sdypy-EMA
     python3 benches/bench_uncertainty.py --cases cost     # what the intervals cost
@@ -41,10 +41,10 @@ same modes (its best LSCF + LSFD fit, ``bench_measured.py``'s harness, the same 
 of m = 10, 20, 40 DOFs (FRFs at two inputs, 400 lines, 1 % noise) at that m, timed, with the
 time of what the intervals add to it: the covariance, the modes' intervals and the bands of
 the FRF overlays; (2) at m = 100 (``--large-m``), matrix-free: the chain's responses to
-random forces on every DOF at 1000 lines (``_common.chain_problem``, 0.1 % noise), refined
-from the truth, then ``model_uncertainty(solver="matrix-free")``, every mode's interval and
-the band of two FRF entries at every line — in a fresh process, its peak resident memory
-after the refinement and after the intervals.
+random forces on every DOF at 1000 lines (``--large-s``; ``_common.chain_problem``, 0.1 %
+noise), refined from the truth, then ``model_uncertainty(solver="matrix-free")``, every
+mode's interval and the band of two FRF entries at every line — in a fresh process, its
+peak resident memory after the refinement and after the intervals.
 """
 
 from __future__ import annotations
@@ -323,42 +323,59 @@ def cost_identify(sizes: list[int], out_dir: Path) -> str:
 
 def large_worker(case: dict) -> dict:
     """Refine the chain at m from the truth, then the matrix-free intervals: times and the
-    peak resident memory after each."""
+    peak resident memory after each (also written to ``case["progress"]`` as they come, for
+    a run cut short)."""
+    import json
+
     m, s = case["m"], case["s"]
+    out: dict = {}
+
+    def done(**values) -> None:
+        out.update(values, peak_gb=peak_rss_gb())
+        Path(case["progress"]).write_text(json.dumps(out))
+
     system, U, F, omega = chain_problem(m, s=s, noise=1e-3, seed=1)
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model = pr.refine(system, U, F, omega, max_iter=200)
-    t_refine = time.perf_counter() - t0
-    peak_refine = peak_rss_gb()
+    done(refine_s=time.perf_counter() - t0, steps=model.iterations, peak_refine_gb=peak_rss_gb())
     t0 = time.perf_counter()
     unc = pr.model_uncertainty(model, U, F, omega, solver="matrix-free")
-    t_cov = time.perf_counter() - t0
+    done(covariance_s=time.perf_counter() - t0)
     t0 = time.perf_counter()
     modes = unc.modes()
-    t_modes = time.perf_counter() - t0
+    done(modes_s=time.perf_counter() - t0, determined=int(np.sum(modes.determined)),
+         modes=int(modes.determined.size),
+         median_rel_f=float(np.median(modes.std_frequency_hz / modes.frequencies_hz)),
+         cg_iterations=[int(v) for v in unc._cov.iterations])
     t0 = time.perf_counter()
     band = unc.frf(omega, rows=[0, m - 1], cols=[0])
-    t_band = time.perf_counter() - t0
-    return {"refine_s": t_refine, "steps": model.iterations, "peak_refine_gb": peak_refine,
-            "covariance_s": t_cov, "modes_s": t_modes, "band_s": t_band,
-            "determined": int(np.sum(modes.determined)), "modes": int(modes.determined.size),
-            "finite_band": bool(np.all(np.isfinite(band.upper))),
-            "median_rel_f": float(np.median(modes.std_frequency_hz / modes.frequencies_hz))}
+    done(band_s=time.perf_counter() - t0, finite_band=bool(np.all(np.isfinite(band.upper))))
+    return out
 
 
-def cost_large(m: int, s: int) -> str:
-    r = run_worker(str(Path(__file__).resolve()), {"kind": "large", "m": m, "s": s},
-                   timeout=7200)
+def cost_large(m: int, s: int, progress: Path, timeout: float) -> str:
+    import json
+    import subprocess
+
+    try:
+        r = run_worker(str(Path(__file__).resolve()),
+                       {"kind": "large", "m": m, "s": s, "progress": str(progress)},
+                       timeout=timeout)
+    except subprocess.TimeoutExpired:
+        r = {"error": f"not finished in {timeout:g} s"}
     if "error" in r:
-        return f"- m = {m}, matrix-free: failed — {r['error']}"
+        got = json.loads(progress.read_text()) if progress.exists() else {}
+        return f"- m = {m}, s = {s}, matrix-free: {r['error']}; what had finished: {got}"
+    its = r["cg_iterations"]
     added = r["covariance_s"] + r["modes_s"] + r["band_s"]
     return (f"- m = {m}, s = {s}, matrix-free: refine {r['refine_s']:.1f} s ({r['steps']} "
             f"steps, from the truth), peak {r['peak_refine_gb']:.2f} GB; the intervals "
-            f"{added:.1f} s (covariance {r['covariance_s']:.1f} s, {r['modes']} modes' "
-            f"intervals {r['modes_s']:.1f} s, {r['determined']} determined, median σ_f/f "
-            f"{r['median_rel_f']:.1e}; a band of 2 entries at {s} lines {r['band_s']:.1f} s, "
+            f"{added:.0f} s (covariance {r['covariance_s']:.1f} s, {r['modes']} modes' "
+            f"intervals {r['modes_s']:.0f} s in {len(its)} blocks of CG, {min(its)}–{max(its)} "
+            f"iterations each, {r['determined']} determined, median σ_f/f "
+            f"{r['median_rel_f']:.1e}; the band of 2 entries at {s} lines {r['band_s']:.0f} s, "
             f"finite: {'yes' if r['finite_band'] else 'no'}); peak after them "
             f"{r['peak_gb']:.2f} GB")
 
@@ -406,6 +423,7 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default="10,20,40", help="orders of the cost case's identify")
     ap.add_argument("--large-m", type=int, default=100, help="0: no matrix-free case")
     ap.add_argument("--large-s", type=int, default=1000)
+    ap.add_argument("--large-timeout", type=float, default=7200.0)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     load = [load_average()]
@@ -436,7 +454,9 @@ def main(argv=None) -> int:
             if sizes:
                 parts += [cost_identify(sizes, Path(args.out).parent), ""]
             if args.large_m > 0:
-                parts += [cost_large(args.large_m, args.large_s)]
+                parts += [cost_large(args.large_m, args.large_s,
+                                     Path(args.out).with_suffix(".large.json"),
+                                     args.large_timeout)]
             load.append(load_average())
         loads = [v for v in load if v is not None]
         parts += ["", f"Command: `python3 benches/bench_uncertainty.py --cases {args.cases}`; "
