@@ -424,6 +424,7 @@ def main(argv=None) -> int:
     ap.add_argument("--large-m", type=int, default=100, help="0: no matrix-free case")
     ap.add_argument("--large-s", type=int, default=1000)
     ap.add_argument("--large-timeout", type=float, default=7200.0)
+    ap.add_argument("--beam-bands", default="50-300,20-800", help="the beam's bands, Hz")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     load = [load_average()]
@@ -445,8 +446,9 @@ def main(argv=None) -> int:
     if "beam" in cases or "cost" in cases:
         parts = []
         if "beam" in cases:
+            bands = [tuple(float(v) for v in b.split("-")) for b in args.beam_bands.split(",")]
             parts += ["## Intervals on the beam beside sdypy-EMA", "",
-                      beam_case([(50.0, 300.0), (20.0, 800.0)], Path(args.out).parent)]
+                      beam_case(bands, Path(args.out).parent)]
             load.append(load_average())
         if "cost" in cases:
             sizes = [int(v) for v in args.sizes.split(",") if v]

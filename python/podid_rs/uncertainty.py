@@ -25,7 +25,8 @@ in the fit. It is carried to what a user reads by first-order perturbation:
 Intervals are estimate ± z·σ at the chosen level, z from the normal distribution for a
 given noise level and from Student's t with the residuals' degrees of freedom for an
 estimated one. A quantity that depends on a direction the data do not determine has
-NaN for its σ and ``determined`` False: it gets no interval rather than a huge one.
+NaN for its σ and ``determined`` False: it gets no interval rather than a huge one; so
+does a mode whose interval would be wider than its value.
 Checked by Monte Carlo in ``benches/bench_uncertainty.py``; docs/design.md §12.
 """
 
@@ -91,7 +92,9 @@ class ModeIntervals:
     z : float
         The interval's half-width in standard deviations.
     determined : numpy.ndarray of bool, (k,)
-        False for a mode whose frequency or damping depends on what the data do not fix.
+        False for a mode whose frequency or damping depends on what the data do not fix,
+        or whose interval would be wider than the value itself (a frequency's reaching 0,
+        a damping ratio's spanning more than critical damping).
     shapes : numpy.ndarray, complex, (n, k), or None
         The mode shapes on the measured DOFs, largest entry 1 (with ``shapes=True``).
     std_shapes_real, std_shapes_imag : numpy.ndarray, (n, k), or None
@@ -391,6 +394,12 @@ class ModelUncertainty:
         var_z = self._cov.variances(g_z)
         real_root = np.abs(sel.imag) <= 1e-12 * mag
         var_z = np.where(real_root & np.isfinite(var_z), 0.0, var_z)
+        # an interval wider than the value itself — a frequency's reaching 0, a damping
+        # ratio's spanning more than critical damping — is no interval: the data do not fix
+        # that pole (a fit's residual term far outside the band, first order long invalid)
+        loose = (z * np.sqrt(var_f) >= mag / (2 * np.pi)) | (z * np.sqrt(var_z) >= 1.0)
+        var_f = np.where(loose, np.nan, var_f)
+        var_z = np.where(loose, np.nan, var_z)
         determined = np.isfinite(var_f) & np.isfinite(var_z)
         out = dict(
             eigenvalues=sel, frequencies_hz=mag / (2 * np.pi),
