@@ -65,6 +65,8 @@ LEVEL = 0.95
 #: ``solver="auto"`` forms N densely up to this order (3m(m+1)/2 = 2460 coordinates, as
 #: the refinement's dense step) and solves with it matrix-free beyond
 AUTO_DENSE_MAX_M = 40
+#: gradient entries (lines × entries × parameters) of an FRF band formed at once
+FRF_BLOCK_ELEMENTS = 1 << 21
 
 
 def _check_level(level: object) -> float:
@@ -488,17 +490,26 @@ class ModelUncertainty:
         s, r, c = w.size, r_idx.size, c_idx.size
         values = np.empty((s, r, c), dtype=complex)
         var_re, var_im, cov_ri = (np.empty((s, r, c)) for _ in range(3))
-        for i, wi in enumerate(w):
-            D = -(wi**2) * self.M + 1j * wi * self.C + self.K
-            Dinv = np.linalg.inv(D)
-            g = Dinv @ Rr.T  # (m, r)
-            h = Dinv @ Rc.T  # (m, c)
-            values[i] = Rr @ h
-            outer = g.T[:, None, :, None] * h.T[None, :, None, :]  # (r, c, m, m)
-            phis = (-(wi**2), 1j * wi, 1.0)
-            grad = self._scaled([-ph * outer for ph in phis]).reshape(r * c, -1)
+        # the gradients of a block of lines at once: one pass over the covariance per
+        # block, not per line (on the beam, m = 39: 26 s → 1.9 s for 251 lines, 2 entries)
+        block = max(1, FRF_BLOCK_ELEMENTS // max(1, r * c * self.n_parameters))
+        for start in range(0, s, block):
+            grads = []
+            for i in range(start, min(s, start + block)):
+                wi = w[i]
+                D = -(wi**2) * self.M + 1j * wi * self.C + self.K
+                Dinv = np.linalg.inv(D)
+                g = Dinv @ Rr.T  # (m, r)
+                h = Dinv @ Rc.T  # (m, c)
+                values[i] = Rr @ h
+                outer = g.T[:, None, :, None] * h.T[None, :, None, :]  # (r, c, m, m)
+                phis = (-(wi**2), 1j * wi, 1.0)
+                grads.append(self._scaled([-ph * outer for ph in phis]).reshape(r * c, -1))
+            grad = np.concatenate(grads)
             moments = self._cov.pair_moments(grad.real, grad.imag)
-            var_re[i], var_im[i], cov_ri[i] = (v.reshape(r, c) for v in moments)
+            stop = start + len(grads)
+            var_re[start:stop], var_im[start:stop], cov_ri[start:stop] = (
+                v.reshape(-1, r, c) for v in moments)
         lower, upper = _magnitude_band(values.reshape(-1), var_re.reshape(-1),
                                        var_im.reshape(-1), cov_ri.reshape(-1), z)
         sd_re, sd_im = np.sqrt(var_re), np.sqrt(var_im)
