@@ -66,7 +66,7 @@ LEVEL = 0.95
 #: the refinement's dense step) and solves with it matrix-free beyond
 AUTO_DENSE_MAX_M = 40
 #: gradient entries (lines × entries × parameters) of an FRF band formed at once
-FRF_BLOCK_ELEMENTS = 1 << 21
+FRF_BLOCK_ELEMENTS = 1 << 19
 
 
 def _check_level(level: object) -> float:
