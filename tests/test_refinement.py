@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 
 import podid_rs as pr
 from podid_rs.identification import ConvergenceWarning
-from podid_rs.identification.refinement import StartWarning, db_errors, refine
+from podid_rs.identification.refinement import StartWarning, db_errors, physical_start, refine
 
 
 def rel(a, b) -> float:
@@ -115,8 +115,6 @@ def test_an_unstable_indefinite_start_is_made_physical_with_a_warning():
 def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
     # |d| for a negative eigenvalue (the estimator's sign error keeps its size), the
     # rtol floor for a zero one in M, K; C keeps its zero; eigenvectors unchanged
-    from podid_rs.identification.refinement import physical_start
-
     Q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((3, 3)))
     sym = lambda d: (Q * np.asarray(d, float)) @ Q.T  # noqa: E731
     M, C, K = sym([-0.5, 1.0, 2.0]), sym([-0.1, 0.0, 3.0]), sym([0.0, 1.0, 4.0])
@@ -377,3 +375,39 @@ def test_any_start_on_any_data_gives_a_physical_stable_model_or_a_named_error(
         assert_physical(model)
     for a, b in zip((U, F, w, *start), copies, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_per_entry_weights_of_any_size_give_the_weighted_output_error():
+    # weights over six orders of magnitude, and lines where fewer entries than the order
+    # carry weight (their reduced metric RᵀW²R is singular): the reported cost is still
+    # Σ |W (R x − u)|² over the measured entries, at the start and at the answer
+    chain, U_n, F_n, w = _entry_data(noise=0.02)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    U, F = np.einsum("nm,snp->smp", R, U_n), np.einsum("nm,snp->smp", R, F_n)
+    start = pr.identify(U, F, w, symmetric=True)
+    rng = np.random.default_rng(11)
+    W = 10.0 ** rng.uniform(-3, 3, U_n.shape)
+    W[::3, 3:] = 0.0  # every third line: three of eight entries weighted, order 5
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        res = refine(start, U_n, F_n, w, basis=R, weights=W, max_iter=30)
+    rep = res.info["refinement"]
+    assert rep["weights"] == "user, per entry"
+
+    def cost(M, C, K) -> float:
+        X = np.einsum("nm,smp->snp", R, pr.SecondOrderSystem(M, C, K).response(w, F))
+        return float(np.sum((W * np.abs(X - U_n)) ** 2))
+
+    assert rep["cost_start"] == pytest.approx(
+        cost(*physical_start(start.M, start.C, start.K)[0]), rel=1e-7)
+    assert rep["cost"] == pytest.approx(cost(res.M, res.C, res.K), rel=1e-7)
+    assert rep["cost"] < rep["cost_start"]
+    # tiny weights alike (RᵀW²R ~ 1e-14): none of its eigenvalues is taken for round-off
+    W = np.full(U_n.shape, 1e-7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        tiny = refine(start, U_n, F_n, w, basis=R, weights=W, max_iter=3)
+    assert tiny.info["refinement"]["cost"] == pytest.approx(cost(tiny.M, tiny.C, tiny.K),
+                                                            rel=1e-7)
