@@ -342,8 +342,9 @@ def test_pod_takes_one_snapshot_or_one_channel_and_refuses_empty_or_complex():
         message = f"snapshots must have shape (r, n), time first, got {bad.shape}"
         with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
             pod(bad)
-    with pytest.raises(ValueError, match="^snapshots must be real"):
-        pod(np.ones((3, 2)) + 1j)
+    for method in ("correlation", "snapshots"):
+        with pytest.raises(ValueError, match="^snapshots must be real"):
+            pod(np.ones((3, 2)) + 1j, method=method)
 
 
 # --- noise_variance against the measured mean squares: exact limits and messages -----

@@ -142,3 +142,14 @@ def test_a_single_array_is_not_a_data_file(tmp_path):
         load_data(path)
     with pytest.raises(FileNotFoundError, match=exactly(f"no such file: {tmp_path / 'no.npz'}")):
         load_data(tmp_path / "no.npz")
+
+
+def test_modes_over_different_nodes_are_zero_where_a_mode_has_no_value(tmp_path):
+    path = write(
+        tmp_path / "partial.uff",
+        normal_mode(1, 10.0, 0.01, [1.0, 0.5], [0.0, 0.0], [5, 6]),
+        normal_mode(2, 20.0, 0.01, [0.25], [1.0], [6]),  # node 5 not in this set
+    )
+    modes = read_uff_modes(path)
+    assert modes.dofs.tolist() == [[5, 1], [6, 1], [6, 2]]
+    np.testing.assert_array_equal(modes.shapes, [[1.0, 0.0], [0.5, 0.25], [0.0, 1.0]])
