@@ -88,3 +88,23 @@ def test_simulation(monkeypatch, histories):
         nbytes, what, hint = spectra_bytes, f"simulating {n} DOFs over {s} lines", ""
     with pytest.raises(MemoryError, match=refusal(what, nbytes, hint)):
         simulate_white_noise(chain, band, dt, duration, histories=histories)
+
+
+@pytest.mark.parametrize("histories", [True, False])
+def test_simulation_counts_every_byte_of_a_tiny_record(monkeypatch, histories):
+    # 5 samples at 1 s (odd): lines 0.2 and 0.4 Hz in the band; one DOF. Forces and
+    # response spectra and the solver's copy, 3·16·s; with histories 2·8·r for them and
+    # 16·(r // 2 + 1) for the full spectrum they are made from
+    from podid_rs import SecondOrderSystem
+
+    one = SecondOrderSystem([[1.0]], [[0.1]], [[4.0]])
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 1)
+    r, s = 5, 2
+    if histories:
+        nbytes = 3 * COMPLEX * s + 2 * FLOAT * r + COMPLEX * (r // 2 + 1)  # 224
+        what, hint = f"simulating 1 DOFs over {s} lines with {r}-sample histories", (
+            "pass histories=False to keep only the in-band spectra")
+    else:
+        nbytes, what, hint = 3 * COMPLEX * s, f"simulating 1 DOFs over {s} lines", ""
+    with pytest.raises(MemoryError, match=refusal(what, nbytes, hint)):
+        simulate_white_noise(one, (0.1, 0.45), 1.0, 5.0, histories=histories)
