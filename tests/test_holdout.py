@@ -122,3 +122,68 @@ def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
     everything, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, every_line=True)
     assert everything.info["refinement"]["final_refit"]["lines_fitted"] == w.size
     assert "informative" not in everything.info["refinement"]["final_refit"]["reason"]
+
+
+def test_the_sweep_table_marks_the_chosen_order_and_the_unstable_ones():
+    from podid_rs.identification.order import OrderFit, OrderSweep
+
+    fits = tuple(
+        OrderFit(m=m, model=None, train_db=0.5 / m, test_db=0.75 / m, start=start,
+                 stable=stable, seconds=1.25 * m, observed=min(m, 2))
+        for m, start, stable in ((1, "paper estimator", True), (2, "continuation", False),
+                                 (3, "latent DOF at 12 Hz", True))
+    )
+    lines = np.ones(8, dtype=bool)
+    sweep = OrderSweep(fits, chosen=2, reason="because", test_lines=~lines, lines=lines)
+    assert sweep.table() == (
+        "| m | latent DOFs | held-out median dB | training median dB | start | stable "
+        "| seconds |\n"
+        "|---:|---:|---:|---:|:---|:---|---:|\n"
+        "| 1 | 0 | 0.750 | 0.500 | paper estimator | yes | 1.25 |\n"
+        "| 2 **(chosen)** | 0 | 0.375 | 0.250 | continuation | no | 2.50 |\n"
+        "| 3 | 1 | 0.250 | 0.167 | latent DOF at 12 Hz | yes | 3.75 |\n"
+    )
+
+
+def test_residual_peak_starts_are_scored_by_their_weighted_misfit():
+    # order 2 from an exact order-1 model: coordinate 1 is a 10 Hz mode the model holds,
+    # coordinate 2 a 30 Hz mode (with 5 % noise) it lacks. Each candidate adds a mode at
+    # one of the three largest peaks of the weighted residual energy, and its cost is the
+    # weighted misfit of its own response. (_residual_modes is the sweep's private helper:
+    # the sweep only shows which start won, not where the candidates were.)
+    from podid_rs.identification.order import _residual_modes
+
+    rng = np.random.default_rng(8)
+    omega = 2 * np.pi * np.linspace(2.0, 50.0, 97)
+    wn = 2 * np.pi * np.array([10.0, 30.0])
+    M, C, K = np.eye(2), np.diag(2 * 0.01 * wn), np.diag(wn**2)
+    F = np.ones((omega.size, 2, 1), dtype=complex)
+    U = pr.SecondOrderSystem(M, C, K).response(omega, F)
+    U[:, 1] *= 1 + 0.05 * rng.standard_normal((omega.size, 1))
+    w = rng.uniform(0.5, 2.0, (omega.size, 1))
+    candidates = _residual_modes((M[:1, :1], C[:1, :1], K[:1, :1]), U, F, omega, w)
+    assert candidates
+    for cost, mats in candidates:
+        X = pr.SecondOrderSystem(*mats).response(omega, F)
+        assert cost == pytest.approx(np.sum(w[:, None, :] ** 2 * np.abs(X - U) ** 2),
+                                     rel=1e-9)
+    # the peaks: the three largest local maxima of Σ w² |u − x_old|²
+    r = U.copy()
+    r[:, 0] -= pr.SecondOrderSystem(M[:1, :1], C[:1, :1], K[:1, :1]).response(omega,
+                                                                              F[:, :1])[:, 0]
+    energy = np.sum(w[:, None, :] ** 2 * np.abs(r) ** 2, axis=(1, 2))
+    inner = [i for i in range(1, omega.size - 1)
+             if energy[i] >= energy[i - 1] and energy[i] >= energy[i + 1]]
+    top = sorted(inner, key=lambda i: energy[i])[-3:]
+
+    def undamped(mats) -> np.ndarray:
+        return np.sort(np.sqrt(np.linalg.eigvals(np.linalg.solve(mats[0], mats[2])).real))
+
+    def added(mats) -> float:  # the frequency other than the old 10 Hz mode's
+        both = undamped(mats)
+        return float(np.delete(both, np.argmin(np.abs(both - wn[0])))[0])
+
+    assert {round(added(mats), 6) for _, mats in candidates} == {
+        round(float(omega[i]), 6) for i in top}
+    best = min(candidates, key=lambda c: c[0])[1]
+    assert undamped(best) / (2 * np.pi) == pytest.approx([10.0, 30.0], abs=0.5)  # a line

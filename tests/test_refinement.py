@@ -411,3 +411,27 @@ def test_per_entry_weights_of_any_size_give_the_weighted_output_error():
         tiny = refine(start, U_n, F_n, w, basis=R, weights=W, max_iter=3)
     assert tiny.info["refinement"]["cost"] == pytest.approx(cost(tiny.M, tiny.C, tiny.K),
                                                             rel=1e-7)
+
+
+def test_progress_true_draws_the_refinement_on_a_terminal(monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    screen = Terminal()
+    monkeypatch.setattr(sys, "stderr", screen)
+    chain, U, F, w = chain_data(n=4, snr=30)
+    start = (chain.M * 1.1, chain.C, chain.K * 0.9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        res = refine(start, U, F, w, progress=True, max_iter=40)
+    text = screen.getvalue()
+    assert text.endswith("\n")  # the bar is left on its line when the refinement ends
+    last = text[:-1].split("\r")[-1]
+    cost = res.info["refinement"]["cost"]
+    assert last.startswith("output error: ")
+    assert f"| {res.iterations}/40 [" in last and "step/s" in last
+    assert last.endswith(f"cost {cost:.4g}]")
