@@ -6,6 +6,8 @@
 #   scripts/mutation.sh 'podid_rs.physical.*'   # only these mutants
 #   scripts/mutation.sh --results       # the survivors of the last run
 #   scripts/mutation.sh --survivors     # run the survivors again (after new tests)
+#   MUTATION_JOBS=2 scripts/mutation.sh # two mutants at a time (default one: the
+#                                       # machine is shared)
 #
 # mutmut imports the mutated package from mutants/src/, so it runs in a staging
 # directory, build/mutation/, where src/ is this repository's python/ (the compiled
@@ -35,4 +37,4 @@ if [[ "${1:-}" == "--survivors" ]]; then
     fi
     set -- "${names[@]}"
 fi
-exec nice -n 19 python -m mutmut run --max-children "${MUTATION_JOBS:-2}" "$@"
+exec nice -n 19 python -m mutmut run --max-children "${MUTATION_JOBS:-1}" "$@"
