@@ -5,6 +5,7 @@
 #   scripts/mutation.sh                 # every mutant not yet decided (resumes)
 #   scripts/mutation.sh 'podid_rs.physical.*'   # only these mutants
 #   scripts/mutation.sh --results       # the survivors of the last run
+#   scripts/mutation.sh --summary       # killed, survived, not run per module
 #   scripts/mutation.sh --survivors     # run the survivors again (after new tests)
 #   MUTATION_JOBS=2 scripts/mutation.sh # two mutants at a time (default one: the
 #                                       # machine is shared)
@@ -23,10 +24,19 @@ ln -sfn "$repo/python" "$stage/src"
 ln -sfn "$repo/tests" "$stage/tests"
 ln -sfn "$repo/pyproject.toml" "$stage/pyproject.toml"
 cd "$stage"
+# mutmut copies each file of src/ into mutants/src/ once and refreshes only the Python
+# ones: bring the compiled core along every time (maturin develop rebuilds it)
+if [[ -d mutants/src/podid_rs ]]; then
+    rm -f mutants/src/podid_rs/_core*.so
+    cp -p "$repo"/python/podid_rs/_core*.so mutants/src/podid_rs/
+fi
 # one BLAS thread per mutant worker; the machine is shared, so run at the lowest priority
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1
 if [[ "${1:-}" == "--results" ]]; then
     exec python -m mutmut results
+fi
+if [[ "${1:-}" == "--summary" ]]; then
+    exec python "$repo/scripts/mutation_summary.py"
 fi
 if [[ "${1:-}" == "--survivors" ]]; then
     mapfile -t names < <(python -m mutmut results 2>/dev/null |
