@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 import podid_rs as pr
 from podid_rs.identification.order import HOLDOUT, final_fit, sweep_orders
@@ -187,3 +188,75 @@ def test_residual_peak_starts_are_scored_by_their_weighted_misfit():
         round(float(omega[i]), 6) for i in top}
     best = min(candidates, key=lambda c: c[0])[1]
     assert undamped(best) / (2 * np.pi) == pytest.approx([10.0, 30.0], abs=0.5)  # a line
+
+
+@pytest.mark.parametrize("damping_factor", [0.5, 2.0])
+def test_residual_peak_starts_of_order_three_are_least_squares_modes_of_the_residual_shape(
+    damping_factor,
+):
+    # order 3 from an order-2 model whose modes (10 and 30 Hz) have the right frequencies
+    # but damping off by the factor: its residual peaks there in the old coordinates, and
+    # at the 45 Hz mode it lacks, in the new one (with 5 % noise). The old model's peaks
+    # are higher than the data's (factor 0.5) or lower (2.0). Every candidate must be:
+    # - physical: M, C, K positive definite (a peak whose residual is opposite to the
+    #   new mode's response is skipped, not fitted with a negative mass);
+    # - the least-squares amplitude of its mode: the weighted misfit is stationary in it,
+    #   Σ w² Re(conj(X − X_old)(X − U)) = 0 (1e-9 of Σ w²|X − X_old|²: round-off);
+    # - the new mode shaped as the residual's principal direction at its peak, the new
+    #   coordinate's share raised to 0.05 when smaller (the change of coordinates must
+    #   stay well conditioned): the same direction to 1e-9.
+    from podid_rs.identification.order import _residual_modes
+
+    rng = np.random.default_rng(4)  # a clamped peak whose share's sign differs from the
+    omega = 2 * np.pi * np.linspace(2.0, 60.0, 151)  # shape's second entry
+    wn = 2 * np.pi * np.array([10.0, 30.0, 45.0])
+    M, C, K = np.eye(3), np.diag(2 * 0.01 * wn), np.diag(wn**2)
+    F = np.ones((omega.size, 3, 1), dtype=complex)
+    U = pr.SecondOrderSystem(M, C, K).response(omega, F)
+    U[:, 2] *= 1 + 0.05 * rng.standard_normal((omega.size, 1))
+    w = rng.uniform(0.5, 2.0, (omega.size, 1))
+    old = (M[:2, :2], damping_factor * C[:2, :2], K[:2, :2])
+    X_old = np.zeros_like(U)
+    X_old[:, :2] = pr.SecondOrderSystem(*old).response(omega, F[:, :2])
+    r = U - X_old
+    w2 = w[:, None, :] ** 2
+
+    candidates = _residual_modes(old, U, F, omega, w)
+    assert candidates
+    shares = []
+    for cost, mats in candidates:
+        for X in mats:
+            np.linalg.cholesky(X)  # raises unless positive definite
+        Xc = pr.SecondOrderSystem(*mats).response(omega, F)
+        assert cost == pytest.approx(np.sum(w2 * np.abs(Xc - U) ** 2), rel=1e-9)
+        g = Xc - X_old
+        assert abs(np.sum(w2 * np.real(np.conj(g) * (Xc - U)))) < 1e-9 * np.sum(
+            w2 * np.abs(g) ** 2)
+        # the new mode: the undamped eigenpair that is neither 10 nor 30 Hz
+        lam, V = scipy.linalg.eigh(mats[2], mats[0])
+        new = int(np.argmax(np.min(np.abs(np.sqrt(lam)[:, None] / wn[:2] - 1), axis=1)))
+        peak = int(np.argmin(np.abs(omega - np.sqrt(lam[new]))))
+        assert np.sqrt(lam[new]) == pytest.approx(omega[peak], rel=1e-9)
+        phi = np.linalg.eigh(np.real(r[peak] @ r[peak].conj().T))[1][:, -1]
+        shares.append(abs(phi[-1]))
+        if abs(phi[-1]) < 0.05:
+            phi[-1] = np.copysign(0.05, phi[-1])
+        shape = V[:, new] / np.linalg.norm(V[:, new])
+        assert abs(shape @ phi) / np.linalg.norm(phi) == pytest.approx(1.0, abs=1e-9)
+    # both kinds of peak are among the candidates: the new mode's and the old ones'
+    assert max(shares) > 0.5 and min(shares) < 0.05
+
+
+def test_a_model_that_explains_the_data_exactly_gets_no_residual_peak_start():
+    # the data's new coordinate carries nothing and the old model is exact: the residual
+    # is zero on every line, so no mode can be fitted to it (its amplitude would be 0,
+    # its modal mass infinite) — no candidate, rather than a division by zero
+    from podid_rs.identification.order import _residual_modes
+
+    omega = 2 * np.pi * np.linspace(2.0, 60.0, 151)
+    wn = 2 * np.pi * np.array([10.0, 30.0])
+    old = (np.eye(2), np.diag(2 * 0.01 * wn), np.diag(wn**2))
+    F = np.ones((omega.size, 3, 1), dtype=complex)
+    U = np.zeros((omega.size, 3, 1), dtype=complex)
+    U[:, :2] = pr.SecondOrderSystem(*old).response(omega, F[:, :2])
+    assert _residual_modes(old, U, F, omega, np.ones((omega.size, 1))) == []
