@@ -6,6 +6,8 @@
 #   scripts/mutation.sh 'podid_rs.physical.*'   # only these mutants
 #   scripts/mutation.sh --results       # the survivors of the last run
 #   scripts/mutation.sh --summary       # killed, survived, not run per module
+#   scripts/mutation.sh --not-run identification/order.py modes.py
+#                                       # only these modules' mutants not yet run
 #   scripts/mutation.sh --survivors     # run the survivors again (after new tests)
 #   MUTATION_JOBS=2 scripts/mutation.sh # two mutants at a time (default one: the
 #                                       # machine is shared)
@@ -38,7 +40,15 @@ fi
 if [[ "${1:-}" == "--summary" ]]; then
     exec python "$repo/scripts/mutation_summary.py"
 fi
-if [[ "${1:-}" == "--survivors" ]]; then
+if [[ "${1:-}" == "--not-run" ]]; then
+    shift
+    mapfile -t names < <(python "$repo/scripts/mutation_summary.py" --not-run "$@")
+    if (( ${#names[@]} == 0 )); then
+        echo "every mutant of $* has run"
+        exit 0
+    fi
+    set -- "${names[@]}"
+elif [[ "${1:-}" == "--survivors" ]]; then
     mapfile -t names < <(python -m mutmut results 2>/dev/null |
         awk -F': ' '$2 ~ /^(survived|no tests|suspicious)$/ {gsub(/ /, "", $1); print $1}')
     if (( ${#names[@]} == 0 )); then

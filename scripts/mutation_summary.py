@@ -1,6 +1,9 @@
 """Per-module count of the mutation run's verdicts, from mutmut's record.
 
-Run in the staging directory (``scripts/mutation.sh --summary`` does). A mutant is
+Run in the staging directory (``scripts/mutation.sh --summary`` does). With
+``--not-run MODULE...`` (paths under ``podid_rs/``, e.g. ``identification/order.py``)
+it prints instead the names of those modules' mutants not yet run, for
+``scripts/mutation.sh --not-run``. A mutant is
 *killed* when a test failed or errored on it, it timed out or it crashed the process;
 it *survived* when the tests passed or no test reached it; it is *not run* when the
 run has not come to it yet (or its function changed since it ran).
@@ -11,6 +14,7 @@ from __future__ import annotations
 import collections
 import json
 import pathlib
+import sys
 
 from mutmut.stats import status_by_exit_code
 
@@ -49,5 +53,17 @@ def row(name: str, count: collections.Counter[str]) -> str:
     return f"{name:42} {count['killed']:7} {count['survived']:9} {count['not run']:8} {rate:>10}"
 
 
+def not_run(modules: list[str]) -> None:
+    """Print the names of the given modules' mutants that have no verdict yet."""
+    for module in modules:
+        meta = pathlib.Path("mutants/src/podid_rs") / f"{module}.meta"
+        for name, code in json.loads(meta.read_text())["exit_code_by_key"].items():
+            if code is None:
+                print(name)
+
+
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:2] == ["--not-run"]:
+        not_run(sys.argv[2:])
+    else:
+        main()
