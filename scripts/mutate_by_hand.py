@@ -28,6 +28,7 @@ TESTS = {
 MUTANTS = [
     ("pod", "stacklevel=4,", "stacklevel=5,"),
     ("pod", "stacklevel=4,", "stacklevel=3,"),
+    ("pod", "            stacklevel=4,\n", ""),
     (
         "pod",
         'return "snapshots" if self._snapshots is not None else "correlation"',
