@@ -260,3 +260,29 @@ def test_a_model_that_explains_the_data_exactly_gets_no_residual_peak_start():
     U = np.zeros((omega.size, 3, 1), dtype=complex)
     U[:, :2] = pr.SecondOrderSystem(*old).response(omega, F[:, :2])
     assert _residual_modes(old, U, F, omega, np.ones((omega.size, 1))) == []
+
+
+def test_each_damping_ratio_at_a_residual_peak_is_tried_on_its_own():
+    # the residual of the new coordinate: a broad 30 Hz resonance (ζ = 0.03) with a sharp
+    # dip on top (ζ = 0.0005, 5 % of its amplitude): at the peak line the dip dominates,
+    # so the sharpest candidate modes fit it with a negative amplitude and are skipped —
+    # but the broad one still fits with a positive one and is offered: ζ = 0.03 at 30 Hz
+    # (1e-9: the eigenvalues of a 2-DOF model)
+    from podid_rs.identification.order import _residual_modes
+
+    omega = 2 * np.pi * np.linspace(2.0, 50.0, 97)  # 0.5 Hz apart: 30 Hz is a line
+    w1, w3 = 2 * np.pi * 10.0, 2 * np.pi * 30.0
+    old = (np.eye(1), np.array([[2 * 0.01 * w1]]), np.array([[w1**2]]))
+    F = np.ones((omega.size, 2, 1), dtype=complex)
+    U = np.zeros((omega.size, 2, 1), dtype=complex)
+    U[:, :1] = pr.SecondOrderSystem(*old).response(omega, F[:, :1])
+    U[:, 1, 0] = 1 / (w3**2 - omega**2 + 2j * 0.03 * w3 * omega) - 0.05 / (
+        w3**2 - omega**2 + 2j * 0.0005 * w3 * omega)
+    candidates = _residual_modes(old, U, F, omega, np.ones((omega.size, 1)))
+    added = []
+    for _, mats in candidates:
+        modes = pr.modal_parameters(pr.SecondOrderSystem(*mats))
+        new = np.abs(modes.frequencies_hz - 10.0) > 1e-6  # the old 10 Hz mode left out
+        added += zip(modes.frequencies_hz[new], modes.damping_ratios[new], strict=True)
+    assert any(f == pytest.approx(30.0, rel=1e-9) and z == pytest.approx(0.03, rel=1e-9)
+               for f, z in added)
