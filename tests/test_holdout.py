@@ -125,6 +125,47 @@ def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
     assert "informative" not in everything.info["refinement"]["final_refit"]["reason"]
 
 
+def test_final_fit_on_thinned_lines_with_holes_is_judged_on_the_measured_entries():
+    # two load cases; DOF 4 was not measured in the second, and holds garbage there
+    # (10³ × the truth): the errors over every line that judge the passes leave it
+    # out, as the fit does
+    chain = pr.mass_spring_chain(5)
+    w = 2 * np.pi * np.linspace(10.0, 200.0, 120)
+    F_n = np.zeros((w.size, 5, 2), dtype=complex)
+    F_n[:, 1, 0] = F_n[:, 3, 1] = 1.0
+    U_n = chain.response(w, F_n)
+    P = pr.pod_from_frf(U_n, w)
+    measured = np.ones((5, 2), dtype=bool)
+    measured[4, 1] = False
+    U_n[:, 4, 1] *= 1e3
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1, measured=measured)
+    model, R = final_fit(sweep, U_n, F_n, w, P, threads=1, measured=measured)
+    kept = model.info["refinement"]["final_refit"]
+    assert kept["lines_fitted"] == int(sweep.lines.sum()) < w.size
+    X = np.einsum("nm,smp->snp", R,
+                  model.system().response(w, np.einsum("nm,snp->smp", R, F_n)))
+    e = db_errors(X, U_n, measured)
+    assert kept["db_all_lines"] == pytest.approx((np.median(e), np.percentile(e, 95)),
+                                                 rel=1e-9)
+
+
+def test_final_fit_draws_no_progress_unless_asked(chain_frf, monkeypatch):
+    # on a terminal, where a bar would show: without progress=True nothing is written
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    screen = Terminal()
+    monkeypatch.setattr(sys, "stderr", screen)
+    final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3, log_magnitude=False)
+    assert screen.getvalue() == ""
+
+
 def test_the_sweep_table_marks_the_chosen_order_and_the_unstable_ones():
     from podid_rs.identification.order import OrderFit, OrderSweep
 
