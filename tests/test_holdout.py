@@ -166,6 +166,30 @@ def test_final_fit_draws_no_progress_unless_asked(chain_frf, monkeypatch):
     assert screen.getvalue() == ""
 
 
+def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(chain_frf,
+                                                                             monkeypatch):
+    # a spy records what each pass minimises (refine's default is the complex error)
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    objectives = []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        objectives.append(kwargs.get("objective", "complex"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5)
+    assert objectives == ["complex", "log-magnitude"]
+    passes = model.info["refinement"]["final_refit"]["passes"]
+    assert [p["pass"] for p in passes] == ["complex refit", "log-magnitude refit"]
+    objectives.clear()
+    final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5, log_magnitude=False)
+    assert objectives == ["complex"]
+
+
 def test_the_sweep_table_marks_the_chosen_order_and_the_unstable_ones():
     from podid_rs.identification.order import OrderFit, OrderSweep
 
