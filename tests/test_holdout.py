@@ -149,8 +149,9 @@ def test_final_fit_on_thinned_lines_with_holes_is_judged_on_the_measured_entries
                                                  rel=1e-9)
 
 
-def test_final_fit_draws_no_progress_unless_asked(chain_frf, monkeypatch):
-    # on a terminal, where a bar would show: without progress=True nothing is written
+def test_final_fit_draws_its_progress_only_when_asked(chain_frf, monkeypatch):
+    # on a terminal, where a bar would show: without progress=True nothing is written,
+    # with it the refinement's bar
     import io
     import sys
 
@@ -164,6 +165,9 @@ def test_final_fit_draws_no_progress_unless_asked(chain_frf, monkeypatch):
     monkeypatch.setattr(sys, "stderr", screen)
     final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3, log_magnitude=False)
     assert screen.getvalue() == ""
+    final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3, log_magnitude=False,
+              progress=True)
+    assert "output error" in screen.getvalue()
 
 
 def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(chain_frf,
