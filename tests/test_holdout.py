@@ -10,11 +10,14 @@ deterministic on one thread), while the held-out score changes.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.linalg
 
 import podid_rs as pr
+from podid_rs.identification import ConvergenceWarning
 from podid_rs.identification.order import HOLDOUT, final_fit, sweep_orders
 from podid_rs.identification.refinement import db_errors
 
@@ -192,6 +195,42 @@ def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(ch
     objectives.clear()
     final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5, log_magnitude=False)
     assert objectives == ["complex"]
+
+
+def test_the_cost_that_picks_the_final_fits_start_is_the_one_its_refit_lowers():
+    # the final fit starts from the held-out fit or the modal start, whichever has the
+    # lower relative cost Σ ‖R x_c − u_c‖² / ‖u_c‖² on the measured entries: with holes
+    # it is refine's own cost at that start (1e-9: the same sums in another order); with
+    # every entry measured refine reports it less the part of the data outside the basis,
+    # Σ ‖(I − R Rᵀ) u_c‖² / ‖u_c‖², which no model changes. A line and load case with no
+    # response (here three lines of load case 2, a drop-out) weighs nothing in either.
+    from podid_rs.identification.order import _relative_cost
+    from podid_rs.identification.refinement import StartWarning, physical_start, refine
+
+    chain = pr.mass_spring_chain(5)
+    w = 2 * np.pi * np.linspace(10.0, 200.0, 120)
+    F_n = np.zeros((w.size, 5, 2), dtype=complex)
+    F_n[:, 1, 0] = F_n[:, 3, 1] = 1.0
+    rng = np.random.default_rng(1)
+    U_n = chain.response(w, F_n) * (1 + 0.05 * rng.standard_normal((w.size, 5, 2)))
+    U_n[10:13, :, 1] = 0.0
+    R = pr.pod_from_frf(U_n, w).basis(3)
+    U, F = np.einsum("nm,snp->smp", R, U_n), np.einsum("nm,snp->smp", R, F_n)
+    fitted = pr.identify(U, F, w, symmetric=True)
+    start = physical_start(fitted.M, fitted.C, fitted.K)[0]
+    holes = np.ones((5, 2), dtype=bool)
+    holes[4, 1] = False
+    outside = U_n - np.einsum("nm,smp->snp", R, U)  # (I − R Rᵀ) u
+    norms = np.sum(np.abs(U_n) ** 2, axis=1)
+    constant = float(np.sum(np.sum(np.abs(outside) ** 2, axis=1)[norms > 0] / norms[norms > 0]))
+    for measured, offset in ((holes, 0.0), (None, constant)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", StartWarning)
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            res = refine(start, U_n, F_n, w, basis=R, weights="relative", max_iter=1,
+                         measured=measured)
+        assert _relative_cost(start, R, U_n, F_n, w, measured) == pytest.approx(
+            res.info["refinement"]["cost_start"] + offset, rel=1e-9)
 
 
 def test_the_sweep_table_marks_the_chosen_order_and_the_unstable_ones():
