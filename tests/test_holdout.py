@@ -150,6 +150,15 @@ def test_final_fit_on_thinned_lines_with_holes_is_judged_on_the_measured_entries
     e = db_errors(X, U_n, measured)
     assert kept["db_all_lines"] == pytest.approx((np.median(e), np.percentile(e, 95)),
                                                  rel=1e-9)
+    # each pass is judged the same way: the complex refit (kept here) against the
+    # held-out fit it started from
+    from podid_rs.identification.order import _all_lines_db
+
+    assert kept["kept"] == "complex refit"
+    first = kept["passes"][0]
+    assert first["db_after"] == pytest.approx(kept["db_all_lines"], rel=1e-12)
+    assert first["db_before"] == pytest.approx(
+        _all_lines_db(sweep.fit(2).model, R, U_n, F_n, w, measured), rel=1e-9)
 
 
 def test_final_fit_draws_its_progress_only_when_asked(chain_frf, monkeypatch):
