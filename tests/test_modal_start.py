@@ -126,26 +126,44 @@ def test_the_inputs_are_not_modified(omega_all):
         np.testing.assert_array_equal(before, after)
 
 
+def sweep_holding(U, F, omega, P, matrices, measured=None):
+    """The order sweep to m = 4 with its order-4 fit replaced by ``matrices(R)`` — M, C, K
+    in the coordinates of the sweep's basis R. Returns the sweep, R and that fit."""
+    from dataclasses import replace
+
+    from podid_rs.identification.order import sweep_orders
+
+    sweep = sweep_orders(U, F, omega, P, m=4, measured=measured)
+    R = sweep.basis(4, P)
+    held = replace(sweep.fit(4).model, **dict(zip("MCK", matrices(R), strict=True)))
+    fits = tuple(replace(f, model=held) if f.m == 4 else f for f in sweep.fits)
+    return replace(sweep, fits=fits), R, held
+
+
+def the_truth(R):
+    """The true M, C, K in the coordinates of R (x = R q)."""
+    return [R.T @ X @ R for X in (M4, C4, K4)]
+
+
+def wrong_shapes(R):
+    """The true matrices under a congruence q = T q': the same poles, other mode shapes
+    on the measured DOFs."""
+    T = np.eye(4) + 0.3 * np.random.default_rng(2).standard_normal((4, 4))
+    return [T.T @ X @ T for X in the_truth(R)]
+
+
 def test_final_fit_starts_from_it_when_it_fits_better(omega_all):
     """A held-out fit with the right poles and wrong shapes (the true matrices under a
     congruence: the same poles, other mode shapes on the measured DOFs): the modal
     start rebuilds the shapes, and the final fit starts from it and ends at the truth."""
-    from dataclasses import replace
 
-    from podid_rs.identification.order import final_fit, sweep_orders
+    from podid_rs.identification.order import final_fit
     from podid_rs.measured import from_frf
 
     U, _ = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
     data = from_frf(U, omega_all, inputs=[0, 2])
     U, F, P = data.U, data.forces_on_dofs(), data.pod()
-    sweep = sweep_orders(U, F, omega_all, P, m=4)
-    R = sweep.basis(4, P)
-    T = np.eye(4) + 0.3 * np.random.default_rng(2).standard_normal((4, 4))
-    held = sweep.fit(4)
-    bad = replace(held.model, **{name: T.T @ R.T @ X @ R @ T
-                                 for name, X in zip("MCK", (M4, C4, K4), strict=True)})
-    sweep = replace(sweep, fits=tuple(replace(f, model=bad) if f.m == 4 else f
-                                      for f in sweep.fits))
+    sweep, _, _ = sweep_holding(U, F, omega_all, P, wrong_shapes)
     model, R = final_fit(sweep, U, F, omega_all, P, log_magnitude=False)
     assert "modal start" in model.info["refinement"]["final_refit"]["reason"]
     assert _relative_cost(model, R, U, F, omega_all) < 1e-12
@@ -159,9 +177,8 @@ def test_the_final_fit_with_a_hole_never_reads_it_and_judges_the_modal_start_fai
     thread). The
     modal start is taken, and the first pass's error before is the held-out fit's, the
     start the user had, not the rebuilt one's (1e-9)."""
-    from dataclasses import replace
 
-    from podid_rs.identification.order import _all_lines_db, final_fit, sweep_orders
+    from podid_rs.identification.order import _all_lines_db, final_fit
     from podid_rs.measured import from_frf
 
     U, _ = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
@@ -171,13 +188,7 @@ def test_the_final_fit_with_a_hole_never_reads_it_and_judges_the_modal_start_fai
     measured[3, 1] = False
     garbage = U.copy()
     garbage[:, 3, 1] *= 1e3j
-    sweep = sweep_orders(garbage, F, omega_all, P, m=4, measured=measured)
-    R = sweep.basis(4, P)
-    T = np.eye(4) + 0.3 * np.random.default_rng(2).standard_normal((4, 4))
-    bad = replace(sweep.fit(4).model, **{name: T.T @ R.T @ X @ R @ T
-                                         for name, X in zip("MCK", (M4, C4, K4), strict=True)})
-    sweep = replace(sweep, fits=tuple(replace(f, model=bad) if f.m == 4 else f
-                                      for f in sweep.fits))
+    sweep, R, bad = sweep_holding(garbage, F, omega_all, P, wrong_shapes, measured=measured)
     fits = [final_fit(sweep, data_, F, omega_all, P, log_magnitude=False, max_iter=20,
                       measured=measured, threads=1)[0] for data_ in (U, garbage)]
     for k in "MCK":
@@ -196,9 +207,8 @@ def test_the_final_fit_from_the_held_out_fit_says_nothing_of_a_modal_start():
     """A held-out fit that is the truth, on a band holding two of the four modes: the
     modal start, which stands in for the other two, cannot fit better, and the reason is
     the complex refit's sentence alone."""
-    from dataclasses import replace
 
-    from podid_rs.identification.order import final_fit, sweep_orders
+    from podid_rs.identification.order import final_fit
     from podid_rs.measured import from_frf
 
     wn, _ = natural(M4, C4, K4)
@@ -206,12 +216,7 @@ def test_the_final_fit_from_the_held_out_fit_says_nothing_of_a_modal_start():
     U, _ = frf_data(omega, [0, 1, 2, 3], [0, 2])
     data = from_frf(U, omega, inputs=[0, 2])
     U, F, P = data.U, data.forces_on_dofs(), data.pod()
-    sweep = sweep_orders(U, F, omega, P, m=4)
-    R = sweep.basis(4, P)
-    truth = replace(sweep.fit(4).model, **{name: R.T @ X @ R
-                                           for name, X in zip("MCK", (M4, C4, K4), strict=True)})
-    sweep = replace(sweep, fits=tuple(replace(f, model=truth) if f.m == 4 else f
-                                      for f in sweep.fits))
+    sweep, _, _ = sweep_holding(U, F, omega, P, the_truth)
     model, _ = final_fit(sweep, U, F, omega, P, log_magnitude=False, max_iter=5)
     reason = model.info["refinement"]["final_refit"]["reason"]
     assert reason.startswith(("the complex refit lowered", "the complex refit on every line"))
@@ -224,9 +229,8 @@ def test_the_final_fit_keeps_the_held_out_fit_when_the_refit_raises_the_median()
     its weighted cost but raises the median error over every line, so the held-out fit
     is kept — the model returned is it, and the reason quotes the medians before and
     after (to its two decimals)."""
-    from dataclasses import replace
 
-    from podid_rs.identification.order import final_fit, sweep_orders
+    from podid_rs.identification.order import final_fit
     from podid_rs.measured import from_frf
 
     wn, _ = natural(M4, C4, K4)
@@ -235,12 +239,7 @@ def test_the_final_fit_keeps_the_held_out_fit_when_the_refit_raises_the_median()
     U[::8] *= 5.0
     data = from_frf(U, omega, inputs=[0, 2])
     U, F, P = data.U, data.forces_on_dofs(), data.pod()
-    sweep = sweep_orders(U, F, omega, P, m=4)
-    R = sweep.basis(4, P)
-    truth = replace(sweep.fit(4).model, **{name: R.T @ X @ R
-                                           for name, X in zip("MCK", (M4, C4, K4), strict=True)})
-    sweep = replace(sweep, fits=tuple(replace(f, model=truth) if f.m == 4 else f
-                                      for f in sweep.fits))
+    sweep, _, truth = sweep_holding(U, F, omega, P, the_truth)
     model, _ = final_fit(sweep, U, F, omega, P, log_magnitude=False, max_iter=20)
     kept = model.info["refinement"]["final_refit"]
     before, after = kept["passes"][0]["db_before"], kept["passes"][0]["db_after"]
@@ -255,9 +254,8 @@ def test_the_final_fit_quotes_the_medians_it_decided_on():
     """The same data (one line in eight off by a factor 5) from a bad held-out fit: the
     complex refit lowers the median error over every line, is kept, and the reason
     quotes the medians before and after — not the 95th percentiles beside them."""
-    from dataclasses import replace
 
-    from podid_rs.identification.order import final_fit, sweep_orders
+    from podid_rs.identification.order import final_fit
     from podid_rs.measured import from_frf
 
     wn, _ = natural(M4, C4, K4)
@@ -266,13 +264,7 @@ def test_the_final_fit_quotes_the_medians_it_decided_on():
     U[::8] *= 5.0
     data = from_frf(U, omega, inputs=[0, 2])
     U, F, P = data.U, data.forces_on_dofs(), data.pod()
-    sweep = sweep_orders(U, F, omega, P, m=4)
-    R = sweep.basis(4, P)
-    T = np.eye(4) + 0.3 * np.random.default_rng(2).standard_normal((4, 4))
-    bad = replace(sweep.fit(4).model, **{name: T.T @ R.T @ X @ R @ T
-                                         for name, X in zip("MCK", (M4, C4, K4), strict=True)})
-    sweep = replace(sweep, fits=tuple(replace(f, model=bad) if f.m == 4 else f
-                                      for f in sweep.fits))
+    sweep, _, _ = sweep_holding(U, F, omega, P, wrong_shapes)
     model, _ = final_fit(sweep, U, F, omega, P, log_magnitude=False, max_iter=20)
     kept = model.info["refinement"]["final_refit"]
     before, after = kept["passes"][0]["db_before"], kept["passes"][0]["db_after"]
