@@ -319,24 +319,24 @@ def _median_db(model: IdentificationResult, R: np.ndarray, F: np.ndarray, omega,
     return float(np.median(db_errors(np.einsum("nm,smp->snp", R, X), U_n[mask], measured)))
 
 
-def _system(model) -> SecondOrderSystem:
-    """The system of a fitted model or of a start ``(M, C, K)``."""
-    return model.system() if hasattr(model, "system") else SecondOrderSystem(*model)
+def _on_dofs(model, R: np.ndarray, F_n, omega) -> np.ndarray:
+    """The responses R x ``(s, n, p)`` on the measured DOFs of a fitted model or of a
+    start ``(M, C, K)`` to the forces ``F_n`` on those DOFs."""
+    system = model.system() if hasattr(model, "system") else SecondOrderSystem(*model)
+    return np.einsum("nm,smp->snp", R, system.response(omega, np.einsum("nm,snp->smp", R, F_n)))
 
 
 def _all_lines_db(model: IdentificationResult, R: np.ndarray, U_n, F_n, omega,
                   measured=None) -> tuple:
     """(median, 95th percentile) |dB| error of ``model`` over every line and measured entry."""
-    X = _system(model).response(omega, np.einsum("nm,snp->smp", R, F_n))
-    e = db_errors(np.einsum("nm,smp->snp", R, X), U_n, measured)
+    e = db_errors(_on_dofs(model, R, F_n, omega), U_n, measured)
     return float(np.median(e)), float(np.percentile(e, 95))
 
 
 def _relative_cost(model, R: np.ndarray, U_n, F_n, omega, measured=None) -> float:
     """The relative weighted output error Σ ‖x_c − u_c‖² / ‖u_c‖² over every line and
     load case c, on the measured entries: the cost the final fit's passes lower."""
-    F_m = np.einsum("nm,snp->smp", R, F_n)
-    X = np.einsum("nm,smp->snp", R, _system(model).response(omega, F_m))
+    X = _on_dofs(model, R, F_n, omega)
     mask = np.ones(U_n.shape[1:], dtype=bool) if measured is None else measured
     diff = np.sum(np.abs(X - U_n) ** 2 * mask, axis=1)
     norm = np.sum(np.abs(U_n) ** 2 * mask, axis=1)
