@@ -49,6 +49,7 @@ memory-light products) for the matrix-free path.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Literal
 
@@ -67,15 +68,19 @@ PAIR_CHUNK_ELEMENTS = 1 << 18
 COHERENCE_FLOOR = 1e-12
 
 
+@functools.lru_cache(maxsize=64)
 def sym_pairs(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Row, column (j ≤ k, row-major) and the factor f of each symmetric coordinate.
 
     The coordinate p = (j, k) is the coefficient of E_jj (j = k) or
     (E_jk + E_kj)/√2 (j < k); ``f`` is 1/√2 off the diagonal and 1/2 on it, so
     that the coordinate of the gradient A (∂g/∂X_ij = A_ij) is f·(A + Aᵀ)_jk.
+    Computed once per m (a gradient per line calls it per line) and read-only.
     """
     rows, cols = np.triu_indices(m)
     f = np.where(rows == cols, 0.5, 1.0 / np.sqrt(2.0))
+    for a in (rows, cols, f):
+        a.flags.writeable = False
     return rows, cols, f
 
 
