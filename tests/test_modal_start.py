@@ -152,6 +152,19 @@ def wrong_shapes(R):
     return [T.T @ X @ T for X in the_truth(R)]
 
 
+def one_bad_line_in_eight():
+    """Exact FRFs (two forces) over every mode, one line in eight off by a factor 5 (a
+    bad line the relative cost can trade the others for): U, F, their POD and omega."""
+    from podid_rs.measured import from_frf
+
+    wn, _ = natural(M4, C4, K4)
+    omega = np.linspace(0.5 * wn[0], 1.3 * wn[-1], 400)
+    U, _ = frf_data(omega, [0, 1, 2, 3], [0, 2])
+    U[::8] *= 5.0
+    data = from_frf(U, omega, inputs=[0, 2])
+    return data.U, data.forces_on_dofs(), data.pod(), omega
+
+
 def test_final_fit_starts_from_it_when_it_fits_better(omega_all):
     """A held-out fit with the right poles and wrong shapes (the true matrices under a
     congruence: the same poles, other mode shapes on the measured DOFs): the modal
@@ -231,14 +244,8 @@ def test_the_final_fit_keeps_the_held_out_fit_when_the_refit_raises_the_median()
     after (to its two decimals)."""
 
     from podid_rs.identification.order import final_fit
-    from podid_rs.measured import from_frf
 
-    wn, _ = natural(M4, C4, K4)
-    omega = np.linspace(0.5 * wn[0], 1.3 * wn[-1], 400)
-    U, _ = frf_data(omega, [0, 1, 2, 3], [0, 2])
-    U[::8] *= 5.0
-    data = from_frf(U, omega, inputs=[0, 2])
-    U, F, P = data.U, data.forces_on_dofs(), data.pod()
+    U, F, P, omega = one_bad_line_in_eight()
     sweep, _, truth = sweep_holding(U, F, omega, P, the_truth)
     model, _ = final_fit(sweep, U, F, omega, P, log_magnitude=False, max_iter=20)
     kept = model.info["refinement"]["final_refit"]
@@ -256,14 +263,8 @@ def test_the_final_fit_quotes_the_medians_it_decided_on():
     quotes the medians before and after — not the 95th percentiles beside them."""
 
     from podid_rs.identification.order import final_fit
-    from podid_rs.measured import from_frf
 
-    wn, _ = natural(M4, C4, K4)
-    omega = np.linspace(0.5 * wn[0], 1.3 * wn[-1], 400)
-    U, _ = frf_data(omega, [0, 1, 2, 3], [0, 2])
-    U[::8] *= 5.0
-    data = from_frf(U, omega, inputs=[0, 2])
-    U, F, P = data.U, data.forces_on_dofs(), data.pod()
+    U, F, P, omega = one_bad_line_in_eight()
     sweep, _, _ = sweep_holding(U, F, omega, P, wrong_shapes)
     model, _ = final_fit(sweep, U, F, omega, P, log_magnitude=False, max_iter=20)
     kept = model.info["refinement"]["final_refit"]
