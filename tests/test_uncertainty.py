@@ -256,6 +256,21 @@ def test_rank_deficiency_gives_no_interval_rather_than_a_huge_one():
     assert np.isnan(var[2]) and np.isnan(var[3])
 
 
+def test_pair_moments_are_the_variances_and_the_covariance():
+    """(var g, var h, cov(g, h)) in one pass equal the three asked one at a time, NaN
+    where either row leans on the undetermined direction (the sum above: g alone)."""
+    N = np.array([[1.0, 1.0, 0.0], [1.0, 1.0 + 1e-14, 0.0], [0.0, 0.0, 2.0]])
+    cov = DenseCovariance(N)
+    cov.set_meat(np.diag([3.0, 1.0, 5.0]) + 0.5)
+    G = np.array([[1.0, 1.0, 0.5], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [2.0, 2.0, -1.0]])
+    H = np.array([[0.0, 0.0, 1.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
+    var_g, var_h, cov_gh = cov.pair_moments(G, H)
+    np.testing.assert_array_equal(var_g, cov.variances(G))
+    np.testing.assert_array_equal(var_h, cov.variances(H))
+    np.testing.assert_array_equal(cov_gh, cov.covariances(G, H))
+    assert np.isnan(cov_gh[1]) and np.isnan(cov_gh[2]) and np.isfinite(cov_gh[[0, 3]]).all()
+
+
 def test_monte_carlo_coverage_of_a_small_chain():
     """40 noise seeds, maximum-likelihood weights and the known variance: the 95 %
     intervals of the natural frequencies and damping ratios hold the truth in most

@@ -718,8 +718,17 @@ class DenseCovariance:
 
     def pair_moments(self, G: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, ...]:
         """(var g, var h, cov(g, h)) of the rows of ``G`` and ``H``, e.g. the real and
-        imaginary parts of complex quantities."""
-        return self.variances(G), self.variances(H), self.covariances(G, H)
+        imaginary parts of complex quantities — as :meth:`variances` and
+        :meth:`covariances` give them, with each product and each test for undetermined
+        directions done once."""
+        G, H = np.atleast_2d(G), np.atleast_2d(H)
+        GC = G @ self.covariance
+        var_g = np.maximum(np.sum(GC * G, axis=1), 0.0)
+        var_h = np.maximum(np.sum((H @ self.covariance) * H, axis=1), 0.0)
+        cov = np.sum(GC * H, axis=1)
+        und_g, und_h = self.undetermined(G), self.undetermined(H)
+        return (np.where(und_g, np.nan, var_g), np.where(und_h, np.nan, var_h),
+                np.where(und_g | und_h, np.nan, cov))
 
 
 #: relative residual at which the matrix-free solves stop, and their iteration cap
