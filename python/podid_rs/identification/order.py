@@ -708,8 +708,16 @@ def final_fit(
     # the lines the sweep used: every line, or the informative ones of a long test
     lines = np.ones(omega.shape[0], dtype=bool) if every_line else sweep.lines
     thinned = not np.all(lines)
+    judged: dict[int, tuple] = {}  # id → (model, its error over every line): each once
 
-    def refit(model: IdentificationResult, objective: str) -> IdentificationResult:
+    def all_lines_db(model: IdentificationResult) -> tuple:
+        if id(model) not in judged:
+            judged[id(model)] = (model, _all_lines_db(model, R, U_n, F_n, omega, measured))
+        return judged[id(model)][1]
+
+    def refit(model, objective: str, judged_against=None) -> IdentificationResult:
+        """A pass from ``model``, its errors before (of ``judged_against``, default the
+        start) and after over every line."""
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", StartWarning)
             warnings.simplefilter("ignore", ConvergenceWarning)  # the summary states the stop
@@ -720,8 +728,8 @@ def final_fit(
             )  # fmt: skip
         if thinned:  # judge by every line, not the ones fitted
             ref = fit.info["refinement"]
-            ref["db_before"] = _all_lines_db(model, R, U_n, F_n, omega, measured)
-            ref["db_after"] = _all_lines_db(fit, R, U_n, F_n, omega, measured)
+            ref["db_before"] = all_lines_db(model if judged_against is None else judged_against)
+            ref["db_after"] = all_lines_db(fit)
         return fit
 
     # the complex refit starts from the held-out fit or from the modal start built on
@@ -736,10 +744,11 @@ def final_fit(
             start_note = (f"; the complex refit started from the modal start (the held-out "
                           f"fit's poles in the band, shapes by linear least squares: weighted "
                           f"cost {modal_cost:.4g} against {held_cost:.4g})")
-    model = refit(first, "complex")
+    # judged against the held-out fit, not the rebuilt start
+    model = refit(first, "complex", judged_against=start)
     ref = model.info["refinement"]
-    if first is not start:  # judged against the held-out fit, not the rebuilt start
-        ref["db_before"] = _all_lines_db(start, R, U_n, F_n, omega, measured)
+    if first is not start and not thinned:
+        ref["db_before"] = all_lines_db(start)
     steps = [("complex refit", ref["db_before"], ref["db_after"], model.iterations)]
     if ref["db_after"][0] <= ref["db_before"][0]:
         best, best_db = model, ref["db_after"]
