@@ -70,7 +70,14 @@ from ..modes import (
     mode_shapes,
 )
 from ..physical import make_physical, modal_parameters, modal_table, table_csv, table_markdown
-from ..plotting import Curve, plot_frf_comparison, plot_mac, plot_order_sweep, plot_stabilisation
+from ..plotting import (
+    Curve,
+    display_lines,
+    plot_frf_comparison,
+    plot_mac,
+    plot_order_sweep,
+    plot_stabilisation,
+)
 from ..pod import PODResult
 from ..stabilisation import is_physical, pod_fit, stabilisation_chart
 from ..uncertainty import LEVEL, ModelUncertainty, fit_uncertainty
@@ -241,15 +248,18 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
         rows = [col, far]
         # an entry that was not measured is drawn as the model's alone, never as data
         seen = np.where(d.measured[rows, k], d.U[:, rows, k], np.nan)
-        curves = [Curve("measured", seen, kind="original")] if d.is_frf else []
-        for label, r, style in models:
-            values = _model_frf(r, run.basis[:, : r.m], d.omega, rows, col)
+        values = [_model_frf(r, run.basis[:, : r.m], d.omega, rows, col) for _, r, _ in models]
+        # the lines that draw every curve as all lines would (a long test: a few thousand)
+        show = display_lines(d.freq_hz, [np.abs(v) for v in values]
+                             + ([np.abs(seen)] if d.is_frf else []))
+        curves = [Curve("measured", seen[show], kind="original")] if d.is_frf else []
+        for (label, r, style), v in zip(models, values, strict=True):
             band, band_label = None, ""
             if r is run.result and run.uncertainty is not None:
-                frf = run.uncertainty.frf(d.omega, rows=rows, cols=[col], level=LEVEL)
+                frf = run.uncertainty.frf(d.omega[show], rows=rows, cols=[col], level=LEVEL)
                 band = np.stack([frf.lower[:, :, 0], frf.upper[:, :, 0]], axis=-1)
                 band_label = f"{100 * LEVEL:g} % confidence band"
-            curves.append(Curve(label, values, kind="identified", style=style, band=band,
+            curves.append(Curve(label, v[show], kind="identified", style=style, band=band,
                                 band_label=band_label))
         driven = _dof_name(d.dofs[col])
         what = "measured and identified" if d.is_frf else "identified (the data are not FRFs)"
@@ -257,7 +267,7 @@ def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
             what += f"; H({driven},{driven}) was not measured"
         paths.append(
             plot_frf_comparison(
-                d.freq_hz,
+                d.freq_hz[show],
                 curves,
                 out / f"frf_input{k + 1}.png",
                 title=f"FRFs for the force at DOF {driven}: {what}, m = {run.result.m}",
