@@ -199,3 +199,21 @@ def test_identify_writes_the_intervals_of_the_refined_model(uff_file, tmp_path, 
                  "--paper-estimator", "--out", str(plain)]) == 0
     assert "- intervals" not in capsys.readouterr().out
     assert "f_hz_pm95" not in read_rows(plain / "modes.csv")[0]
+
+
+def test_identify_a_single_driving_point_frf(tmp_path, capsys):
+    """One sensor at the driving point: the model gets latent coordinates, every file but
+    the MAC (a shape of one entry has none) is written, and the chain's four modes are in
+    the table."""
+    chain = mass_spring_chain(4, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    freq = np.arange(1.0, 51.0, 0.05)
+    H = chain.frf(2 * np.pi * freq, rows=[0], cols=[0])
+    path = write_uff(tmp_path / "point.uff", freq, H, [(1, 1)], [(1, 1)])
+    out = tmp_path / "out"
+    assert main(["identify", str(path), "--band-hz", "1", "50", "--out", str(out),
+                 "--no-progress"]) == 0
+    assert "latent" in capsys.readouterr().out
+    assert not (out / "mac.png").exists() and (out / "stabilisation.png").exists()
+    f_true = np.sort(modal_parameters(chain).frequencies_hz)
+    f = [float(r["f_hz"]) for r in read_rows(out / "modes.csv") if r["kind"] == "structural"]
+    assert len(f) == 4 and np.allclose(np.sort(f), f_true, rtol=1e-3)

@@ -38,7 +38,7 @@ Into the output folder go
 * ``mac.png`` — the MAC between the structural modes of the chosen order m and
   the in-band complex modes of order m + 1 (m − 1 at full order): shapes that
   persist are not artefacts of the order (not written when either order has no mode
-  in the band).
+  in the band, or when one DOF was measured: a shape of one entry has no MAC).
 
 The last three are :func:`write_identify_outputs`'s.
 """
@@ -576,7 +576,7 @@ def write_identify_outputs(
     ))
     other = m + 1 if m < top else m - 1
     lo, hi = float(data.freq_hz[0]), float(data.freq_hz[-1])
-    if other >= 1:
+    if other >= 1 and data.n >= 2:  # a MAC compares shapes over two DOFs at least
         shapes = mode_shapes(result, basis, data.dofs).select(kinds == STRUCTURAL)
         # order `other`'s observation matrix: its POD modes, a zero column per latent DOF
         observed = min(other, int(np.sum(pod.eigenvalues > 0)), data.n)
