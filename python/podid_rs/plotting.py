@@ -480,8 +480,9 @@ def plot_stabilisation(
     fig.subplots_adjust(right=1 - 1.0 / 11.0)  # room for the FRF axis on the right
     ax = axes[0, 0]
     back = ax.twinx()
-    w = 2 * np.pi * chart.freq_hz
-    back.semilogy(chart.freq_hz, chart.summed_frf * w ** _POWER[quantity], color="0.6", lw=1.0)
+    summed = chart.summed_frf * (2 * np.pi * chart.freq_hz) ** _POWER[quantity]
+    show = display_lines(chart.freq_hz, [summed], bins=2 * DISPLAY_BINS)  # one wide panel
+    back.semilogy(chart.freq_hz[show], summed[show], color="0.6", lw=1.0)
     what = "FRF" if chart.is_frf else "response spectrum"
     back.set_ylabel(f"Σ |measured {what}| ({_ORDINATE[quantity] if chart.is_frf else quantity})",
                     color="0.4")
