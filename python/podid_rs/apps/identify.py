@@ -110,15 +110,20 @@ class IdentifyRun:
     timings: dict[str, float] = field(default_factory=dict)
     uncertainty: ModelUncertainty | None = None
     uncertainty_note: str = ""
+    #: id(model) → (model, its errors): the summary is written to modes.md and printed
+    _errors: dict = field(default_factory=dict, repr=False, compare=False)
 
     def frf_errors(self, model: IdentificationResult) -> tuple[float, float]:
         """Median and 95th percentile |dB| of ``model``'s responses (R H_m Rᵀ F) against
         the measured ones, over every line and measured entry (DOF and load case)."""
-        d, R = self.data, self.basis[:, : model.m]  # [R_p, 0]: a lower order's basis leads it
-        F_m = np.einsum("im,sip->smp", R[d.inputs], d.F)
-        X = np.einsum("nm,smp->snp", R, model.system().response(d.omega, F_m))
-        e = db_errors(X, d.U, None if d.complete else d.measured)
-        return float(np.median(e)), float(np.percentile(e, 95))
+        if id(model) not in self._errors:
+            # [R_p, 0]: a lower order's basis leads it
+            d, R = self.data, self.basis[:, : model.m]
+            F_m = np.einsum("im,sip->smp", R[d.inputs], d.F)
+            X = np.einsum("nm,smp->snp", R, model.system().response(d.omega, F_m))
+            e = db_errors(X, d.U, None if d.complete else d.measured)
+            self._errors[id(model)] = (model, (float(np.median(e)), float(np.percentile(e, 95))))
+        return self._errors[id(model)][1]
 
     def summary(self) -> str:
         """A few lines of Markdown describing the run."""
@@ -456,7 +461,8 @@ def run_identify(
                                         physical=physical, progress=progress, pod=pod,
                                         kinds=kinds)
     clock.lap("modal table, model.uff, stabilisation chart, MAC")
-    return IdentifyRun(source, data, ls, result, R, files, sweep, clock.laps, unc, note)
+    return IdentifyRun(source, data, ls, result, R, files, sweep, clock.laps, unc, note,
+                       run._errors)
 
 
 class _Clock:
