@@ -217,3 +217,19 @@ def test_identify_a_single_driving_point_frf(tmp_path, capsys):
     f_true = np.sort(modal_parameters(chain).frequencies_hz)
     f = [float(r["f_hz"]) for r in read_rows(out / "modes.csv") if r["kind"] == "structural"]
     assert len(f) == 4 and np.allclose(np.sort(f), f_true, rtol=1e-3)
+
+
+def test_overlay_entries_are_those_of_r_h_rt():
+    """The overlays' model FRF (the response to the one load Rᵀ e_col) is the
+    (rows, col) entries of R H_m(ω) Rᵀ."""
+    from types import SimpleNamespace
+
+    from podid_rs.apps.identify import _model_frf
+
+    chain = mass_spring_chain(5)
+    model = SimpleNamespace(system=lambda: chain)  # what _model_frf asks of a model
+    R = np.linalg.qr(np.random.default_rng(0).standard_normal((8, 5)))[0]
+    w = np.linspace(1.0, 50.0, 300)
+    full = np.einsum("am,smk,bk->sab", R, chain.frf(w), R)
+    np.testing.assert_allclose(_model_frf(model, R, w, [0, 7], 3), full[:, [0, 7], 3],
+                               rtol=1e-12, atol=1e-12 * np.abs(full).max())

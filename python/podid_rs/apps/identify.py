@@ -226,9 +226,10 @@ class IdentifyRun:
 
 
 def _model_frf(result: IdentificationResult, R: np.ndarray, omega: np.ndarray, rows, col: int):
-    """Entries ``(rows, col)`` of the model's FRF on the measured DOFs, ``R H_m(ω) Rᵀ``."""
-    H_m = result.system().frf(omega)
-    return np.einsum("am,smk,k->sa", R[rows], H_m, R[col])
+    """Entries ``(rows, col)`` of the model's FRF on the measured DOFs, ``R H_m(ω) Rᵀ``:
+    the response to the one load ``Rᵀ e_col``."""
+    load = np.broadcast_to(R[col], (omega.size, R.shape[1]))
+    return result.system().response(omega, load) @ R[rows].T
 
 
 def _overlays(run: IdentifyRun, out: Path) -> list[Path]:
