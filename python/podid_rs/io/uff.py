@@ -817,10 +817,11 @@ def _sets_58(
     measured: np.ndarray | None = None,
 ) -> list[dict]:
     pyuff = _pyuff()
-    H_m = model.system().frf(omega)
-    H = np.einsum("am,smk,bk->sab", R, H_m, R[inputs]) * _receptance_to(quantity, omega)[
-        :, None, None
-    ]
+    # R H_m Rᵀ at the driven DOFs: the responses to the loads Rᵀ e_k, not all of H_m
+    loads = np.broadcast_to(R[inputs].T, (omega.size, *R[inputs].T.shape))
+    H = np.einsum("am,smk->sak", R, model.system().response(omega, loads)) * (
+        _receptance_to(quantity, omega)[:, None, None]
+    )
     freq = omega / (2 * np.pi)
     step = np.diff(freq)
     even = bool(np.allclose(step, step[0], rtol=1e-9, atol=0.0))
