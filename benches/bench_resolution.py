@@ -104,6 +104,12 @@ def write_test(path: Path, seed: int = 0, zetas: np.ndarray = ZETAS,
 
 
 def run_podid(path: Path, out: Path, profile: bool) -> dict:
+    # modules are imported outside both timings: sdypy.EMA's import (1.6 s, matplotlib
+    # with it) is outside the peer's, so matplotlib, which podid_rs loads at its first
+    # figure, is loaded before this clock starts
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+
     from podid_rs.apps.identify import run_identify
 
     prof = cProfile.Profile() if profile else None
