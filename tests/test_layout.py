@@ -200,3 +200,14 @@ def test_the_graph_sees_function_level_relative_and_absolute_imports(tmp_path):
     assert find_cycles(graph) == [["podid_rs.a", "podid_rs.sub.b", "podid_rs.a"]]
     (pkg / "a.py").write_text('"""a"""\n')
     assert find_cycles(import_graph(pkg)) == []
+
+
+def test_one_compiled_core_beside_the_package():
+    """One ``_core`` extension in the package directory: a build left over under another
+    tag (``_core.cpython-311-….so`` beside the abi3 ``_core.abi3.so``) is the one Python
+    loads, and the Rust edits of a new build would silently not run."""
+    import podid_rs
+
+    package = Path(podid_rs.__file__).parent
+    cores = sorted(p.name for p in package.glob("_core*") if p.suffix in (".so", ".pyd"))
+    assert len(cores) == 1, f"more than one compiled _core in {package}: {cores}"
