@@ -438,3 +438,48 @@ def test_fit_uncertainty_on_the_informative_lines_of_a_long_test():
     assert unc.dof == direct.dof
     np.testing.assert_allclose(unc.modes().std_frequency_hz, direct.modes().std_frequency_hz,
                                rtol=1e-12)
+
+
+def test_band_follows_noise_that_grows_with_the_response():
+    """Measured FRFs' noise grows with the response (1 % of every value, as H1's random
+    error at a steady coherence) over a floor: at light damping a resonance's squared
+    residuals are 10⁴ times a quiet stretch's. Estimated as ``podid-rs identify`` does,
+    per channel over the neighbouring lines, the band covers the noise-free FRF at about
+    95 % of the lines (94.9 % when written) and its half-width is 1.96 standard
+    deviations of the fitted |H| over 30 noise seeds (median 1.13×, 0.89–1.36× at 80 %
+    of the lines); one variance per channel takes the resonances' noise for every line's
+    (coverage 100 %, 5.8× too wide)."""
+    from podid_rs.apps.identify import NOISE_MODEL
+
+    n, s, seeds = 4, 240, 30
+    chain = pr.mass_spring_chain(n, m1=1.0, m2=1.0, ku=1e4, a0=0.05, a1=1e-6)  # ζ 2–4e-4
+    f = pr.modal_parameters(chain).frequencies_hz
+    omega = 2 * np.pi * np.linspace(0.6 * f[0], 1.3 * f[-1], s)
+    H = chain.frf(omega)[:, :, [0]]
+    F = np.zeros_like(H)
+    F[:, 0, 0] = 1.0
+    sd = 0.01 * np.abs(H) + 1e-4 * np.abs(H).max(axis=0, keepdims=True)
+    values, bands = [], {NOISE_MODEL: [], "channel": []}
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        U = H + sd * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = pr.refine(chain, U, F, omega, basis=np.eye(n))
+        data = from_frf(U, omega, inputs=[0])
+        for noise, out in bands.items():
+            band = pr.fit_uncertainty(data, model, np.eye(n), noise=noise).frf()
+            out.append((band.lower, band.upper))
+        values.append(np.abs(band.values))
+    scatter = 1.96 * np.std(values, axis=0, ddof=1)
+    for noise, out in bands.items():
+        lower, upper = (np.array(x) for x in zip(*out, strict=True))
+        covered = np.mean((lower <= np.abs(H)) & (np.abs(H) <= upper))
+        sharpness = np.median((upper - lower) / 2, axis=0) / scatter
+        if noise == NOISE_MODEL:
+            assert 0.9 <= covered <= 0.99, covered
+            assert 0.8 <= np.median(sharpness) <= 1.3, np.median(sharpness)
+            low, high = np.percentile(sharpness, [10, 90])
+            assert low > 0.7 and high < 1.6, (low, high)
+        else:  # the case tells the two apart: one variance per channel is far too wide
+            assert np.median(sharpness) > 3, np.median(sharpness)
