@@ -10,8 +10,10 @@ import pytest
 
 import podid_rs as pr
 from podid_rs.identification.covariance import (
+    LOCAL_HALF_WIDTH,
     DenseCovariance,
     LinearisedFit,
+    _local_floor_and_proportional,
     entry_weights,
     gauss_newton_matrix,
     sym_gradient,
@@ -439,6 +441,28 @@ def test_fit_uncertainty_on_the_informative_lines_of_a_long_test():
     np.testing.assert_allclose(unc.modes().std_frequency_hz, direct.modes().std_frequency_hz,
                                rtol=1e-12)
 
+
+def test_local_noise_is_a_floor_and_a_part_proportional_to_the_response():
+    """Squared residuals |e|² ~ v·Exp(1) with v = a + b|ŷ|² across a resonance (|ŷ|²
+    spans 4·10⁵) over a floor that grows fourfold along the band: the local estimate
+    follows v to its 50 degrees of freedom (±20 %) on both flanks and at the peak, where
+    one variance for all lines is 10 times v on a flank and 1/200 of it at the peak."""
+    rng = np.random.default_rng(0)
+    s = 4000
+    r = np.linspace(0.5, 1.5, s)
+    y2 = 1 / ((1 - r**2) ** 2 + (2e-3 * r) ** 2)
+    v = 1e-2 * (1 + 3 * np.linspace(0, 1, s)) + 1e-4 * y2
+    e2 = v * rng.exponential(size=s)
+    used = np.ones((s, 1, 1), dtype=bool)
+    ratio = _local_floor_and_proportional(e2[:, None, None], y2[:, None, None], used,
+                                          LOCAL_HALF_WIDTH)[:, 0, 0] / v
+    assert 0.95 < np.median(ratio) < 1.05
+    low, high = np.percentile(ratio, [5, 95])
+    assert low > 0.6 and high < 1.5, (low, high)
+    peak = int(np.argmax(y2))
+    assert np.all(np.abs(ratio[peak - 3:peak + 4] - 1) < 0.25), ratio[peak - 3:peak + 4]
+    constant = np.mean(e2) / v
+    assert constant[0] > 5 and constant[peak] < 0.01  # what one variance per channel does
 
 def test_band_follows_noise_that_grows_with_the_response():
     """Measured FRFs' noise grows with the response (1 % of every value, as H1's random
