@@ -74,7 +74,7 @@ LOCAL_HALF_WIDTH = 12
 #: Fisher-scoring steps of the noise model "local"
 LOCAL_ITERATIONS = 8
 #: window entries (lines × entries × window) of the noise model "local" formed at once
-LOCAL_CHUNK_ELEMENTS = 1 << 21
+LOCAL_CHUNK_ELEMENTS = 1 << 18
 
 
 @functools.lru_cache(maxsize=64)
