@@ -10,8 +10,10 @@ import pytest
 
 import podid_rs as pr
 from podid_rs.identification.covariance import (
+    LOCAL_HALF_WIDTH,
     DenseCovariance,
     LinearisedFit,
+    _local_floor_and_proportional,
     entry_weights,
     gauss_newton_matrix,
     sym_gradient,
@@ -453,3 +455,70 @@ def test_fit_uncertainty_on_the_informative_lines_of_a_long_test():
     assert unc.dof == direct.dof
     np.testing.assert_allclose(unc.modes().std_frequency_hz, direct.modes().std_frequency_hz,
                                rtol=1e-12)
+
+
+def test_local_noise_is_a_floor_and_a_part_proportional_to_the_response():
+    """Squared residuals |e|² ~ v·Exp(1) with v = a + b|ŷ|² across a resonance (|ŷ|²
+    spans 4·10⁵) over a floor that grows fourfold along the band: the local estimate
+    follows v to its 50 degrees of freedom (±20 %) on both flanks and at the peak, where
+    one variance for all lines is 10 times v on a flank and 1/200 of it at the peak."""
+    rng = np.random.default_rng(0)
+    s = 4000
+    r = np.linspace(0.5, 1.5, s)
+    y2 = 1 / ((1 - r**2) ** 2 + (2e-3 * r) ** 2)
+    v = 1e-2 * (1 + 3 * np.linspace(0, 1, s)) + 1e-4 * y2
+    e2 = v * rng.exponential(size=s)
+    used = np.ones((s, 1, 1), dtype=bool)
+    ratio = _local_floor_and_proportional(e2[:, None, None], y2[:, None, None], used,
+                                          LOCAL_HALF_WIDTH)[:, 0, 0] / v
+    assert 0.95 < np.median(ratio) < 1.05
+    low, high = np.percentile(ratio, [5, 95])
+    assert low > 0.6 and high < 1.5, (low, high)
+    peak = int(np.argmax(y2))
+    assert np.all(np.abs(ratio[peak - 3:peak + 4] - 1) < 0.25), ratio[peak - 3:peak + 4]
+    constant = np.mean(e2) / v
+    assert constant[0] > 5 and constant[peak] < 0.01  # what one variance per channel does
+
+def test_band_follows_noise_that_grows_with_the_response():
+    """Measured FRFs' noise grows with the response (1 % of every value, as H1's random
+    error at a steady coherence) over a floor: at light damping a resonance's squared
+    residuals are 10⁴ times a quiet stretch's. Estimated as ``podid-rs identify`` does,
+    per channel over the neighbouring lines, the band covers the noise-free FRF at about
+    95 % of the lines (94.9 % when written) and its half-width is 1.96 standard
+    deviations of the fitted |H| over 30 noise seeds (median 1.13×, 0.89–1.36× at 80 %
+    of the lines); one variance per channel takes the resonances' noise for every line's
+    (coverage 100 %, 5.8× too wide)."""
+    from podid_rs.apps.identify import NOISE_MODEL
+
+    n, s, seeds = 4, 240, 30
+    chain = pr.mass_spring_chain(n, m1=1.0, m2=1.0, ku=1e4, a0=0.05, a1=1e-6)  # ζ 2–4e-4
+    f = pr.modal_parameters(chain).frequencies_hz
+    omega = 2 * np.pi * np.linspace(0.6 * f[0], 1.3 * f[-1], s)
+    H = chain.frf(omega)[:, :, [0]]
+    F = np.zeros_like(H)
+    F[:, 0, 0] = 1.0
+    sd = 0.01 * np.abs(H) + 1e-4 * np.abs(H).max(axis=0, keepdims=True)
+    values, bands = [], {NOISE_MODEL: [], "channel": []}
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        U = H + sd * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = pr.refine(chain, U, F, omega, basis=np.eye(n))
+        data = from_frf(U, omega, inputs=[0])
+        for noise, out in bands.items():
+            band = pr.fit_uncertainty(data, model, np.eye(n), noise=noise).frf()
+            out.append((band.lower, band.upper))
+        values.append(np.abs(band.values))
+    scatter = 1.96 * np.std(values, axis=0, ddof=1)
+    for noise, out in bands.items():
+        lower, upper = (np.array(x) for x in zip(*out, strict=True))
+        covered = np.mean((lower <= np.abs(H)) & (np.abs(H) <= upper))
+        sharpness = np.median((upper - lower) / 2, axis=0) / scatter
+        if noise == NOISE_MODEL:
+            assert 0.9 <= covered <= 0.99, covered
+            assert 0.8 <= np.median(sharpness) <= 1.3, np.median(sharpness)
+            low, high = np.percentile(sharpness, [10, 90])
+            assert low > 0.7 and high < 1.6, (low, high)
+        else:  # the case tells the two apart: one variance per channel is far too wide
+            assert np.median(sharpness) > 3, np.median(sharpness)

@@ -656,10 +656,12 @@ def model_uncertainty(
     averages : float, optional
         The number of independent averages n_d of the H1 estimates, more than 1
         (:func:`podid_rs.h1_coherence` gives what overlapping segments are worth).
-    noise : {"channel", "line", "global"}
+    noise : {"channel", "local", "line", "global"}
         Without a variance or coherence: the noise is estimated from the residuals,
-        one variance per channel (measured DOF and load case) over the lines, per line,
-        or one for all.
+        one variance per channel (measured DOF and load case) over the lines; per
+        channel and line, a floor plus a part proportional to |ŷ|² fitted to the
+        neighbouring lines' residuals (``"local"``: measured FRFs, whose noise grows
+        with the response — what ``podid-rs identify`` uses); per line; or one for all.
     line_correlation : float or sequence of float
         The correlation coefficient of the noise of an entry between lines 1, 2, …
         apart (default none: independent lines). H1 estimates from windowed
@@ -768,7 +770,8 @@ def model_uncertainty(
         source = f"from the coherence and {averages:g} averages (H1)"
     else:
         variance, dof = residual_variance(fit, cov.rank, noise)
-        what = {"channel": "per channel (DOF and load case)", "line": "per line",
+        what = {"local": "per channel (DOF and load case), over the neighbouring lines",
+                "channel": "per channel (DOF and load case)", "line": "per line",
                 "global": "one for all entries"}[noise]
         source = f"estimated from the residuals, {what}, {dof} degrees of freedom"
     meat = fit.meat(variance, tuple(float(r) for r in rho))

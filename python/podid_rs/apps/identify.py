@@ -52,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..identification.covariance import NoiseModel
 from ..identification.estimator import identify
 from ..identification.latent import observation_matrix
 from ..identification.order import OrderSweep, final_fit, sweep_orders
@@ -83,6 +84,11 @@ from ..stabilisation import is_physical, pod_fit, stabilisation_chart
 from ..uncertainty import LEVEL, ModelUncertainty, fit_uncertainty
 
 MAX_OVERLAYS = 4
+#: the noise of the intervals and the FRF band, estimated from the residuals per channel
+#: over the neighbouring lines: a measured FRF's noise grows with the response (H1's
+#: random error at a steady coherence), and one variance per channel takes the
+#: resonances' noise for every line's (docs/design.md §12)
+NOISE_MODEL: NoiseModel = "local"
 #: the chart runs to order max(STABILISATION_ORDERS, m + 5), at most n
 STABILISATION_ORDERS = 30
 
@@ -414,7 +420,7 @@ def run_identify(
     unc, note = None, ""
     if sweep is not None:
         try:
-            unc = fit_uncertainty(data, result, R, sweep)
+            unc = fit_uncertainty(data, result, R, sweep, noise=NOISE_MODEL)
         except ValueError as exc:  # e.g. no degrees of freedom left for the noise
             note = str(exc)
         clock.lap("covariance")

@@ -37,8 +37,10 @@ error of |Ĥ| and the error of its phase in radians are each
 √(1 − γ²)/(|γ|√(2n_d)), so E|δĤ|² ≈ |Ĥ|²(1 − γ²)/(γ² n_d); n_d − 1 in place of n_d,
 exact for Gaussian data, :func:`h1_variance`), or estimated from the
 residuals ŷ − u of the fit: one variance per channel (measured DOF and load case)
-over the lines, by default, or per line, or one for all; the residuals have
-2·entries − rank real degrees of freedom, and the variances are scaled by their ratio.
+over the lines, by default, or per channel and line from the neighbouring lines
+(a floor plus a part proportional to |ŷ|², for measured FRFs), or per line, or one for
+all; the residuals have 2·entries − rank real degrees of freedom, and the variances
+are scaled by their ratio.
 
 :func:`gauss_newton_matrix` forms N (or S) densely from five moment sums of
 Kronecker products (O(columns · m⁴)); :class:`LinearisedFit` holds the point, and
@@ -60,12 +62,19 @@ from .._linesolve import _one_blas_thread
 from .refinement import LOG_DYNAMIC_RANGE
 
 Objective = Literal["complex", "log-magnitude"]
-NoiseModel = Literal["channel", "line", "global"]
+NoiseModel = Literal["local", "channel", "line", "global"]
 
 #: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
 PAIR_CHUNK_ELEMENTS = 1 << 18
 #: a coherence below this is taken as this (the variance of that entry is then huge)
 COHERENCE_FLOOR = 1e-12
+#: the noise model "local" fits a channel's residuals on this many fitted lines on each
+#: side of a line (25 lines, 50 real degrees of freedom)
+LOCAL_HALF_WIDTH = 12
+#: Fisher-scoring steps of the noise model "local"
+LOCAL_ITERATIONS = 8
+#: window entries (lines × entries × window) of the noise model "local" formed at once
+LOCAL_CHUNK_ELEMENTS = 1 << 18
 
 
 @functools.lru_cache(maxsize=64)
@@ -544,12 +553,73 @@ def h1_variance(H: np.ndarray, coherence: object, averages: object) -> np.ndarra
     return np.abs(H) ** 2 * (1 - g) / (g * (nd - 1))
 
 
+def _local_floor_and_proportional(
+    e2: np.ndarray, y2: np.ndarray, used: np.ndarray, half: int
+) -> np.ndarray:
+    """Per entry ``(s, n, p)``, the variance a + b|ŷ|² fitted to the squared residuals
+    ``e2`` of the ``half`` lines on each side (fewer at the ends), a, b ≥ 0.
+
+    A complex Gaussian residual's |e|² has mean v and standard deviation v: a and b
+    are the maximum-likelihood fit of v = a + b|ŷ|² (``y2``) to the window's |e|² by
+    Fisher scoring — least squares weighted by 1/v², ``LOCAL_ITERATIONS`` times, from a
+    constant v. Where |ŷ|² barely changes over the window (a quiet stretch) a and b are
+    not told apart and the window's weighted mean is taken (b = 0).
+    """
+    s = e2.shape[0]
+    out = np.empty_like(e2)
+    rest = int(np.prod(e2.shape[1:]))
+    chunk = max(1, LOCAL_CHUNK_ELEMENTS // max(1, rest * (2 * half + 1)))
+    pad = [(half, half)] + [(0, 0)] * (e2.ndim - 1)
+    # |ŷ|² over its channel's RMS: the sums below then stay near 1 whatever the units
+    ref = np.sqrt(np.mean(np.where(used, y2, 0.0) ** 2, axis=0, keepdims=True))
+    x_all = np.pad(np.where(used, y2, 0.0) / np.where(ref > 0, ref, 1.0), pad)
+    y_all = np.pad(np.where(used, e2, 0.0), pad)
+    u_all = np.pad(used.astype(float), pad)
+    for start in range(0, s, chunk):
+        stop = min(s, start + chunk)
+        win = slice(start, stop + 2 * half)
+        # (lines, n, p, 2·half + 1): each line's window, a view
+        x = np.lib.stride_tricks.sliding_window_view(x_all[win], 2 * half + 1, axis=0)
+        y = np.lib.stride_tricks.sliding_window_view(y_all[win], 2 * half + 1, axis=0)
+        u = np.lib.stride_tricks.sliding_window_view(u_all[win], 2 * half + 1, axis=0)
+        x0 = x_all[start + half:stop + half]
+        n_used = np.maximum(u.sum(axis=-1), 1.0)
+        a = (u * y).sum(axis=-1) / n_used
+        b = np.zeros_like(a)
+        for _ in range(LOCAL_ITERATIONS):
+            v = a[..., None] + b[..., None] * x
+            scale = np.where(v > 0, v, 1.0)
+            w = u / scale**2
+            s0, s1, s2 = w.sum(-1), (w * x).sum(-1), (w * x * x).sum(-1)
+            t0, t1 = (w * y).sum(-1), (w * x * y).sum(-1)
+            det = s0 * s2 - s1 * s1
+            tied = det <= 1e-9 * s0 * s2  # |ŷ|² about constant over the window
+            safe = np.where(tied, 1.0, det)
+            a_new = np.where(tied, t0 / np.maximum(s0, 1e-300), (s2 * t0 - s1 * t1) / safe)
+            b_new = np.where(tied, 0.0, (s0 * t1 - s1 * t0) / safe)
+            # a boundary optimum: the floor alone or the proportional part alone
+            only_b = (t1 / np.maximum(s2, 1e-300))
+            only_a = t0 / np.maximum(s0, 1e-300)
+            a_new, b_new = (np.where(a_new < 0, 0.0, np.where(b_new < 0, only_a, a_new)),
+                            np.where(a_new < 0, only_b, np.where(b_new < 0, 0.0, b_new)))
+            a, b = np.maximum(a_new, 0.0), np.maximum(b_new, 0.0)
+        out[start:stop] = a + b * x0
+    return out
+
+
 def residual_variance(
     fit: LinearisedFit, rank: int, model: NoiseModel = "channel"
 ) -> tuple[np.ndarray, int]:
     """Noise variance per entry ``(s, n, p)`` estimated from the residuals ŷ − u.
 
-    ``"channel"``: one variance per measured DOF and load case over the lines;
+    ``"local"``: per measured DOF and load case, and per line from its neighbours: a floor
+    and a part proportional to the response, v = a + b|ŷ|² (a, b ≥ 0), fitted to the
+    squared residuals of the ``LOCAL_HALF_WIDTH`` fitted lines on each side
+    (:func:`_local_floor_and_proportional`) — the two parts of H1's random error, the
+    output noise's (G_nn/G_xx: no |H| in it) and a steady coherence's (∝ |H|²), each
+    free to change along the band. One variance per channel would take a resonance's
+    squared residuals, 10⁴–10⁸ times a quiet stretch's at light damping, as the noise
+    of every line. ``"channel"``: one variance per measured DOF and load case over the lines;
     ``"line"``: one per line over the entries; ``"global"``: one for all. Entries of
     weight 0 did not take part in the fit and are left out. The residuals have
     2·entries − ``rank`` real degrees of freedom: every mean square is scaled by
@@ -567,7 +637,10 @@ def residual_variance(
         )
     scale = 2 * n_used / dof
     e2 = np.where(used, e2, 0.0)
-    if model == "channel":
+    if model == "local":
+        y2 = np.abs(fit.y * fit.su) ** 2
+        v = _local_floor_and_proportional(e2, y2, used, LOCAL_HALF_WIDTH)
+    elif model == "channel":
         count = np.maximum(used.sum(axis=0, keepdims=True), 1)
         v = e2.sum(axis=0, keepdims=True) / count
     elif model == "line":
@@ -576,7 +649,7 @@ def residual_variance(
     elif model == "global":
         v = np.array(e2.sum() / max(n_used, 1)).reshape(1, 1, 1)
     else:
-        raise ValueError(f"noise must be 'channel', 'line' or 'global', got {model!r}")
+        raise ValueError(f"noise must be 'local', 'channel', 'line' or 'global', got {model!r}")
     return np.broadcast_to(v * scale, e2.shape).copy(), dof
 
 
