@@ -74,7 +74,7 @@ LOCAL_HALF_WIDTH = 12
 #: Fisher-scoring steps of the noise model "local"
 LOCAL_ITERATIONS = 8
 #: window entries (lines × entries × window) of the noise model "local" formed at once
-LOCAL_CHUNK_ELEMENTS = 1 << 18
+LOCAL_CHUNK_ELEMENTS = 1 << 16
 
 
 @functools.lru_cache(maxsize=64)
@@ -565,7 +565,16 @@ def _local_floor_and_proportional(
     constant v. Where |ŷ|² barely changes over the window (a quiet stretch) a and b are
     not told apart and the window's weighted mean is taken (b = 0).
     """
-    s = e2.shape[0]
+    s, shape = e2.shape[0], e2.shape
+    entries = int(np.prod(shape[1:]))
+    block = max(1, LOCAL_CHUNK_ELEMENTS // (2 * half + 1))  # one line of a block fits
+    if entries > block:  # entries are independent: a block of them at a time
+        flat = [a.reshape(s, entries) for a in (e2, y2, used)]
+        out = np.empty((s, entries))
+        for lo in range(0, entries, block):
+            cols = slice(lo, lo + block)
+            out[:, cols] = _local_floor_and_proportional(*(a[:, cols] for a in flat), half)
+        return out.reshape(shape)
     out = np.empty_like(e2)
     rest = int(np.prod(e2.shape[1:]))
     chunk = max(1, LOCAL_CHUNK_ELEMENTS // max(1, rest * (2 * half + 1)))
