@@ -33,8 +33,10 @@ are exact doubles.
 from __future__ import annotations
 
 import bisect
+import itertools
 import warnings
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -63,6 +65,9 @@ UFF_EXCITATION_FORCE = 13
 UFF_FREQUENCY = 18
 #: dataset 55 analysis types whose sets are modes: normal (2), complex 1st/2nd order (3, 7)
 UFF_MODAL_ANALYSES = (2, 3, 7)
+#: identified FRF records made and written at a time (pyuff's dictionaries of a whole
+#: 4000-point scan held at once took 18 MB)
+WRITE_BATCH = 256
 
 
 def _pyuff():
@@ -815,7 +820,9 @@ def _sets_58(
     model: IdentificationResult, R: np.ndarray, dofs: np.ndarray, inputs: np.ndarray,
     omega: np.ndarray, quantity: str, binary: bool, name: str, remark: str = "NONE",
     measured: np.ndarray | None = None,
-) -> list[dict]:
+) -> Iterator[dict]:
+    """The identified FRFs' dataset-58 records, one per (measured DOF, driven DOF), made
+    as they are taken; the model's responses are computed here, before the first."""
     pyuff = _pyuff()
     # R H_m Rᵀ at the driven DOFs: the responses to the loads Rᵀ e_k, not all of H_m
     loads = np.broadcast_to(R[inputs].T, (omega.size, *R[inputs].T.shape))
@@ -825,32 +832,35 @@ def _sets_58(
     freq = omega / (2 * np.pi)
     step = np.diff(freq)
     even = bool(np.allclose(step, step[0], rtol=1e-9, atol=0.0))
-    sets = []
-    for k, col in enumerate(inputs):
-        ref = (int(dofs[col, 0]), int(dofs[col, 1]))
-        for i, (node, direction) in enumerate(dofs.tolist()):
-            sets.append(pyuff.prepare_58(
-                binary=int(binary),
-                id1="FRF",
-                id2=f"H({node}:{direction}, {ref[0]}:{ref[1]}) {name}, identified"[:80],
-                id3=remark[:80],
-                id4="NONE" if measured is None or measured[i, k] else
-                "not measured in the test: the model's prediction",
-                id5="NONE",
-                func_type=UFF_FRF,
-                rsp_node=int(node),
-                rsp_dir=int(direction),
-                ref_node=ref[0],
-                ref_dir=ref[1],
-                data=np.ascontiguousarray(H[:, i, k]),
-                x=freq,
-                abscissa_spacing=int(even),
-                abscissa_spec_data_type=UFF_FREQUENCY,
-                abscissa_axis_units_lab="Hz",
-                ordinate_spec_data_type=UFF_NUMERATOR[quantity],
-                orddenom_spec_data_type=UFF_EXCITATION_FORCE,
-            ))
-    return sets
+    return (_set_58(pyuff, H, freq, even, dofs, i, k, col, quantity, binary, name, remark,
+                    measured) for k, col in enumerate(inputs) for i in range(dofs.shape[0]))
+
+
+def _set_58(pyuff, H, freq, even, dofs, i, k, col, quantity, binary, name, remark, measured):
+    """The record of H[:, i, k]: measured DOF i's response to driven DOF ``col``."""
+    ref = (int(dofs[col, 0]), int(dofs[col, 1]))
+    node, direction = (int(v) for v in dofs[i, :2])
+    return pyuff.prepare_58(
+        binary=int(binary),
+        id1="FRF",
+        id2=f"H({node}:{direction}, {ref[0]}:{ref[1]}) {name}, identified"[:80],
+        id3=remark[:80],
+        id4="NONE" if measured is None or measured[i, k] else
+        "not measured in the test: the model's prediction",
+        id5="NONE",
+        func_type=UFF_FRF,
+        rsp_node=int(node),
+        rsp_dir=int(direction),
+        ref_node=ref[0],
+        ref_dir=ref[1],
+        data=np.ascontiguousarray(H[:, i, k]),
+        x=freq,
+        abscissa_spacing=int(even),
+        abscissa_spec_data_type=UFF_FREQUENCY,
+        abscissa_axis_units_lab="Hz",
+        ordinate_spec_data_type=UFF_NUMERATOR[quantity],
+        orddenom_spec_data_type=UFF_EXCITATION_FORCE,
+    )
 
 
 def write_uff(
@@ -978,10 +988,11 @@ def write_uff(
             x=geom[:, 1].tolist(), y=geom[:, 2].tolist(), z=geom[:, 3].tolist(),
         ))
     sets += [_set_55(j, shapes, nodes, name) for j in range(shapes.n_modes)]
+    frfs = iter(())
     if omega is not None:
-        sets += _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name,
-                         _reciprocity_remark(data),
-                         None if data is None or data.complete else data.measured)
+        frfs = _sets_58(model, R, labels, idx.astype(np.int64), w, quantity, binary, name,
+                        _reciprocity_remark(data),
+                        None if data is None or data.complete else data.measured)
     path = Path(path)
     path.unlink(missing_ok=True)
     try:
@@ -990,6 +1001,8 @@ def write_uff(
         # for a 4000-point scan; nothing here reads the file back, so no index is kept
         writer.refresh = lambda: None
         writer.write_sets(sets, mode="add")
+        while batch := list(itertools.islice(frfs, WRITE_BATCH)):
+            writer.write_sets(batch, mode="add")
     except OSError:
         raise
     except Exception as exc:  # pyuff raises bare Exception from its writers
