@@ -435,6 +435,64 @@ class LinearisedFit:
             w += np.conj(Gt @ y)
         return self.apply_load_adjoint(w.transpose(0, 2, 1, 3).reshape(s, m, p, k))
 
+    def star_blocks(self, grams: tuple[np.ndarray, np.ndarray | None]) -> np.ndarray:
+        """N's blocks on the stars of coordinates: star j holds the symmetric coordinates
+        (j, k) of M, C and K for every k, ``(m, 3m, 3m)`` (rows and columns block-major,
+        k within a block; :meth:`star_index`), from :meth:`line_grams`' ``grams``.
+
+        With v = φ_b f′(e_j x_k + e_k x_j) the direction of coordinate (b, j, k) in L·θ
+        (f′ = 1/√2 off the diagonal, 1/2 on it) the entry is
+        Re Σ_c v̄ᵀ G v′ + vᵀ G̃ v′: per power ω^P of φ̄_b φ_b′ four sums over the columns,
+        x̄_k x_k′ G_jj + x̄_k x_j G_jk′ + x̄_j x_k′ G_kj + |x_j|² G_kk′ (three m × m × m
+        products over the columns; the symmetric part unconjugated).
+        """
+        G, Gt = grams
+        m, s, p = self.m, self.s, self.p
+        rows, cols, _ = sym_pairs(m)
+        fp = np.where(np.arange(m)[:, None] == np.arange(m)[None, :], 0.5, 1 / np.sqrt(2))
+        out = np.zeros((m, 3, m, 3, m))
+        c = np.array([-1.0, 1j, 1.0])
+        d = (2, 1, 0)
+        x = self.x.transpose(0, 2, 1).reshape(s * p, m)  # (columns, m)
+        w = np.repeat(self.w, p)
+        chunk = max(1, PAIR_CHUNK_ELEMENTS // max(1, m * m))
+        for H, conj in ((G, True), (Gt, False)):
+            if H is None:
+                continue
+            H = H.reshape(s * p, m, m)
+            for power in range(5):
+                T = np.zeros((m, m, m), dtype=complex)  # [j, k, k′]
+                for i in range(0, s * p, chunk):
+                    sl = slice(i, i + chunk)
+                    xc, Hc, wp = x[sl], H[sl], w[sl] ** power
+                    xl = xc.conj() if conj else xc
+                    Hjj = np.einsum("cjj->cj", Hc)
+                    # x̄_k x_k′ G_jj
+                    T += np.einsum("cj,ck,cl->jkl", wp[:, None] * Hjj, xl, xc, optimize=True)
+                    # x̄_k x_j G_jk′ (and its transpose-conjugate, x̄_j x_k′ G_kj)
+                    Y = (wp[:, None] * xc)[:, :, None] * Hc  # [c, j, k′]
+                    T2 = np.einsum("ck,cjl->jkl", xl, Y, optimize=True)
+                    T += T2 + (T2.conj() if conj else T2).transpose(0, 2, 1)
+                    # |x_j|² G_kk′
+                    a = wp[:, None] * (xl * xc)  # [c, j]
+                    T += (a.T @ Hc.reshape(-1, m * m)).reshape(m, m, m)
+                for b in range(3):
+                    for bb in range(3):
+                        if d[b] + d[bb] == power:
+                            coef = (c[b].conj() if conj else c[b]) * c[bb]
+                            out[:, b, :, bb, :] += (coef * T).real
+        out *= fp[:, None, :, None, None] * fp[:, None, None, None, :]
+        return out.reshape(m, 3 * m, 3 * m)
+
+    def star_index(self) -> np.ndarray:
+        """``(m, 3m)``: the coordinates of star j (:meth:`star_blocks`), block-major."""
+        m, nb = self.m, self.n_params // 3
+        pair = np.empty((m, m), dtype=np.intp)
+        rows, cols, _ = sym_pairs(m)
+        pair[rows, cols] = np.arange(nb)
+        pair[cols, rows] = np.arange(nb)
+        return np.concatenate([pair + b * nb for b in range(3)], axis=1)
+
     def product(self, weights: EntryWeights, theta: np.ndarray) -> np.ndarray:
         """The matrix of ``weights`` times ``theta`` ``(n_params,)`` or ``(n_params, k)``."""
         vec = theta.ndim == 1
@@ -783,12 +841,18 @@ class DenseCovariance:
 #: relative residual at which the matrix-free solves stop, and their iteration cap
 CG_TOL = 1e-8
 CG_MAX_ITER = 2000
+#: restarts of block CG from the true residual when the recurrence's has drifted
+CG_RESTARTS = 3
 #: right-hand sides that share one block Krylov space (memory: a few blocks of
 #: n_params × CG_BLOCK doubles)
 CG_BLOCK = 64
 #: a search direction of block CG whose Rayleigh quotient of N (unit diagonal) is below
 #: this fraction of the largest seen lies along N's null space (a gauge) and is dropped
 NULL_RTOL = 1e-14
+#: added to the stars' blocks of N (unit diagonal) before they are inverted: a gauge
+#: leaves them singular, and its directions must not dominate their inverse (1e-10
+#: did, and CG stalled; 1e-6 takes as few iterations as 1e-8 on a chain at m = 40)
+STAR_RIDGE = 1e-6
 #: columns per product with N or S (memory of the per-line intermediates: s·m·p of them)
 PRODUCT_COLUMNS = 16
 #: draws of the matrix-free path's sampled covariance (FRF bands), and their seed
@@ -850,12 +914,27 @@ class MatrixFreeCovariance:
         self.tol = float(tol)
         self.bread = fit.bread()
         self._grams = fit.line_grams(self.bread)
-        blocks = fit.pair_blocks(self.bread)
-        scale = np.maximum(np.abs(blocks).max(axis=(1, 2)), np.finfo(float).tiny)
-        blocks = blocks + 1e-12 * scale[:, None, None] * np.eye(3)
-        self._pinv = np.linalg.inv(blocks)  # (nb, 3, 3)
-        diag = blocks[:, [0, 1, 2], [0, 1, 2]].T.reshape(-1)  # N's diagonal, block-major
-        self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
+        self._stars: np.ndarray | None = None
+        if self._grams is not None:
+            # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal
+            stars = fit.star_blocks(self._grams)
+            self._star_index = fit.star_index()
+            diag = np.zeros(fit.n_params)
+            diag[self._star_index] = np.diagonal(stars, axis1=1, axis2=2)
+            self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
+            eye = STAR_RIDGE * np.eye(stars.shape[1])
+            for j in range(fit.m):  # one star at a time: no second copy of them all
+                dj = self._diag_scale[self._star_index[j]]
+                block = stars[j] / dj[:, None] / dj[None, :] + eye
+                stars[j] = np.linalg.inv(0.5 * (block + block.T))
+            self._stars = stars
+        else:
+            blocks = fit.pair_blocks(self.bread)
+            scale = np.maximum(np.abs(blocks).max(axis=(1, 2)), np.finfo(float).tiny)
+            blocks = blocks + 1e-12 * scale[:, None, None] * np.eye(3)
+            self._pinv = np.linalg.inv(blocks)  # (nb, 3, 3)
+            diag = blocks[:, [0, 1, 2], [0, 1, 2]].T.reshape(-1)  # N's diagonal, block-major
+            self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
         self.meat: EntryWeights | None = None
         self.iterations: list[int] = []
 
@@ -864,9 +943,19 @@ class MatrixFreeCovariance:
         self.meat = meat
 
     def _precondition(self, r: np.ndarray) -> np.ndarray:
+        """The preconditioner on residuals ``(n_params, k)`` in the unit-diagonal
+        coordinates: Σ_j over the stars of N's block's inverse on star j (additive
+        Schwarz), or the inverted 3 × 3 (M, C, K) blocks per coordinate."""
+        if self._stars is not None:
+            z = np.zeros_like(r)
+            for j in range(self.fit.m):
+                idx = self._star_index[j]
+                z[idx] += self._stars[j] @ r[idx]
+            return z
+        d = self._diag_scale[:, None]
         nb = self.fit.n_params // 3
-        R3 = r.reshape(3, nb, -1).transpose(1, 0, 2)  # (nb, 3, k)
-        return (self._pinv @ R3).transpose(1, 0, 2).reshape(r.shape)
+        R3 = (r * d).reshape(3, nb, -1).transpose(1, 0, 2)  # (nb, 3, k)
+        return (self._pinv @ R3).transpose(1, 0, 2).reshape(r.shape) * d
 
     def _apply(self, weights: EntryWeights, V: np.ndarray) -> np.ndarray:
         """The matrix of ``weights`` times ``V`` ``(n_params, k)``, ``PRODUCT_COLUMNS``
@@ -904,9 +993,24 @@ class MatrixFreeCovariance:
         Bn = B / d / scale  # unit columns: one tolerance and one rank threshold for all
         X = np.zeros_like(Bn)
         R = Bn.copy()
-        P = _orthonormal(self._precondition(R * d) * d)
-        top = 0.0
         it = 0
+        for _ in range(CG_RESTARTS + 1):
+            it = self._iterate(X, R, it)
+            # the recurrence's residual drifts from the true one where the search
+            # directions are large along N's null space (a gauge): restart from the latter
+            R = Bn - self._apply(self.bread, X / d) / d
+            res = np.linalg.norm(R, axis=0)
+            if np.all(res <= 10 * self.tol) or it >= CG_MAX_ITER:
+                break
+        self.iterations.append(it)
+        return X / d * scale, (res <= 10 * self.tol) & np.all(np.isfinite(X), axis=0)
+
+    def _iterate(self, X: np.ndarray, R: np.ndarray, it: int) -> int:
+        """Block CG from X with residual R (both updated in place), unit-diagonal
+        coordinates; returns the iteration count so far."""
+        d = self._diag_scale[:, None]
+        P = _orthonormal(self._precondition(R))
+        top = 0.0
         while P.shape[1] and it < CG_MAX_ITER:
             it += 1
             Q = self._apply(self.bread, P / d) / d
@@ -922,12 +1026,10 @@ class MatrixFreeCovariance:
             R -= Q @ alpha
             if np.all(np.linalg.norm(R, axis=0) <= self.tol):
                 break
-            Z = self._precondition(R * d) * d
+            Z = self._precondition(R)
             beta = -(Q.T @ Z) / lam[:, None]
             P = _orthonormal(Z + P @ beta)
-        self.iterations.append(it)
-        res = np.linalg.norm(Bn - self._apply(self.bread, X / d) / d, axis=0)
-        return X / d * scale, (res <= 10 * self.tol) & np.all(np.isfinite(X), axis=0)
+        return it
 
     def undetermined(self, G: np.ndarray) -> np.ndarray:
         """Not measured on this path: all False."""
