@@ -111,6 +111,32 @@ def test_gauss_newton_matrices_equal_the_explicit_jacobians(objective):
 
 
 @pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
+def test_the_per_line_matrices_and_the_stars_give_the_dense_gauss_newton_matrix(objective):
+    """N through its per-line m × m matrices, and its blocks on the stars of coordinates
+    (the matrix-free preconditioner's), against the dense N: two load cases, a weight
+    per entry, an observation matrix that is not the identity."""
+    system, omega, H, U, F, var = _frf_data(s=30)
+    U = np.concatenate([U, 0.5 * U[..., :1] + 0.1], axis=2)
+    F = np.concatenate([F, F[..., :1].conj()], axis=2)
+    rng = np.random.default_rng(3)
+    R, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    W = entry_weights("relative", U, objective, True) * rng.uniform(0.5, 1.5, U.shape)
+    M, C, K = (R.T @ X @ R for X in (system.M, system.C, system.K))
+    fit = LinearisedFit(M, C, K, U, F, omega, R, W, objective)
+    N = gauss_newton_matrix(fit, fit.bread())
+    grams = fit.line_grams(fit.bread())
+    v = rng.standard_normal((fit.n_params, 3))
+    assert np.allclose(fit.gram_product(grams, v), N @ v, rtol=0,
+                       atol=1e-12 * np.abs(N @ v).max())
+    stars, index = fit.star_blocks(grams), fit.star_index()
+    assert stars.shape == (4, 12, 12) and sorted(set(index.ravel())) == list(range(30))
+    for j in range(4):
+        assert np.abs(stars[j] - N[np.ix_(index[j], index[j])]).max() <= 1e-12 * np.abs(N).max()
+    var = np.concatenate([var, var[..., :1]], axis=2)
+    assert fit.line_grams(fit.meat(var, (0.4,))) is None  # pairs of lines: not per line
+
+
+@pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
 def test_noise_draws_have_the_meat_as_covariance(objective):
     """Jᵣᵀ(∂r/∂u)δu drawn with the noise itself (correlated lines, a grid with gaps) has
     the sandwich's meat as its covariance, to the draws' sampling error."""

@@ -65,6 +65,9 @@ NoiseModel = Literal["channel", "line", "global"]
 
 #: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
 PAIR_CHUNK_ELEMENTS = 1 << 18
+#: elements of the responses' outer products (columns × m × m) formed at once for N's
+#: blocks on the stars of coordinates
+STAR_CHUNK_ELEMENTS = 1 << 20
 #: a coherence below this is taken as this (the variance of that entry is then huge)
 COHERENCE_FLOOR = 1e-12
 
@@ -356,47 +359,6 @@ class LinearisedFit:
             t = np.where(used, W2 * np.real(du / u) / np.conj(y), 0.0)
         return self.apply_adjoint(t)
 
-    def pair_blocks(self, weights: EntryWeights, chunk: int = 64) -> np.ndarray:
-        """The 3 × 3 diagonal blocks of the matrix of ``weights`` (lag-0 pairs only) per
-        symmetric coordinate: ``(n_params / 3, 3, 3)``, block (b, b′) of coordinate
-        (j, k) = Re Σ_c φ̄_b φ_b′ (E x_c)ᴴ G_c (E x_c), E the coordinate's matrix."""
-        m, nb = self.m, self.n_params // 3
-        rows, cols, f = sym_pairs(m)
-        # E x = f′(e_j x_k + e_k x_j): f′ = 1/√2 off the diagonal, 1/2 on it
-        f2 = np.where(rows == cols, 0.25, 0.5)
-        out = np.zeros((nb, 3, 3))
-        c = np.array([-1.0, 1j, 1.0])
-        d = (2, 1, 0)
-        diag = weights.diagonal
-        lines = weights.left[diag]
-        # at most PAIR_CHUNK_ELEMENTS of Rᵀ diag(h) R's (lines × p × n × m) at once
-        chunk = max(1, min(chunk, PAIR_CHUNK_ELEMENTS // max(1, self.p * self.n * m)))
-        for start in range(0, lines.size, chunk):
-            sel = np.flatnonzero(diag)[start:start + chunk]
-            li = weights.left[sel]
-            for h, conj in ((weights.hermitian[sel], True),
-                            (None if weights.symmetric is None else weights.symmetric[sel],
-                             False)):
-                if h is None:
-                    continue
-                Q = self.R.T @ (h.transpose(0, 2, 1)[..., None] * self.R)  # (P, p, m, m)
-                left = self.Dinv[li].conj() if conj else self.Dinv[li]
-                G = left.transpose(0, 2, 1)[:, None] @ Q @ self.Dinv[li][:, None]
-                x = self.x[li].transpose(0, 2, 1)  # (P, p, m)
-                xl = x.conj() if conj else x
-                Gjj = G[..., rows, rows]
-                Gkk = G[..., cols, cols]
-                Gjk = G[..., rows, cols]
-                t = f2 * (xl[..., cols] * x[..., cols] * Gjj + xl[..., rows] * x[..., rows] * Gkk
-                          + xl[..., cols] * x[..., rows] * Gjk + xl[..., rows] * x[..., cols]
-                          * G[..., cols, rows])  # (P, p, nb)
-                for b in range(3):
-                    for bb in range(3):
-                        cb = c[b].conj() if conj else c[b]
-                        coef = cb * c[bb] * self.w[li] ** (d[b] + d[bb])  # (P,)
-                        out[:, b, bb] += np.einsum("P,Ppq->q", coef, t).real
-        return out
-
     def line_grams(self, weights: EntryWeights) -> tuple[np.ndarray, np.ndarray | None] | None:
         """Per column, the m × m matrices through which lag-0 ``weights`` act on L·θ:
         G_c = D⁻ᴴ Rᵀ diag(h_c) R D⁻¹ (Hermitian) and G̃_c = D⁻ᵀ Rᵀ diag(t_c) R D⁻¹ (or
@@ -448,34 +410,35 @@ class LinearisedFit:
         """
         G, Gt = grams
         m, s, p = self.m, self.s, self.p
-        rows, cols, _ = sym_pairs(m)
         fp = np.where(np.arange(m)[:, None] == np.arange(m)[None, :], 0.5, 1 / np.sqrt(2))
         out = np.zeros((m, 3, m, 3, m))
         c = np.array([-1.0, 1j, 1.0])
         d = (2, 1, 0)
         x = self.x.transpose(0, 2, 1).reshape(s * p, m)  # (columns, m)
         w = np.repeat(self.w, p)
-        chunk = max(1, PAIR_CHUNK_ELEMENTS // max(1, m * m))
+        chunk = max(1, STAR_CHUNK_ELEMENTS // max(1, m * m))
         for H, conj in ((G, True), (Gt, False)):
             if H is None:
                 continue
             H = H.reshape(s * p, m, m)
+            xl = x.conj() if conj else x
+            Hjj = np.einsum("cjj->cj", H)
             for power in range(5):
-                T = np.zeros((m, m, m), dtype=complex)  # [j, k, k′]
+                wp = w**power
+                # |x_j|² G_kk′ (or x_j² G̃_kk′): one product over the columns
+                T = ((wp[:, None] * xl * x).T @ H.reshape(-1, m * m)).reshape(m, m, m)
+                # x̄_k x_k′ G_jj, the outer products of the responses a block of columns
+                # at a time
+                a = wp[:, None] * Hjj
                 for i in range(0, s * p, chunk):
                     sl = slice(i, i + chunk)
-                    xc, Hc, wp = x[sl], H[sl], w[sl] ** power
-                    xl = xc.conj() if conj else xc
-                    Hjj = np.einsum("cjj->cj", Hc)
-                    # x̄_k x_k′ G_jj
-                    T += np.einsum("cj,ck,cl->jkl", wp[:, None] * Hjj, xl, xc, optimize=True)
-                    # x̄_k x_j G_jk′ (and its transpose-conjugate, x̄_j x_k′ G_kj)
-                    Y = (wp[:, None] * xc)[:, :, None] * Hc  # [c, j, k′]
-                    T2 = np.einsum("ck,cjl->jkl", xl, Y, optimize=True)
-                    T += T2 + (T2.conj() if conj else T2).transpose(0, 2, 1)
-                    # |x_j|² G_kk′
-                    a = wp[:, None] * (xl * xc)  # [c, j]
-                    T += (a.T @ Hc.reshape(-1, m * m)).reshape(m, m, m)
+                    XX = (xl[sl, :, None] * x[sl, None, :]).reshape(-1, m * m)
+                    T += (a[sl].T @ XX).reshape(m, m, m)
+                # x̄_k x_j G_jk′ and its transpose (conjugate): one product per j
+                xw = wp[:, None] * x
+                for j in range(m):
+                    T2 = (xl * xw[:, j:j + 1]).T @ H[:, j, :]  # [k, k′]
+                    T[j] += T2 + (T2.conj() if conj else T2).T
                 for b in range(3):
                     for bb in range(3):
                         if d[b] + d[bb] == power:
@@ -843,9 +806,13 @@ CG_TOL = 1e-8
 CG_MAX_ITER = 2000
 #: restarts of block CG from the true residual when the recurrence's has drifted
 CG_RESTARTS = 3
-#: right-hand sides that share one block Krylov space (memory: a few blocks of
-#: n_params × CG_BLOCK doubles)
-CG_BLOCK = 64
+#: right-hand sides that share one block Krylov space: as many as make a block of
+#: CG_BLOCK_ELEMENTS (n_params × right-hand sides), at least CG_BLOCK_MIN. A larger
+#: block needs fewer products per right-hand side (chain, m = 100, the modes' 200
+#: gradients: 2 × 152 iterations in blocks of 100, 89 in one of 200 — 222 s and 105 s)
+#: and about ten blocks' memory
+CG_BLOCK_ELEMENTS = 1 << 22
+CG_BLOCK_MIN = 16
 #: a search direction of block CG whose Rayleigh quotient of N (unit diagonal) is below
 #: this fraction of the largest seen lies along N's null space (a gauge) and is dropped
 NULL_RTOL = 1e-14
@@ -878,18 +845,27 @@ class MatrixFreeCovariance:
     """cov θ̂ = N⁻¹ S N⁻¹ applied by solves with N: only the variances asked for.
 
     Every variance gᵀ N⁻¹ S N⁻¹ g is a solve N a = g and one product S a. The
-    solves are breakdown-free block preconditioned CG (Ji & Li 2017): up to
-    ``CG_BLOCK`` right-hand sides share one Krylov space, whose search block is
-    re-orthonormalised every iteration and loses the directions of the right-hand
-    sides already solved — on a chain at m = 40 this took 32 products per right-hand
-    side where one CG per right-hand side took 95–330. The products apply N line by
-    line through its per-line m × m matrices (:meth:`LinearisedFit.line_grams`, the
-    memory of D⁻¹ once more). The preconditioner is the inverse of N's 3 × 3 diagonal
-    blocks (M, C, K) per symmetric coordinate, in the model's undamped modal
-    coordinates. N is singular along a gauge (latent coordinates); g orthogonal to it
-    (every gauge-invariant quantity) lies in N's range, and S shares N's null space,
-    so aᵀ S a does not depend on which solution CG finds; search directions along
-    which N vanishes are dropped. A solve that does not reach ``tol`` gives NaN.
+    solves are breakdown-free block preconditioned CG (Ji & Li 2017): right-hand
+    sides share one Krylov space (as many as ``CG_BLOCK_ELEMENTS`` allows), whose search block is
+    re-orthonormalised every iteration (directions below 1e-10 of the largest
+    dropped). The products apply N line by line through its per-line m × m matrices
+    (:meth:`LinearisedFit.line_grams`: the memory of D⁻¹ once more). The
+    preconditioner is additive Schwarz on the stars of coordinates: star j holds the
+    symmetric coordinates (j, k) of M, C and K for every k, 3m of them, and N's block
+    there (:meth:`LinearisedFit.star_blocks`) is inverted — in the model's undamped
+    modal coordinates, where a mode's data bear mostly on its own row of M, C, K; every
+    coordinate lies in two stars. All of it in coordinates scaled to N's unit
+    diagonal, where the tolerance is taken. Measured on chains (random forces, 200
+    lines, the modes' 2m gradients): at m = 40 one CG per right-hand side with the
+    inverted 3 × 3 (M, C, K) blocks per coordinate needed 95–330 iterations, block CG
+    40 with them and 26 with the stars; at m = 100, 281 and 152 per block of 100.
+
+    N is singular along a gauge (latent coordinates); g orthogonal to it (every
+    gauge-invariant quantity) lies in N's range, and S shares N's null space, so
+    aᵀ S a does not depend on which solution CG finds. Search directions along which
+    N vanishes are dropped, and where the recurrence's residual has drifted from the
+    true one CG restarts from the latter. A solve that does not reach ``tol`` gives
+    NaN.
 
     Parameters
     ----------
@@ -913,28 +889,19 @@ class MatrixFreeCovariance:
         self.rank = int(rank)
         self.tol = float(tol)
         self.bread = fit.bread()
-        self._grams = fit.line_grams(self.bread)
-        self._stars: np.ndarray | None = None
-        if self._grams is not None:
-            # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal
-            stars = fit.star_blocks(self._grams)
-            self._star_index = fit.star_index()
-            diag = np.zeros(fit.n_params)
-            diag[self._star_index] = np.diagonal(stars, axis1=1, axis2=2)
-            self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
-            eye = STAR_RIDGE * np.eye(stars.shape[1])
-            for j in range(fit.m):  # one star at a time: no second copy of them all
-                dj = self._diag_scale[self._star_index[j]]
-                block = stars[j] / dj[:, None] / dj[None, :] + eye
-                stars[j] = np.linalg.inv(0.5 * (block + block.T))
-            self._stars = stars
-        else:
-            blocks = fit.pair_blocks(self.bread)
-            scale = np.maximum(np.abs(blocks).max(axis=(1, 2)), np.finfo(float).tiny)
-            blocks = blocks + 1e-12 * scale[:, None, None] * np.eye(3)
-            self._pinv = np.linalg.inv(blocks)  # (nb, 3, 3)
-            diag = blocks[:, [0, 1, 2], [0, 1, 2]].T.reshape(-1)  # N's diagonal, block-major
-            self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
+        self._grams = fit.line_grams(self.bread)  # N is the cost's: one line at a time
+        # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal
+        stars = fit.star_blocks(self._grams)
+        self._star_index = fit.star_index()
+        diag = np.zeros(fit.n_params)
+        diag[self._star_index] = np.diagonal(stars, axis1=1, axis2=2)
+        self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
+        eye = STAR_RIDGE * np.eye(stars.shape[1])
+        for j in range(fit.m):  # one star at a time: no second copy of them all
+            dj = self._diag_scale[self._star_index[j]]
+            block = stars[j] / dj[:, None] / dj[None, :] + eye
+            stars[j] = np.linalg.inv(0.5 * (block + block.T))
+        self._stars = stars
         self.meat: EntryWeights | None = None
         self.iterations: list[int] = []
 
@@ -944,18 +911,13 @@ class MatrixFreeCovariance:
 
     def _precondition(self, r: np.ndarray) -> np.ndarray:
         """The preconditioner on residuals ``(n_params, k)`` in the unit-diagonal
-        coordinates: Σ_j over the stars of N's block's inverse on star j (additive
-        Schwarz), or the inverted 3 × 3 (M, C, K) blocks per coordinate."""
-        if self._stars is not None:
-            z = np.zeros_like(r)
-            for j in range(self.fit.m):
-                idx = self._star_index[j]
-                z[idx] += self._stars[j] @ r[idx]
-            return z
-        d = self._diag_scale[:, None]
-        nb = self.fit.n_params // 3
-        R3 = (r * d).reshape(3, nb, -1).transpose(1, 0, 2)  # (nb, 3, k)
-        return (self._pinv @ R3).transpose(1, 0, 2).reshape(r.shape) * d
+        coordinates: the sum over the stars of the inverse of N's block on star j
+        (additive Schwarz)."""
+        z = np.zeros_like(r)
+        for j in range(self.fit.m):
+            idx = self._star_index[j]
+            z[idx] += self._stars[j] @ r[idx]
+        return z
 
     def _apply(self, weights: EntryWeights, V: np.ndarray) -> np.ndarray:
         """The matrix of ``weights`` times ``V`` ``(n_params, k)``, ``PRODUCT_COLUMNS``
@@ -963,7 +925,7 @@ class MatrixFreeCovariance:
         out = np.empty_like(V)
         for i in range(0, V.shape[1], PRODUCT_COLUMNS):
             cols = V[:, i:i + PRODUCT_COLUMNS]
-            if weights is self.bread and self._grams is not None:
+            if weights is self.bread:
                 out[:, i:i + PRODUCT_COLUMNS] = self.fit.gram_product(self._grams, cols)
             else:
                 out[:, i:i + PRODUCT_COLUMNS] = self.fit.product(weights, cols)
@@ -971,13 +933,14 @@ class MatrixFreeCovariance:
 
     def solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """N X = B for ``B`` ``(n_params, k)`` by block preconditioned CG, in blocks of
-        equal size of at most ``CG_BLOCK`` columns; returns X and whether each column
+        equal size (``CG_BLOCK_ELEMENTS``); returns X and whether each column
         reached the tolerance."""
         X = np.zeros_like(B)
         ok = np.zeros(B.shape[1], dtype=bool)
         with _one_blas_thread():  # small products: OpenBLAS's threads only contend
             # blocks of equal size: a small remainder would share a poor Krylov space
-            count = -(-B.shape[1] // CG_BLOCK)
+            block = max(CG_BLOCK_MIN, CG_BLOCK_ELEMENTS // max(1, B.shape[0]))
+            count = -(-B.shape[1] // block)
             for cols in np.array_split(np.arange(B.shape[1]), max(count, 1)):
                 if cols.size:
                     X[:, cols], ok[cols] = self._solve(B[:, cols])
@@ -990,15 +953,15 @@ class MatrixFreeCovariance:
         d = self._diag_scale[:, None]
         norm_b = np.linalg.norm(B / d, axis=0)
         scale = np.where(norm_b > 0, norm_b, 1.0)
-        Bn = B / d / scale  # unit columns: one tolerance and one rank threshold for all
-        X = np.zeros_like(Bn)
-        R = Bn.copy()
+        R = B / d / scale  # unit columns: one tolerance and one rank threshold for all
+        X = np.zeros_like(R)
         it = 0
         for _ in range(CG_RESTARTS + 1):
             it = self._iterate(X, R, it)
             # the recurrence's residual drifts from the true one where the search
             # directions are large along N's null space (a gauge): restart from the latter
-            R = Bn - self._apply(self.bread, X / d) / d
+            R = B / d / scale
+            R -= self._apply(self.bread, X / d) / d
             res = np.linalg.norm(R, axis=0)
             if np.all(res <= 10 * self.tol) or it >= CG_MAX_ITER:
                 break
@@ -1027,8 +990,10 @@ class MatrixFreeCovariance:
             if np.all(np.linalg.norm(R, axis=0) <= self.tol):
                 break
             Z = self._precondition(R)
-            beta = -(Q.T @ Z) / lam[:, None]
-            P = _orthonormal(Z + P @ beta)
+            Z += P @ (-(Q.T @ Z) / lam[:, None])
+            del P, Q  # (memory: a block is n_params × its right-hand sides)
+            P = _orthonormal(Z)
+            del Z
         return it
 
     def undetermined(self, G: np.ndarray) -> np.ndarray:
