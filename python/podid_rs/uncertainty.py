@@ -668,10 +668,12 @@ def model_uncertainty(
     solver : {"auto", "dense", "matrix-free"}
         ``"dense"`` forms the Gauss–Newton matrix ((3m(m+1)/2)² doubles) and
         eigendecomposes it, which also finds the directions the data do not determine;
-        ``"matrix-free"`` solves with it by preconditioned CG for each variance asked
-        (J·v and Jᴴ·u line by line, memory O(s·m²) as the refinement's matrix-free
-        step), in the model's undamped modal coordinates; ``"auto"`` dense up to
-        m = 40.
+        ``"matrix-free"`` solves with it for the variances asked, by block
+        preconditioned CG (the right-hand sides share a Krylov space; N applied line
+        by line through its per-line m × m matrices, memory O(s·m²) as the
+        refinement's matrix-free step, and the 3m × 3m blocks of N on each mode's
+        row of M, C, K, O(m³), as the preconditioner), in the model's undamped modal
+        coordinates; ``"auto"`` dense up to m = 40.
 
     Returns
     -------

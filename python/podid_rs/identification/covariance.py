@@ -831,10 +831,12 @@ SAMPLE_CHUNK = 16
 
 def _orthonormal(Y: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
     """An orthonormal basis of the columns of ``Y`` (pivoted QR), without the directions
-    below ``rtol`` of the largest: the search block of breakdown-free block CG."""
+    below ``rtol`` of the largest: the search block of breakdown-free block CG. (Unpivoted
+    QR is twice as fast on 15 150 × 200, but a small diagonal entry of R there does not
+    mark a direction the later columns do without.)"""
     if Y.shape[1] == 0:
         return Y
-    Q, Rf, _ = scipy.linalg.qr(Y, mode="economic", pivoting=True)
+    Q, Rf, _ = scipy.linalg.qr(Y, mode="economic", pivoting=True, overwrite_a=True)
     d = np.abs(np.diag(Rf))
     if d.size == 0 or d[0] == 0:
         return Y[:, :0]
