@@ -809,7 +809,8 @@ CG_RESTARTS = 3
 #: right-hand sides that share one block Krylov space: as many as make a block of
 #: CG_BLOCK_ELEMENTS (n_params × right-hand sides), at least CG_BLOCK_MIN. A larger
 #: block needs fewer products per right-hand side (chain, m = 100, the modes' 200
-#: gradients: 2 × 152 iterations in blocks of 100, 89 in one of 200 — 222 s and 105 s)
+#: gradients, linearised at the truth: 2 × 152 iterations in blocks of 100, 89 in one of
+#: 200 — 222 s and 105 s)
 #: and about ten blocks' memory
 CG_BLOCK_ELEMENTS = 1 << 22
 CG_BLOCK_MIN = 16
@@ -859,8 +860,9 @@ class MatrixFreeCovariance:
     coordinate lies in two stars. All of it in coordinates scaled to N's unit
     diagonal, where the tolerance is taken. Measured on chains (random forces, 200
     lines, the modes' 2m gradients): at m = 40 one CG per right-hand side with the
-    inverted 3 × 3 (M, C, K) blocks per coordinate needed 95–330 iterations, block CG
-    40 with them and 26 with the stars; at m = 100, 281 and 152 per block of 100.
+    inverted 3 × 3 (M, C, K) blocks per coordinate needed 254 iterations (median; up
+    to 330), block CG 40 with them and 26 with the stars; at m = 100, 281 and 152 per
+    block of 100.
 
     N is singular along a gauge (latent coordinates); g orthogonal to it (every
     gauge-invariant quantity) lies in N's range, and S shares N's null space, so
