@@ -392,8 +392,11 @@ class ModelUncertainty:
         g_f = (np.conj(sel)[:, None] * dlam).real / (2 * np.pi * mag[:, None])
         g_z = (-dlam.real / mag[:, None]
                + sel.real[:, None] * (np.conj(sel)[:, None] * dlam).real / mag[:, None] ** 3)
+        del outer, dlam  # (memory: modes × parameters each, while the solves run)
         # one set of solves for both: on the matrix-free path they share a Krylov space
-        var_f, var_z = np.split(self._cov.variances(np.concatenate([g_f, g_z])), 2)
+        g = np.concatenate([g_f, g_z])
+        del g_f, g_z
+        var_f, var_z = np.split(self._cov.variances(g), 2)
         real_root = np.abs(sel.imag) <= 1e-12 * mag
         var_z = np.where(real_root & np.isfinite(var_z), 0.0, var_z)
         # an interval wider than the value itself — a frequency's reaching 0, a damping

@@ -983,18 +983,19 @@ class MatrixFreeCovariance:
             Q = self._apply(self.bread, P / d) / d
             lam, V = np.linalg.eigh(0.5 * (P.T @ Q + Q.T @ P))
             top = max(top, float(lam[-1]) if lam.size else 0.0)
-            # directions along which N vanishes (a gauge) are dropped
+            # (PᵀNP)⁺ without the directions along which N vanishes (a gauge); not P
+            # rotated, which would hold two more blocks at once
             keep = lam > NULL_RTOL * top
             if not keep.any():
                 break
-            P, Q, lam = P @ V[:, keep], Q @ V[:, keep], lam[keep]
-            alpha = (P.T @ R) / lam[:, None]
+            inverse = (V[:, keep] / lam[keep]) @ V[:, keep].T
+            alpha = inverse @ (P.T @ R)
             X += P @ alpha
             R -= Q @ alpha
             if np.all(np.linalg.norm(R, axis=0) <= self.tol):
                 break
             Z = self._precondition(R)
-            Z += P @ (-(Q.T @ Z) / lam[:, None])
+            Z -= P @ (inverse @ (Q.T @ Z))
             del P, Q  # (memory: a block is n_params × its right-hand sides)
             P = _orthonormal(Z)
             del Z
