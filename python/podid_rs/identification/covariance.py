@@ -801,8 +801,11 @@ class DenseCovariance:
         return self.variances(G), self.variances(H), self.covariances(G, H)
 
 
-#: relative residual at which the matrix-free solves stop, and their iteration cap
-CG_TOL = 1e-8
+#: relative residual (unit-diagonal coordinates) at which the matrix-free solves stop, and
+#: their iteration cap. A variance's error goes as its square: on a chain at m = 40 the
+#: modes' standard deviations moved by 3e-8 / 4e-9 / 4e-10 relative at 1e-5 / 1e-6 / 1e-7
+#: against 1e-8, in 20 / 22 / 24 / 26 iterations
+CG_TOL = 1e-6
 CG_MAX_ITER = 2000
 #: restarts of block CG from the true residual when the recurrence's has drifted
 CG_RESTARTS = 3
