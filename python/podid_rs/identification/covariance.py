@@ -44,7 +44,9 @@ over the lines, by default, or per line, or one for all; the residuals have
 Kronecker products (O(columns · m⁴)); :class:`LinearisedFit` holds the point, and
 its ``jacobian`` is the explicit (small-problem) oracle the fast paths are tested
 against; ``product`` applies N or S to vectors line by line (O(columns · m²)
-memory-light products) for the matrix-free path.
+memory-light products) for the matrix-free path; ``gram_product`` applies N through
+its per-line m × m matrices, and ``star_blocks`` forms N's blocks on the stars of
+coordinates, the matrix-free solves' preconditioner.
 """
 
 from __future__ import annotations
@@ -813,8 +815,7 @@ CG_RESTARTS = 3
 #: CG_BLOCK_ELEMENTS (n_params × right-hand sides), at least CG_BLOCK_MIN. A larger
 #: block needs fewer products per right-hand side (chain, m = 100, the modes' 200
 #: gradients, linearised at the truth: 2 × 152 iterations in blocks of 100, 89 in one of
-#: 200 — 222 s and 105 s)
-#: and about ten blocks' memory
+#: 200 — 222 s and 105 s) at about ten blocks' memory
 CG_BLOCK_ELEMENTS = 1 << 22
 CG_BLOCK_MIN = 16
 #: a search direction of block CG whose Rayleigh quotient of N (unit diagonal) is below
@@ -852,8 +853,8 @@ class MatrixFreeCovariance:
 
     Every variance gᵀ N⁻¹ S N⁻¹ g is a solve N a = g and one product S a. The
     solves are breakdown-free block preconditioned CG (Ji & Li 2017): right-hand
-    sides share one Krylov space (as many as ``CG_BLOCK_ELEMENTS`` allows), whose search block is
-    re-orthonormalised every iteration (directions below 1e-10 of the largest
+    sides share one Krylov space (as many as ``CG_BLOCK_ELEMENTS`` allows), whose
+    search block is re-orthonormalised every iteration (directions below 1e-10 of the largest
     dropped). The products apply N line by line through its per-line m × m matrices
     (:meth:`LinearisedFit.line_grams`: the memory of D⁻¹ once more). The
     preconditioner is additive Schwarz on the stars of coordinates: star j holds the
