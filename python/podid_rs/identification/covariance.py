@@ -897,9 +897,10 @@ class MatrixFreeCovariance:
         self.rank = int(rank)
         self.tol = float(tol)
         self.bread = fit.bread()
-        self._grams = fit.line_grams(self.bread)  # N is the cost's: one line at a time
-        # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal
-        stars = fit.star_blocks(self._grams)
+        with _one_blas_thread():  # as the solves: OpenBLAS's threads only contend
+            self._grams = fit.line_grams(self.bread)  # N is the cost's: line by line
+            # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal
+            stars = fit.star_blocks(self._grams)
         self._star_index = fit.star_index()
         diag = np.zeros(fit.n_params)
         diag[self._star_index] = np.diagonal(stars, axis1=1, axis2=2)
