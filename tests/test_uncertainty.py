@@ -113,6 +113,32 @@ def test_gauss_newton_matrices_equal_the_explicit_jacobians(objective):
 
 
 @pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
+def test_the_per_line_matrices_and_the_stars_give_the_dense_gauss_newton_matrix(objective):
+    """N through its per-line m × m matrices, and its blocks on the stars of coordinates
+    (the matrix-free preconditioner's), against the dense N: two load cases, a weight
+    per entry, an observation matrix that is not the identity."""
+    system, omega, H, U, F, var = _frf_data(s=30)
+    U = np.concatenate([U, 0.5 * U[..., :1] + 0.1], axis=2)
+    F = np.concatenate([F, F[..., :1].conj()], axis=2)
+    rng = np.random.default_rng(3)
+    R, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    W = entry_weights("relative", U, objective, True) * rng.uniform(0.5, 1.5, U.shape)
+    M, C, K = (R.T @ X @ R for X in (system.M, system.C, system.K))
+    fit = LinearisedFit(M, C, K, U, F, omega, R, W, objective)
+    N = gauss_newton_matrix(fit, fit.bread())
+    grams = fit.line_grams(fit.bread())
+    v = rng.standard_normal((fit.n_params, 3))
+    assert np.allclose(fit.gram_product(grams, v), N @ v, rtol=0,
+                       atol=1e-12 * np.abs(N @ v).max())
+    stars, index = fit.star_blocks(grams), fit.star_index()
+    assert stars.shape == (4, 12, 12) and sorted(set(index.ravel())) == list(range(30))
+    for j in range(4):
+        assert np.abs(stars[j] - N[np.ix_(index[j], index[j])]).max() <= 1e-12 * np.abs(N).max()
+    var = np.concatenate([var, var[..., :1]], axis=2)
+    assert fit.line_grams(fit.meat(var, (0.4,))) is None  # pairs of lines: not per line
+
+
+@pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
 def test_noise_draws_have_the_meat_as_covariance(objective):
     """Jᵣᵀ(∂r/∂u)δu drawn with the noise itself (correlated lines, a grid with gaps) has
     the sandwich's meat as its covariance, to the draws' sampling error."""
@@ -244,6 +270,29 @@ def test_the_matrix_free_path_gives_the_dense_variances(latent):
     if not latent:
         with pytest.raises(ValueError, match="matrix-free"):
             free.matrices()
+
+
+@pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
+def test_block_cg_with_the_stars_gives_the_dense_variances_of_a_larger_chain(objective):
+    """A 12-DOF chain driven by random forces on every DOF, its upper modes above the
+    band (the weakly determined coordinates that made one CG per variance stall): every
+    mode's variances as the dense covariance's, the noise estimated from the residuals."""
+    n, s = 12, 80
+    system = pr.mass_spring_chain(n)
+    f = pr.modal_parameters(system).frequencies_hz
+    omega = 2 * np.pi * np.linspace(0.5 * f[0], 0.6 * f[-1], s)
+    rng = np.random.default_rng(5)
+    F = rng.standard_normal((s, n)) + 1j * rng.standard_normal((s, n))
+    U = np.einsum("sij,sj->si", system.frf(omega), F)
+    U = U * (1 + 1e-3 * (rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape)))
+    kw = dict(objective=objective, weights="uniform" if objective != "complex" else "relative")
+    dense = pr.model_uncertainty(system, U, F, omega, solver="dense", **kw)
+    free = pr.model_uncertainty(system, U, F, omega, solver="matrix-free", **kw)
+    a, b = dense.modes(), free.modes()
+    assert np.all(np.isfinite(a.std_frequency_hz))
+    assert np.allclose(b.std_frequency_hz, a.std_frequency_hz, rtol=1e-5)
+    assert np.allclose(b.std_damping, a.std_damping, rtol=1e-5)
+    assert len(free._cov.iterations) == 1  # the 24 gradients in one block
 
 
 def test_rank_deficiency_gives_no_interval_rather_than_a_huge_one():

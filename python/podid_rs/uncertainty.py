@@ -392,8 +392,11 @@ class ModelUncertainty:
         g_f = (np.conj(sel)[:, None] * dlam).real / (2 * np.pi * mag[:, None])
         g_z = (-dlam.real / mag[:, None]
                + sel.real[:, None] * (np.conj(sel)[:, None] * dlam).real / mag[:, None] ** 3)
-        var_f = self._cov.variances(g_f)
-        var_z = self._cov.variances(g_z)
+        del outer, dlam  # (memory: modes × parameters each, while the solves run)
+        # one set of solves for both: on the matrix-free path they share a Krylov space
+        g = np.concatenate([g_f, g_z])
+        del g_f, g_z
+        var_f, var_z = np.split(self._cov.variances(g), 2)
         real_root = np.abs(sel.imag) <= 1e-12 * mag
         var_z = np.where(real_root & np.isfinite(var_z), 0.0, var_z)
         # an interval wider than the value itself — a frequency's reaching 0, a damping
@@ -670,10 +673,12 @@ def model_uncertainty(
     solver : {"auto", "dense", "matrix-free"}
         ``"dense"`` forms the Gauss–Newton matrix ((3m(m+1)/2)² doubles) and
         eigendecomposes it, which also finds the directions the data do not determine;
-        ``"matrix-free"`` solves with it by preconditioned CG for each variance asked
-        (J·v and Jᴴ·u line by line, memory O(s·m²) as the refinement's matrix-free
-        step), in the model's undamped modal coordinates; ``"auto"`` dense up to
-        m = 40.
+        ``"matrix-free"`` solves with it for the variances asked, by block
+        preconditioned CG (the right-hand sides share a Krylov space; N applied line
+        by line through its per-line m × m matrices, memory O(s·m²) as the
+        refinement's matrix-free step, and the 3m × 3m blocks of N on each mode's
+        row of M, C, K, O(m³), as the preconditioner), in the model's undamped modal
+        coordinates; ``"auto"`` dense up to m = 40.
 
     Returns
     -------
