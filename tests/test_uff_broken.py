@@ -313,6 +313,18 @@ def test_labels_that_differ_in_spelling_only_agree(tmp_path):
         read_uff(path)
 
 
+def test_labels_none_or_empty_are_no_units():
+    # pyuff writes NONE where a file gives no units: such a record is unlabelled (kept
+    # whatever the others say), and a label is normalised (case, spaces, ^ * and brackets)
+    from podid_rs.io.uff import _units
+
+    assert _units({"ordinate_axis_units_lab": "NONE", "orddenom_axis_units_lab": " none "}) is None
+    assert _units({}) is None
+    assert _units({"ordinate_axis_units_lab": "(m/s^2)", "orddenom_axis_units_lab": "NONE"}) \
+        == "m/s2/"
+    assert _units({"ordinate_axis_units_lab": "M", "orddenom_axis_units_lab": "[N]"}) == "m/n"
+
+
 def test_a_tie_between_two_units_is_refused(tmp_path):
     labels = ["m"] * 4 + ["g"] * 4 + ["NONE"]
     path = write_labelled(tmp_path / "tie.uff", labels)
