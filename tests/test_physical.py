@@ -145,6 +145,12 @@ def test_exact_identification_reproduces_the_true_modes_in_the_table():
     assert len(csv_text.splitlines()) == 7
 
 
+def test_the_csv_of_one_row_and_of_none():
+    rows = [{"mode": 1, "f_hz": 10.5, "stable": True}]
+    assert table_csv(rows) == "mode,f_hz,stable\n1,10.5,True\n"
+    assert table_csv([]) == ""
+
+
 def test_modal_parameters_refuse_other_objects():
     with pytest.raises(ValueError, match="SecondOrderSystem"):
         modal_parameters(np.eye(2))

@@ -313,6 +313,15 @@ def test_labels_that_differ_in_spelling_only_agree(tmp_path):
         read_uff(path)
 
 
+def test_how_far_apart_two_records_are_counts_the_lines_both_hold():
+    # the median |dB| over lines 0 and 1 (0 and 20 dB); line 2, where one record is zero,
+    # has no ratio and is not counted
+    from podid_rs.io.uff import _median_db_apart
+
+    assert _median_db_apart(np.array([1.0, 10.0, 0.0]), np.array([1.0, 1.0, 5.0])) == 10.0
+    assert _median_db_apart(np.zeros(3), np.ones(3)) == 0.0
+
+
 def test_labels_none_or_empty_are_no_units():
     # pyuff writes NONE where a file gives no units: such a record is unlabelled (kept
     # whatever the others say), and a label is normalised (case, spaces, ^ * and brackets)
