@@ -185,6 +185,12 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
     assert "structural" not in mode_kinds(shapes, w, U, [0], visible_fraction=1e6)
     with pytest.raises(ValueError, match="U needs inputs"):
         mode_kinds(shapes, w, U)
+    # the lines as a column are the same lines
+    assert np.array_equal(mode_kinds(shapes, w[:, None], U, [0]), mode_kinds(shapes, w, U, [0]))
+    # a selection keeps the modes' numbers: the in-band ones of five are 1-4
+    band = shapes.in_band((20.0, 150.0))
+    assert band.mode_numbers.tolist() == [1, 2, 3, 4]
+    assert band.select(np.array([False, True, False, True])).mode_numbers.tolist() == [2, 4]
 
 
 def test_a_pole_where_the_data_have_no_peak_is_weak():
