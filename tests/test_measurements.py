@@ -349,6 +349,10 @@ def test_a_time_history_npz_file_keeps_its_estimator_and_names_what_it_lacks(tmp
     with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a time-history file "
                        r"needs the arrays \['responses'\] \(found \['dt', 'forces'\]\)$"):
         load_data(half)
+    np.savez(half, omega=data.omega, U=data.U)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a measured data set "
+                       r"needs the arrays \['F'\] \(found \['U', 'omega'\]\)$"):
+        load_data(half)
 
 
 # ----------------------------------------------------------------- data and .npz
