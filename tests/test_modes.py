@@ -61,6 +61,8 @@ def test_mac_definition_and_invariances():
         (np.ones((4, 2)), np.zeros((4, 2)), "B column 0 is zero"),
         (np.ones((4, 0)), np.ones((4, 2)), "non-empty"),
         (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
+        (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
+        (np.ones((4, 2)), np.ones((4, 2, 2)), r"non-empty \(n, k\) arrays, got \(4, 2\) and"),
     ],
 )
 def test_mac_bad_input_is_named(A, B, message):

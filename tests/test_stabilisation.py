@@ -158,3 +158,11 @@ def test_pole_marks_at_their_boundaries_and_the_charts_band(chain_data):
     _, data = chain_data
     chart = stabilisation_chart(data, 2)
     assert chart.band_hz == (data.freq_hz[0], data.freq_hz[-1]) == (1.0, 200.0)
+
+
+def test_a_chart_without_orders_writes_its_header_alone(tmp_path):
+    from podid_rs.stabilisation import StabilisationChart
+
+    chart = StabilisationChart((), np.array([1.0, 2.0]), np.ones(2), True, 0.01, 0.05)
+    assert chart.rows() == []
+    assert chart.to_csv(tmp_path / "empty.csv").read_bytes() == b"m\r\n"  # csv ends rows with CR LF

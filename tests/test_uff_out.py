@@ -133,6 +133,9 @@ def test_bad_input_is_named(written, tmp_path):
     out = tmp_path / "x.uff"
     with pytest.raises(ValueError, match="no measured-DOF labelling"):
         write_uff(out, result, R)
+    with pytest.raises(ValueError, match=r"^UFF output needs the basis R \(n, m\) that maps "
+                       r"the model to its DOFs$"):
+        write_uff(out, result, None, data)
     with pytest.raises(ValueError, match=r"basis must have shape \(n, m\) with m = 4"):
         write_uff(out, result, R.T, data)
     with pytest.raises(ValueError, match="need both inputs= and omega="):
