@@ -13,6 +13,9 @@
 #                                       # draw 40 not-run mutants of each module at random
 #                                       # (seed 20261126) into docs/mutation-sample.txt and
 #                                       # run them; --sample alone resumes that sample
+#   scripts/mutation.sh --restat        # forget which tests reach which function: the
+#                                       # next run maps them again (after functions were
+#                                       # added or moved; the verdicts are kept)
 #   MUTATION_JOBS=2 scripts/mutation.sh # two mutants at a time (default one: the
 #                                       # machine is shared)
 #
@@ -39,6 +42,12 @@ if [[ -d mutants/src/podid_rs ]]; then
 fi
 # one BLAS thread per mutant worker; the machine is shared, so run at the lowest priority
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1
+if [[ "${1:-}" == "--restat" ]]; then
+    # mutmut maps tests to functions in one full run and afterwards only for new tests: a
+    # function added later (or newly reached by old tests) keeps no or too few tests
+    rm -f mutants/mutmut-stats.json
+    exit 0
+fi
 if [[ "${1:-}" == "--results" ]]; then
     exec python -m mutmut results
 fi
