@@ -166,3 +166,29 @@ def test_a_chart_without_orders_writes_its_header_alone(tmp_path):
     chart = StabilisationChart((), np.array([1.0, 2.0]), np.ones(2), True, 0.01, 0.05)
     assert chart.rows() == []
     assert chart.to_csv(tmp_path / "empty.csv").read_bytes() == b"m\r\n"  # csv ends rows with CR LF
+
+
+def test_the_rows_of_a_chart_by_hand():
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import StabilisationChart, StabilisationOrder
+
+    lam = np.array([-1.0 + 5.0j, 0.0 + 7.0j, -3.0 + 0.0j])
+    modes = ModalParameters(lam, np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam), 0)
+    order = StabilisationOrder(3, model_with_modes([1.0, 2.0, 3.0], 0.01), modes, True,
+                               np.array([True, False, True]), np.array([False, False, True]))
+    chart = StabilisationChart((order,), np.array([0.5, 1.0]), np.ones(2), True, 0.01, 0.05,
+                               chosen_m=3)
+    rows = chart.rows()
+    assert list(rows[0]) == ["m", "mode", "f_hz", "zeta", "re_lambda", "im_lambda", "stable",
+                             "physical", "consistent_f", "consistent", "real_pole", "in_band",
+                             "chosen"]
+    assert [r["mode"] for r in rows] == [1, 2, 3]
+    assert [r["im_lambda"] for r in rows] == [5.0, 7.0, 0.0]
+    assert [r["re_lambda"] for r in rows] == [-1.0, 0.0, -3.0]
+    assert [r["stable"] for r in rows] == [True, False, True]
+    assert [r["consistent_f"] for r in rows] == [True, False, True]
+    assert [r["consistent"] for r in rows] == [False, False, True]
+    assert [r["real_pole"] for r in rows] == [False, False, True]
+    # f = |λ| / 2π: 0.81, 1.11 and 0.48 Hz against the band 0.5-1 Hz
+    assert [r["in_band"] for r in rows] == [True, False, False]
+    assert all(r["chosen"] and r["physical"] and r["m"] == 3 for r in rows)
