@@ -177,3 +177,11 @@ def test_a_band_from_zero_is_a_band_and_an_empty_one_is_refused():
         with pytest.raises(ValueError, match=r"^band_hz must be a pair \(lo, hi\) in Hz with "
                            r"0 <= lo < hi, got "):
             measured.band_lines(freq, band)
+
+
+def test_projection_names_a_basis_that_is_not_real():
+    chain = mass_spring_chain(3)
+    omega = 2 * np.pi * np.linspace(5.0, 100.0, 20)
+    data = from_frf(chain.frf(omega)[:, :, [0]], omega, inputs=[0])
+    with pytest.raises(ValueError, match=r"^R must be real"):
+        data.project(np.eye(3, 2) * 1j)

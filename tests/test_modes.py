@@ -266,3 +266,11 @@ def test_a_pole_rising_less_than_twice_its_ring_is_no_peak_of_the_data(half, lev
     Ua[np.abs(w - 100.0) <= max(half, 0.5)] = 2.5
     assert _data_peak(w, Ua, np.array([True]), lam)
     assert not _data_peak(w, Ua, np.array([False]), lam)
+
+
+def test_a_mode_the_sensors_do_not_see_is_refused():
+    # two uncoupled DOFs, the sensor on the first: the second's mode is 0 on it
+    model = SecondOrderSystem(np.eye(2), np.diag([0.1, 0.2]), np.diag([100.0, 400.0]))
+    with pytest.raises(ValueError, match=r"^a mode has no component on the measured DOFs "
+                       r"\(R ψ = 0\)$"):
+        mode_shapes(model, np.array([[1.0, 0.0]]))

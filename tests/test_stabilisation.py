@@ -192,3 +192,37 @@ def test_the_rows_of_a_chart_by_hand():
     # f = |λ| / 2π: 0.81, 1.11 and 0.48 Hz against the band 0.5-1 Hz
     assert [r["in_band"] for r in rows] == [True, False, False]
     assert all(r["chosen"] and r["physical"] and r["m"] == 3 for r in rows)
+
+
+def test_damping_may_be_semidefinite_to_the_tolerance_of_its_largest_eigenvalue():
+    from dataclasses import replace
+
+    from podid_rs.stabilisation import PHYSICAL_RTOL
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert is_physical(replace(good, C=np.diag([1.0, 0.0])))  # one undamped direction
+    assert is_physical(replace(good, C=np.diag([1.0, -0.5 * PHYSICAL_RTOL])))
+    assert not is_physical(replace(good, C=np.diag([1.0, -2.0 * PHYSICAL_RTOL])))
+
+
+def test_a_pole_at_either_tolerance_exactly_is_consistent():
+    # |1.5 - 1| = 0.5 × 1 Hz and |0.75 - 0.5| = 0.5 × 0.5: both exact in binary
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    def modes(f, z):
+        return ModalParameters(np.array([-1.0 + 1.0j]), np.array([f]), np.array([z]), 0)
+
+    cf, c = _match_previous(modes(1.5, 0.75), modes(1.0, 0.5), 0.5, 0.5)
+    assert cf.tolist() == [True] and c.tolist() == [True]
+    cf, c = _match_previous(modes(1.5, 0.76), modes(1.0, 0.5), 0.5, 0.5)
+    assert cf.tolist() == [True] and c.tolist() == [False]
+
+
+def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_data):
+    _, data = chain_data
+    chart = stabilisation_chart(data, 2, progress=False, chosen_m=2)
+    assert np.array_equal(chart.summed_frf, np.sum(np.abs(data.U), axis=(1, 2)))
+    assert chart.chosen_m == 2
+    with pytest.raises(ValueError, match=r"^chosen_m must be"):
+        stabilisation_chart(data, 2, progress=False, chosen_m=0)
