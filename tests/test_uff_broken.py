@@ -124,6 +124,12 @@ def test_a_missing_delimiter_is_refused(beam_bytes):
                                              r"file \(dataset 58, response 3:-3 / reference "
                                              r"10:-3"):
             read_uff(path)
+    # where the run-together text starts: the first line after record 10's end, the
+    # dataset number of the record whose opening delimiter is gone
+    line = damaged[:closing + 7].count(b"\n") + 1
+    with pytest.raises(ValueError, match=rf"from line \d+\): line {line} \('58 +'\) belongs "
+                                         r"to no record, so two records ran together$"):
+        read_uff(path)
 
 
 def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
