@@ -238,6 +238,13 @@ def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(ch
     assert objectives == ["complex", "log-magnitude"]
     passes = model.info["refinement"]["final_refit"]["passes"]
     assert [p["pass"] for p in passes] == ["complex refit", "log-magnitude refit"]
+    # the reason quotes the median errors it decided on, over every line
+    kept = model.info["refinement"]["final_refit"]
+    if kept["kept"] == "log-magnitude refit":
+        assert f"→ {kept['db_all_lines'][0]:.2f} dB; 95th percentile" in kept["reason"]
+    else:
+        assert (f"; the log-magnitude refit did not lower it ({kept['db_all_lines'][0]:.2f} → "
+                f"{passes[1]['db_after'][0]:.2f} dB)") in kept["reason"]
     objectives.clear()
     final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5, log_magnitude=False)
     assert objectives == ["complex"]
