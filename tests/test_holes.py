@@ -243,6 +243,11 @@ def test_a_load_case_with_no_measured_entry_is_named():
     with pytest.raises(ValueError, match=r"^load case\(s\) \[1\] have no measured response: "
                        r"there is nothing to fit them to; leave them out$"):
         check_measured(mask, 4, 3)
+    mask = np.ones((4, 3), dtype=bool)
+    mask[1] = False
+    with pytest.raises(ValueError, match=r"^measured DOF\(s\) \[1\] are not measured in any "
+                       r"load case: leave them out of the data$"):
+        check_measured(mask, 4, 3)
     assert check_measured(np.ones((4, 3), dtype=bool), 4, 3) is None
 
 
