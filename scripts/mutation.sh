@@ -9,6 +9,13 @@
 #   scripts/mutation.sh --not-run identification/order.py modes.py
 #                                       # only these modules' mutants not yet run
 #   scripts/mutation.sh --survivors     # run the survivors again (after new tests)
+#   scripts/mutation.sh --sample 40 20261126 modes.py io/uff.py
+#                                       # draw 40 not-run mutants of each module at random
+#                                       # (seed 20261126) into docs/mutation-sample.txt and
+#                                       # run them; --sample alone resumes that sample
+#   scripts/mutation.sh --restat        # forget which tests reach which function: the
+#                                       # next run maps them again (after functions were
+#                                       # added or moved; the verdicts are kept)
 #   MUTATION_JOBS=2 scripts/mutation.sh # two mutants at a time (default one: the
 #                                       # machine is shared)
 #
@@ -17,7 +24,8 @@
 # _core module is copied along with the sources) and tests/ and pyproject.toml are
 # the repository's. The modules to mutate are [tool.mutmut] in pyproject.toml.
 # Each mutant runs only the tests that called the mutated function when the suite
-# ran once under mutmut's trampolines, fastest first, stopping at the first failure.
+# ran once under mutmut's trampolines, fastest first, stopping at the first failure
+# (scripts/mutmut_fastest_first.py: mutmut's fork server would take them in a random order).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 stage="$repo/build/mutation"
@@ -34,6 +42,12 @@ if [[ -d mutants/src/podid_rs ]]; then
 fi
 # one BLAS thread per mutant worker; the machine is shared, so run at the lowest priority
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1
+if [[ "${1:-}" == "--restat" ]]; then
+    # mutmut maps tests to functions in one full run and afterwards only for new tests: a
+    # function added later (or newly reached by old tests) keeps no or too few tests
+    rm -f mutants/mutmut-stats.json
+    exit 0
+fi
 if [[ "${1:-}" == "--results" ]]; then
     exec python -m mutmut results
 fi
@@ -48,6 +62,18 @@ if [[ "${1:-}" == "--not-run" ]]; then
         exit 0
     fi
     set -- "${names[@]}"
+elif [[ "${1:-}" == "--sample" ]]; then
+    shift
+    if (( $# > 0 )); then
+        python "$repo/scripts/mutation_summary.py" --sample "$@" > /dev/null
+    fi
+    mapfile -t sampled < <(grep -v '^#' "$repo/docs/mutation-sample.txt")
+    mapfile -t pending < <(python "$repo/scripts/mutation_summary.py" --not-run-of "${sampled[@]}")
+    if (( ${#pending[@]} == 0 )); then
+        echo "every mutant of the sample has run"
+        exit 0
+    fi
+    set -- "${pending[@]}"
 elif [[ "${1:-}" == "--survivors" ]]; then
     mapfile -t names < <(python -m mutmut results 2>/dev/null |
         awk -F': ' '$2 ~ /^(survived|no tests|suspicious)$/ {gsub(/ /, "", $1); print $1}')
@@ -57,4 +83,4 @@ elif [[ "${1:-}" == "--survivors" ]]; then
     fi
     set -- "${names[@]}"
 fi
-exec nice -n 19 python -m mutmut run --max-children "${MUTATION_JOBS:-1}" "$@"
+exec nice -n 19 python "$repo/scripts/mutmut_fastest_first.py" run --max-children "${MUTATION_JOBS:-1}" "$@"

@@ -14,13 +14,23 @@ function changed) is reported, so that the lists stay true.
 With ``--not-run MODULE...`` (paths under ``podid_rs/``, e.g.
 ``identification/order.py``) it prints instead the names of those modules' mutants
 not yet run, for ``scripts/mutation.sh --not-run``.
+
+With ``--not-run-of NAME...`` it prints those of the given mutants not yet run.
+With ``--sample N SEED MODULE...`` it draws, for each module, a uniform random sample of
+``N`` of its mutants not yet run (all of them if fewer), with ``random.Random(SEED)``
+over the names in mutmut's order, writes the names to ``SAMPLE`` (replacing the file) and
+prints them, for ``scripts/mutation.sh --sample``. When ``SAMPLE`` exists, the summary
+adds a table of the sample's verdicts per module: the kill rate of the mutants not run
+in full, estimated from the sample, with its 95 % (Wilson) interval.
 """
 
 from __future__ import annotations
 
 import collections
 import json
+import math
 import pathlib
+import random
 import re
 import sys
 
@@ -31,6 +41,7 @@ SURVIVED = {"survived", "no tests", "suspicious"}
 DOCS = pathlib.Path(__file__).resolve().parents[1] / "docs" / "testing.md"
 EQUIVALENT = "<!-- equivalent mutants -->"
 BY_HAND = "<!-- killed by hand -->"
+SAMPLE = pathlib.Path(__file__).resolve().parents[1] / "docs" / "mutation-sample.txt"
 
 
 def verdict(exit_code: int | None) -> str:
@@ -83,6 +94,8 @@ def main() -> None:
     stale += sorted(f"{name} (no such mutant)" for name in equivalent | by_hand)
     if stale:
         print("\nlisted in docs/testing.md but not a survivor:\n  " + "\n  ".join(stale))
+    if SAMPLE.exists():
+        sample_table(equivalent_all=listed_mutants(EQUIVALENT), by_hand=listed_mutants(BY_HAND))
 
 
 def row(name: str, count: collections.Counter[str]) -> str:
@@ -93,6 +106,71 @@ def row(name: str, count: collections.Counter[str]) -> str:
         f"{name:42} {count['killed']:7} {count['survived']:9} {count['equivalent']:7} "
         f"{count['not run']:8} {rate:>10}"
     )
+
+
+def verdicts() -> dict[str, tuple[str, str]]:
+    """Every mutant's module (path under ``podid_rs/``) and verdict."""
+    out = {}
+    for meta in sorted(pathlib.Path("mutants/src").rglob("*.py.meta")):
+        module = str(meta.relative_to("mutants/src/podid_rs"))[: -len(".meta")]
+        for name, code in json.loads(meta.read_text())["exit_code_by_key"].items():
+            out[name] = (module, verdict(code))
+    return out
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval of a binomial proportion k / n (95 % for z = 1.96)."""
+    if n == 0:
+        return 0.0, 1.0
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def sample_table(equivalent_all: set[str], by_hand: set[str]) -> None:
+    """Killed, survived, equivalent and not yet run among the sampled mutants, per module,
+    and the kill rate of the non-equivalent ones with its 95 % interval."""
+    names = [line.split()[0] for line in SAMPLE.read_text().splitlines()
+             if line.strip() and not line.startswith("#")]  # fmt: skip
+    by_name = verdicts()
+    count: dict[str, collections.Counter[str]] = collections.defaultdict(collections.Counter)
+    for name in names:
+        if name not in by_name:
+            continue
+        module, v = by_name[name]
+        if name in by_hand and v == "survived":
+            v = "killed"
+        count[module]["sampled"] += 1
+        count[module][v] += 1
+        if name in equivalent_all and v == "survived":
+            count[module]["equivalent"] += 1
+    print(f"\nsample ({SAMPLE.name}): mutants not run in full, drawn at random per module")
+    print(f"{'module':42} {'sampled':>8} {'killed':>7} {'survived':>9} {'equiv.':>7} "
+          f"{'not run':>8} {'kill rate (95 % interval)':>27}")  # fmt: skip
+    for module in sorted(count):
+        c = count[module]
+        judged = c["killed"] + c["survived"] - c["equivalent"]
+        if judged:
+            lo, hi = wilson(c["killed"], judged)
+            rate = f"{100 * c['killed'] / judged:.1f} % ({100 * lo:.0f}-{100 * hi:.0f} %)"
+        else:
+            rate = "-"
+        print(f"{'podid_rs/' + module:42} {c['sampled']:8} {c['killed']:7} {c['survived']:9} "
+              f"{c['equivalent']:7} {c['not run']:8} {rate:>27}")  # fmt: skip
+
+
+def sample(size: int, seed: int, modules: list[str]) -> None:
+    """Draw and record ``size`` not-yet-run mutants per module, uniformly at random."""
+    rng = random.Random(seed)
+    lines = [f"# scripts/mutation.sh --sample {size} {seed} {' '.join(modules)}"]
+    for module in modules:
+        meta = pathlib.Path("mutants/src/podid_rs") / f"{module}.meta"
+        pending = [name for name, code in json.loads(meta.read_text())["exit_code_by_key"].items()
+                   if code is None]  # fmt: skip
+        lines += rng.sample(pending, min(size, len(pending)))
+    SAMPLE.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines[1:]))
 
 
 def not_run(modules: list[str]) -> None:
@@ -107,5 +185,12 @@ def not_run(modules: list[str]) -> None:
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--not-run"]:
         not_run(sys.argv[2:])
+    elif sys.argv[1:2] == ["--not-run-of"]:
+        pending = {name for name, (_, v) in verdicts().items() if v == "not run"}
+        for name in sys.argv[2:]:
+            if name in pending:
+                print(name)
+    elif sys.argv[1:2] == ["--sample"]:
+        sample(int(sys.argv[2]), int(sys.argv[3]), sys.argv[4:])
     else:
         main()

@@ -18,6 +18,7 @@ import scipy.linalg
 
 import podid_rs as pr
 from podid_rs.identification import ConvergenceWarning
+from podid_rs.identification.lines import informative_lines
 from podid_rs.identification.order import HOLDOUT, final_fit, sweep_orders
 from podid_rs.identification.refinement import db_errors
 
@@ -79,6 +80,42 @@ def test_db_error_of_known_ratios():
 
 
 # --- a long test: the sweep fits the informative lines only ----------------------------
+
+
+def four_blocks(*blocks: np.ndarray) -> np.ndarray:
+    """(4000, 1, 1) responses made of four 1000-line blocks of |U| (phase 0)."""
+    return np.concatenate(blocks)[:, None, None].astype(complex)
+
+
+def test_the_line_budget_is_spent_to_the_line():
+    # target 17 on 4000 lines: 4 blocks of 1000 lines keep one line each, and the other 13
+    # go to the blocks above the median activity in proportion to the excess. Blocks 1 and
+    # 3 rise by ln|U| = 5 (activity 5, excess 2.5 each), blocks 0 and 2 are flat: 6 each,
+    # then the odd line to the first; their peak and dip are their end lines, on the grid
+    flat, rise = np.ones(1000), np.exp(np.linspace(0.0, 5.0, 1000))
+    keep = informative_lines(four_blocks(flat, rise, flat, rise), target=17)
+    assert keep.sum() == 17
+    assert [int(keep[a:a + 1000].sum()) for a in range(0, 4000, 1000)] == [1, 8, 1, 7]
+    assert np.array_equal(np.flatnonzero(keep[1000:2000]) + 1000,
+                          np.linspace(1000, 1999, 8).round().astype(int))
+
+
+def test_a_block_keeps_its_peak_and_its_dip():
+    # one active block (a peak of 1e3 at line 1777 and a dip of 1e-3 at 1234 on |U| = 1)
+    # takes the whole budget of 12: 13 evenly spaced lines (neither 1234 nor 1777 among
+    # them) and the peak and the dip
+    active = np.ones(1000)
+    active[234], active[777] = 1e-3, 1e3
+    flat = np.ones(1000)
+    keep = informative_lines(four_blocks(flat, active, flat, flat), target=16)
+    grid = np.linspace(1000, 1999, 13).round().astype(int)
+    assert 1234 not in grid and 1777 not in grid
+    assert keep[1234] and keep[1777]
+    assert np.array_equal(np.flatnonzero(keep[1000:2000]) + 1000,
+                          np.sort(np.concatenate([grid, [1234, 1777]])))
+    # the flat blocks keep their first line, and the band's last line is always kept
+    assert np.array_equal(np.flatnonzero(keep[:1000]), [0])
+    assert np.array_equal(np.flatnonzero(keep[2000:]) + 2000, [2000, 3000, 3999])
 
 
 def test_lines_left_out_of_a_thinned_sweep_do_not_reach_the_fit(chain_frf, monkeypatch):
@@ -201,6 +238,13 @@ def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(ch
     assert objectives == ["complex", "log-magnitude"]
     passes = model.info["refinement"]["final_refit"]["passes"]
     assert [p["pass"] for p in passes] == ["complex refit", "log-magnitude refit"]
+    # the reason quotes the median errors it decided on, over every line
+    kept = model.info["refinement"]["final_refit"]
+    if kept["kept"] == "log-magnitude refit":
+        assert f"→ {kept['db_all_lines'][0]:.2f} dB; 95th percentile" in kept["reason"]
+    else:
+        assert (f"; the log-magnitude refit did not lower it ({kept['db_all_lines'][0]:.2f} → "
+                f"{passes[1]['db_after'][0]:.2f} dB)") in kept["reason"]
     objectives.clear()
     final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5, log_magnitude=False)
     assert objectives == ["complex"]
@@ -404,3 +448,25 @@ def test_each_damping_ratio_at_a_residual_peak_is_tried_on_its_own():
         added += zip(modes.frequencies_hz[new], modes.damping_ratios[new], strict=True)
     assert any(f == pytest.approx(30.0, rel=1e-9) and z == pytest.approx(0.03, rel=1e-9)
                for f, z in added)
+
+
+def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_it():
+    # one step from the held-out fit of noisy data (2 % on every DOF) barely moves the
+    # model: neither pass lowers the median error over every line, and the reason quotes
+    # the median the log-magnitude refit failed to lower and the one it reached
+    chain = pr.mass_spring_chain(5)
+    w = 2 * np.pi * np.linspace(10.0, 200.0, 120)
+    F_n = np.zeros((w.size, 5, 1), dtype=complex)
+    F_n[:, 1, 0] = 1.0
+    rng = np.random.default_rng(0)
+    U_n = chain.response(w, F_n) * (1 + 0.02 * rng.standard_normal((w.size, 5, 1)))
+    P = pr.pod_from_frf(U_n, w)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+        model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=1)
+    kept = model.info["refinement"]["final_refit"]
+    log = kept["passes"][1]
+    assert kept["kept"] == "held-out fit" and log["db_after"][0] >= kept["db_all_lines"][0]
+    assert (f"; the log-magnitude refit did not lower it ({kept['db_all_lines'][0]:.2f} → "
+            f"{log['db_after'][0]:.2f} dB)") in kept["reason"]

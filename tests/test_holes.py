@@ -30,7 +30,7 @@ import pytest
 
 import podid_rs as pr
 from podid_rs.identification import ConvergenceWarning
-from podid_rs.identification.holes import measured_metric, measured_targets
+from podid_rs.identification.holes import check_measured, measured_metric, measured_targets
 from podid_rs.identification.latent import observation_matrix
 from podid_rs.identification.refinement import StartWarning, db_errors, refine
 from podid_rs.io.npz import load_data, save_data
@@ -104,6 +104,50 @@ def test_targets_are_rt_u_when_complete_and_least_squares_with_holes():
         rows = mask[:, j]
         expected = np.linalg.lstsq(R[rows], U[:, rows, j].T, rcond=None)[0].T
         assert rel(Y[:, :, j], expected) < 1e-10
+
+
+def test_the_targets_scale_with_the_basis_and_are_zero_where_it_sees_nothing():
+    # least squares is invariant under the basis's scale: the targets of c·R are those of
+    # R over c, also for c = 1e-7, where Rᵀ diag(mask) R has eigenvalues near 1e-14 (the
+    # rank threshold is relative to the largest); and where the basis has no weight on the
+    # measured entries of a load case, the minimum-norm fit is zero, not 0/0
+    rng = np.random.default_rng(3)
+    s, n, p, m = 5, 8, 2, 3
+    R, _ = np.linalg.qr(rng.standard_normal((n, m)))
+    U = rng.standard_normal((s, n, p)) + 1j * rng.standard_normal((s, n, p))
+    mask = random_mask(rng, n, p)
+    Y = measured_targets(U, R, mask)
+    for c in (1e-7, 1e3):
+        assert rel(measured_targets(U, c * R, mask), Y / c) < 1e-8
+    split = np.zeros((n, p), dtype=bool)
+    split[:5, 0] = split[5:, 1] = True  # load case 0 measures DOFs 0-4, load case 1 the rest
+    blind = R.copy()
+    blind[5:] = 0.0  # the basis sees none of load case 1's measured DOFs
+    Y = measured_targets(U, blind, split)
+    assert np.all(np.isfinite(Y)) and np.all(Y[:, :, 1] == 0)
+    rows = split[:, 0]
+    expected = np.linalg.lstsq(blind[rows], U[:, rows, 0].T, rcond=None)[0].T
+    assert rel(Y[:, :, 0], expected) < 1e-10
+
+
+def test_the_constant_is_the_misfit_of_the_measured_entries_at_the_targets():
+    # the part of the cost no model changes: Σ w² Σ_n mask |(R y)_n − u_n|² at the
+    # targets y; the data are small (|u| ~ 1e-3) so that it is far below one
+    rng = np.random.default_rng(4)
+    s, n, p, m = 6, 9, 3, 4
+    R, _ = np.linalg.qr(rng.standard_normal((n, m)))
+    U = 1e-3 * (rng.standard_normal((s, n, p)) + 1j * rng.standard_normal((s, n, p)))
+    mask = random_mask(rng, n, p)
+    U[:, ~mask] = 0.0
+    w = rng.random(s * p) + 0.5
+    _, Y, const = measured_metric(w, R, U, mask)
+    misfit = np.abs(np.einsum("nm,smp->snp", R, Y) - U) ** 2
+    direct = float(np.sum(w.reshape(s, p)[:, None, :] ** 2 * mask[None] * misfit))
+    assert 0 < direct < 1e-3
+    assert const == pytest.approx(direct, rel=1e-8)
+    # data in the range of the basis on the measured entries leave nothing: 0 up to round-off
+    _, _, zero = measured_metric(w, R, np.einsum("nm,smp->snp", R, Y) * mask[None], mask)
+    assert zero < 1e-12 * direct
 
 
 def test_db_errors_count_measured_entries_only():
@@ -190,6 +234,21 @@ def test_a_mask_needs_a_basis_and_the_data_shape():
 
 
 # ------------------------------------------------------------------ the pipeline
+
+
+def test_a_load_case_with_no_measured_entry_is_named():
+    # every DOF is measured in another load case, so only the load-case check can refuse it
+    mask = np.ones((4, 3), dtype=bool)
+    mask[:, 1] = False
+    with pytest.raises(ValueError, match=r"^load case\(s\) \[1\] have no measured response: "
+                       r"there is nothing to fit them to; leave them out$"):
+        check_measured(mask, 4, 3)
+    mask = np.ones((4, 3), dtype=bool)
+    mask[1] = False
+    with pytest.raises(ValueError, match=r"^measured DOF\(s\) \[1\] are not measured in any "
+                       r"load case: leave them out of the data$"):
+        check_measured(mask, 4, 3)
+    assert check_measured(np.ones((4, 3), dtype=bool), 4, 3) is None
 
 
 def test_the_order_sweep_fits_every_load_case_and_predicts_the_holes():

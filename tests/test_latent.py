@@ -128,6 +128,60 @@ def test_latent_starts_add_the_mode_the_model_lacks():
     assert latent_starts(exact, data.U, data.forces_on_dofs(), data.omega, R4, w) == []
 
 
+@pytest.mark.parametrize("f1_hz, mu", [(10.0, 0.25), (1.0, 0.75e8)])
+def test_a_latent_mode_on_a_candidate_is_found_exactly(f1_hz, mu):
+    """One observed DOF (unit mass, its mode at ``f1_hz``, 2 % damping) driven at itself,
+    and data with one more mode of modal mass ``mu`` on a latent coordinate: 1 % damping at
+    0.3 % above the 50 Hz line, one of the frequencies and dampings the starts try
+    (PEAK_OFFSETS, PEAK_ZETAS). The residual is exactly that mode's response, so the best
+    start fits the data to round-off, with the mode's frequency, damping and mass — the
+    mass also when it is 0.75e8 times the model's, below the limit of 1e8."""
+    from podid_rs.identification.latent import MAX_MASS_RATIO, PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta = omega[i] * (1 + PEAK_OFFSETS[2]), PEAK_ZETAS[2]
+    assert mu <= MAX_MASS_RATIO
+    w1 = 2 * np.pi * f1_hz
+    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
+    U = (1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
+         + 1 / (mu * (wc**2 - omega**2 + 2j * zeta * wc * omega)))[:, None, None]
+    F = np.ones_like(U)
+    R = np.eye(1)
+    starts = latent_starts(model, U, F, omega, R, np.ones((omega.size, 1)))
+    cost, start, name = min(starts, key=lambda c: c[0])
+    base = float(np.sum(np.abs(U - model_response(model, omega)) ** 2))
+    assert cost < 1e-12 * base
+    assert name == f"latent DOF at {wc / (2 * np.pi):.4g} Hz"
+    # the start's response at the observed DOF is the data's
+    F2 = np.zeros((omega.size, 2, 1))
+    F2[:, 0, 0] = 1.0
+    X = pr.SecondOrderSystem(*start).response(omega, F2)[:, :1, :]
+    assert np.max(np.abs(X - U)) < 1e-8 * np.max(np.abs(U))
+    assert np.max(np.abs(X - U)) < 1e-6 * np.max(np.abs(U - model_response(model, omega)))
+    # the starts tried: the peak, and the residual term above the band (the one below
+    # would need a negative modal mass: its response has the other sign in the band)
+    assert [n for _, _, n in starts] == [name, "latent DOF: residual term above the band"]
+
+
+def test_no_start_for_a_model_that_reproduces_the_data_to_round_off():
+    """Data 1e-11 off the model (a cost 1e-22 of the data's): nothing is left to add,
+    although the model's heavy latent DOF (10⁶ kg) makes a mode of mass 10¹¹ — enough to
+    fit such a residual — acceptable (below MAX_MASS_RATIO × 10⁶)."""
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    w1 = 2 * np.pi * 1.0
+    model = (np.diag([1.0, 1e6]), np.diag([2 * 0.02 * w1, 1e3]), np.diag([w1**2, 1e9]))
+    R = np.array([[1.0, 0.0]])  # the second coordinate is latent
+    U = model_response(model, omega) * (1 + 1e-11)
+    assert latent_starts(model, U, np.ones_like(U), omega, R, np.ones((omega.size, 1))) == []
+
+
+def model_response(model, omega):
+    """The receptance of the model's first DOF driven at itself (uncoupled DOFs), (s, 1, 1)."""
+    M, C, K = (float(X[0, 0]) for X in model)
+    return (1 / (K - M * omega**2 + 1j * omega * C))[:, None, None]
+
+
 def test_the_sweep_goes_past_one_sensor_and_finds_every_mode():
     chain, data = chain_data(12, [0], np.arange(5.0, 150.25, 0.25), noise=0.02)
     truth = pr.modal_parameters(chain)

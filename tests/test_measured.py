@@ -168,3 +168,20 @@ def test_is_frf_only_for_unit_forces_one_case_per_driven_dof(chain_frf):
     F = np.broadcast_to(np.eye(n_in), (s, n_in, n_in)).copy()
     F[7] *= 2.0
     assert not measured.MeasuredData(chain_frf.omega, chain_frf.U, F, None, [0, 3]).is_frf
+
+
+def test_a_band_from_zero_is_a_band_and_an_empty_one_is_refused():
+    freq = np.arange(0.0, 11.0)
+    assert measured.band_lines(freq, (0.0, 3.0)).tolist() == [True] * 4 + [False] * 7
+    for band in [(5.0, 5.0), (6.0, 5.0), (-1.0, 5.0)]:
+        with pytest.raises(ValueError, match=r"^band_hz must be a pair \(lo, hi\) in Hz with "
+                           r"0 <= lo < hi, got "):
+            measured.band_lines(freq, band)
+
+
+def test_projection_names_a_basis_that_is_not_real():
+    chain = mass_spring_chain(3)
+    omega = 2 * np.pi * np.linspace(5.0, 100.0, 20)
+    data = from_frf(chain.frf(omega)[:, :, [0]], omega, inputs=[0])
+    with pytest.raises(ValueError, match=r"^R must be real"):
+        data.project(np.eye(3, 2) * 1j)

@@ -334,6 +334,27 @@ def test_time_history_npz_file(tmp_path):
         load_data(tmp_path / "half.npz")
 
 
+
+def test_a_time_history_npz_file_keeps_its_estimator_and_names_what_it_lacks(tmp_path):
+    system = mass_spring_chain(4)
+    sim = simulate_white_noise(system, band_hz=(5.0, 100.0), dt=1 / 256, duration=2.0, seed=0)
+    path = tmp_path / "spectra.npz"
+    np.savez(path, forces=sim.forces, responses=sim.response, dt=sim.dt, estimator="spectra")
+    data = load_data(path, band_hz=(5.0, 100.0))
+    direct = from_time_histories(sim.forces, sim.response, sim.dt, estimator="spectra",
+                                 band_hz=(5.0, 100.0))
+    assert np.array_equal(data.U, direct.U) and np.array_equal(data.F, direct.F)
+    half = tmp_path / "half.npz"
+    np.savez(half, forces=sim.forces, dt=sim.dt)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a time-history file "
+                       r"needs the arrays \['responses'\] \(found \['dt', 'forces'\]\)$"):
+        load_data(half)
+    np.savez(half, omega=data.omega, U=data.U)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a measured data set "
+                       r"needs the arrays \['F'\] \(found \['U', 'omega'\]\)$"):
+        load_data(half)
+
+
 # ----------------------------------------------------------------- data and .npz
 
 

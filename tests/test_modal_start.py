@@ -272,3 +272,19 @@ def test_the_final_fit_quotes_the_medians_it_decided_on():
     assert kept["kept"] == "complex refit" and after[0] <= before[0]
     assert f"over every line ({before[0]:.2f} → {after[0]:.2f} dB)" in kept["reason"]
     assert f"{before[1]:.2f}" != f"{before[0]:.2f}" and f"{after[1]:.2f}" != f"{after[0]:.2f}"
+
+
+def test_residues_at_the_poles_are_exact_and_a_line_without_response_weighs_nothing():
+    # U = Σ_k r_k / (w_k² − ω² + 2i ζ_k w_k ω) on one DOF and load case, with one line lost
+    # (zero, a drop-out): the least-squares residues are r_k (1e-10), the lost line weighs
+    # nothing — relative weights would make it infinite
+    from podid_rs.identification.modal_start import _residues
+
+    omega = 2 * np.pi * np.linspace(5.0, 100.0, 60)
+    wk, zk, r = 2 * np.pi * np.array([20.0, 60.0]), np.array([0.02, 0.01]), np.array([3.0, -1.5])
+    den = wk[None, :] ** 2 - omega[:, None] ** 2 + 2j * (zk * wk)[None, :] * omega[:, None]
+    U = (r[None, :] / den).sum(axis=1)[:, None, None]
+    U[17] = 0.0
+    got = _residues(U, omega, wk, zk, None)
+    assert got.shape == (2, 1, 1) and np.all(np.isfinite(got))
+    assert np.max(np.abs(got[:, 0, 0] - r)) < 1e-10 * np.max(np.abs(r))

@@ -127,3 +127,32 @@ def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):
     # each pass is kept only if it lowers the median over every line
     for p in fr["passes"]:
         assert (fr["kept"] == p["pass"]) <= (p["db_after"][0] <= p["db_before"][0])
+
+
+def test_the_sweep_stops_after_patience_orders_without_progress():
+    """A 6-DOF chain with 3 % noise on every DOF, force at DOF 1: the held-out error last
+    drops by more than PROGRESS_STEP at some order, and then each unit of patience (up
+    to LATENT_PATIENCE past the observed DOFs) fits exactly one more order."""
+    import warnings
+
+    from podid_rs.identification.order import PROGRESS_STEP
+
+    chain = pr.mass_spring_chain(6)
+    w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
+    F_n = np.zeros((w.size, 6, 1), dtype=complex)
+    F_n[:, 1, 0] = 1.0
+    rng = np.random.default_rng(0)
+    U_n = chain.response(w, F_n) * (1 + 0.03 * rng.standard_normal((w.size, 6, 1)))
+    P = pr.pod_from_frf(U_n, w)
+    counts = []
+    for patience in (1, 2, 3):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sweep = sweep_orders(U_n, F_n, w, P, patience=patience, threads=1)
+        test = [f.test_db for f in sweep.fits]
+        last = len(test) - patience - 1  # the last order with progress
+        assert test[last] < min(test[:last]) * (1 - PROGRESS_STEP)
+        assert all(t >= min(test[:last + 1 + k]) * (1 - PROGRESS_STEP)
+                   for k, t in enumerate(test[last + 1:]))
+        counts.append(len(test))
+    assert counts[1] == counts[0] + 1 and counts[2] == counts[0] + 2

@@ -61,6 +61,8 @@ def test_mac_definition_and_invariances():
         (np.ones((4, 2)), np.zeros((4, 2)), "B column 0 is zero"),
         (np.ones((4, 0)), np.ones((4, 2)), "non-empty"),
         (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
+        (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
+        (np.ones((4, 2)), np.ones((4, 2, 2)), r"non-empty \(n, k\) arrays, got \(4, 2\) and"),
     ],
 )
 def test_mac_bad_input_is_named(A, B, message):
@@ -185,6 +187,12 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
     assert "structural" not in mode_kinds(shapes, w, U, [0], visible_fraction=1e6)
     with pytest.raises(ValueError, match="U needs inputs"):
         mode_kinds(shapes, w, U)
+    # the lines as a column are the same lines
+    assert np.array_equal(mode_kinds(shapes, w[:, None], U, [0]), mode_kinds(shapes, w, U, [0]))
+    # a selection keeps the modes' numbers: the in-band ones of five are 1-4
+    band = shapes.in_band((20.0, 150.0))
+    assert band.mode_numbers.tolist() == [1, 2, 3, 4]
+    assert band.select(np.array([False, True, False, True])).mode_numbers.tolist() == [2, 4]
 
 
 def test_a_pole_where_the_data_have_no_peak_is_weak():
@@ -225,3 +233,44 @@ def test_a_zero_eigenvalue_has_zero_damping_ratio():
         warnings.simplefilter("error")
         zeta = shapes.damping_ratios
     np.testing.assert_allclose(zeta, [0.0, 1 / np.sqrt(2)], rtol=1e-15)
+
+
+def _pole_on_a_grid(half: float, level, lower: int = 40, upper: int = 40):
+    """|U| = level(d) at the lines w = 100 + d (d = -lower..upper, spacing 1 rad/s) around
+    the pole -half + 100j, as one measured entry."""
+    d = np.arange(-lower, upper + 1)
+    return 100.0 + d, np.array([[level(abs(k), k)] for k in d]), complex(-half, 100.0)
+
+
+@pytest.mark.parametrize(
+    "half, level, upper",
+    [
+        # half-power band 2 rad/s: the ring is 6 to 20 rad/s away on each side; its lines
+        # 6-14 at 1 and 15-20 at 0.01 have the median 1 (the ring starts at 6, not 9)
+        (1.0, lambda a, k: 1.5 if a <= 1 else (1.0 if a < 15 else 0.01), 40),
+        # a pole sharper than the lines: the ring is 2 to 6 lines away (not 7); lines 2-4
+        # at 1 and 5-7 at 0.01 leave the median 1
+        (0.1, lambda a, k: 1.5 if a == 0 else (1.0 if a < 5 else 0.01), 40),
+        # the ring at 1 on both sides, every line beyond it on the upper side at 0.01:
+        # those lines are no part of the ring
+        (1.0, lambda a, k: 1.5 if a <= 1 else (1.0 if a <= 20 else 0.01), 200),
+    ],
+)
+def test_a_pole_rising_less_than_twice_its_ring_is_no_peak_of_the_data(half, level, upper):
+    from podid_rs.modes import PEAK_RISE, _data_peak
+
+    assert PEAK_RISE == 2.0
+    w, Ua, lam = _pole_on_a_grid(half, level, upper=upper)
+    assert not _data_peak(w, Ua, np.array([True]), lam)  # 1.5 < 2 × 1
+    # the same pole rising to 2.5 is a peak, and an entry not measured shows none
+    Ua[np.abs(w - 100.0) <= max(half, 0.5)] = 2.5
+    assert _data_peak(w, Ua, np.array([True]), lam)
+    assert not _data_peak(w, Ua, np.array([False]), lam)
+
+
+def test_a_mode_the_sensors_do_not_see_is_refused():
+    # two uncoupled DOFs, the sensor on the first: the second's mode is 0 on it
+    model = SecondOrderSystem(np.eye(2), np.diag([0.1, 0.2]), np.diag([100.0, 400.0]))
+    with pytest.raises(ValueError, match=r"^a mode has no component on the measured DOFs "
+                       r"\(R ψ = 0\)$"):
+        mode_shapes(model, np.array([[1.0, 0.0]]))

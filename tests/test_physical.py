@@ -145,6 +145,32 @@ def test_exact_identification_reproduces_the_true_modes_in_the_table():
     assert len(csv_text.splitlines()) == 7
 
 
+def test_the_table_reports_the_frequency_error_against_the_truth_and_checks_the_kinds():
+    # undamped: K × 1.21 puts every natural frequency 10 % above the truth's
+    chain = mass_spring_chain(3)
+    truth = SecondOrderSystem(chain.M, np.zeros((3, 3)), chain.K)
+    model = SecondOrderSystem(chain.M, np.zeros((3, 3)), 1.21 * chain.K)
+    rows = modal_table(model, truth=truth)
+    assert [r["f_rel_error"] for r in rows] == pytest.approx([0.1] * 3, rel=1e-9)
+    assert [r["f_hz"] / r["f_true_hz"] for r in rows] == pytest.approx([1.1] * 3, rel=1e-9)
+    with pytest.raises(ValueError, match=r"^kinds has 2 entries for 3 modes$"):
+        modal_table(model, kinds=np.array(["structural", "weak"]))
+
+
+def test_the_markdown_of_two_rows():
+    rows = [{"mode": 1, "f_hz": 10.123456, "stable": "yes"},
+            {"mode": 2, "f_hz": 20.0, "stable": "no"}]
+    assert table_markdown(rows) == ("| mode | f_hz | stable |\n|---|---|---|\n"
+                                    "| 1 | 10.12 | yes |\n| 2 | 20 | no |\n")
+    assert table_markdown([]) == "(no modes)\n"
+
+
+def test_the_csv_of_one_row_and_of_none():
+    rows = [{"mode": 1, "f_hz": 10.5, "stable": True}]
+    assert table_csv(rows) == "mode,f_hz,stable\n1,10.5,True\n"
+    assert table_csv([]) == ""
+
+
 def test_modal_parameters_refuse_other_objects():
     with pytest.raises(ValueError, match="SecondOrderSystem"):
         modal_parameters(np.eye(2))

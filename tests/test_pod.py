@@ -518,3 +518,11 @@ def test_correlation_from_snapshots_refusals():
         correlation_from_snapshots(np.ones((3, 2)) + 1j)
     np.testing.assert_array_equal(correlation_from_snapshots(np.array([[1.0, 2.0]])),
                                   [[1.0, 2.0], [2.0, 4.0]])
+
+
+def test_pod_from_correlation_names_its_argument():
+    with pytest.raises(ValueError, match=r"^Ruu is identically zero: there is no energy to "
+                       r"decompose$"):
+        pod_from_correlation(np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"^Ruu "):
+        pod_from_correlation(np.full((3, 3), np.nan))

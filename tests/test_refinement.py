@@ -462,5 +462,24 @@ def test_progress_true_draws_the_refinement_on_a_terminal(monkeypatch):
     last = text[:-1].split("\r")[-1].rstrip()
     cost = res.info["refinement"]["cost"]
     assert last.startswith("output error: ")
-    assert f"| {res.iterations}/40 [" in last and "step/s" in last
+    # the rate in the bar's unit: steps a second, or seconds a step when a step took longer
+    # than a second (a starved process: the mutation run is niced on a shared machine)
+    assert f"| {res.iterations}/40 [" in last and ("step/s" in last or "s/step" in last)
     assert last.endswith(f"cost {cost:.4g}]")
+
+
+def test_column_weights_with_a_basis_are_column_weights():
+    # with a basis, weights of shape (s, p) (one per line and load case; here p = 1, n = 8)
+    # are not per-entry weights: ones are the uniform weighting, the same model bit for bit
+    chain, U_n, F_n, w = _entry_data(noise=0.02)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    U, F = np.einsum("nm,snp->smp", R, U_n), np.einsum("nm,snp->smp", R, F_n)
+    start = pr.identify(U, F, w, symmetric=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        ones = refine(start, U_n, F_n, w, basis=R, weights=np.ones((w.size, 1)), max_iter=3,
+                      threads=1)
+        uniform = refine(start, U_n, F_n, w, basis=R, weights="uniform", max_iter=3, threads=1)
+    for k in "MCK":
+        assert np.array_equal(getattr(ones, k), getattr(uniform, k))

@@ -226,6 +226,26 @@ def test_h1_invalid_input():
         frf_h1(x, x, DT, window="no-such-window")
 
 
+def test_h1_names_the_history_of_the_wrong_shape():
+    x = np.random.default_rng(0).standard_normal((1000, 3))
+    with pytest.raises(ValueError, match=r"^forces must have shape \(r, n\)"):
+        frf_h1(x[:, 0], x, DT)
+    with pytest.raises(ValueError, match=r"^responses must have shape \(r, n\)"):
+        frf_h1(x, x[:, 0], DT)
+
+
+def test_h1_needs_only_as_many_segments_as_inputs():
+    # responses y = G x sample by sample: every segment's spectra satisfy Y = G X, so
+    # H1 = S_yx S_xx⁻¹ = G on every line once S_xx has full rank — two segments (12
+    # samples, nperseg 8, step 4) for two inputs
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((12, 2))
+    G = np.array([[1.0, -2.0], [0.5, 3.0], [4.0, 0.0]])
+    omega, H = frf_h1(x, x @ G.T, DT, nperseg=8)
+    assert omega.size == 4 and H.shape == (4, 3, 2)
+    assert np.max(np.abs(H - G)) < 1e-10 * np.max(np.abs(G))
+
+
 def test_non_reciprocal_system_simulates():
     S = np.triu(np.ones((4, 4)), 1)
     system = SecondOrderSystem(SYSTEM.M, SYSTEM.C, SYSTEM.K + 1000 * (S - S.T))

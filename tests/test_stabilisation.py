@@ -158,3 +158,71 @@ def test_pole_marks_at_their_boundaries_and_the_charts_band(chain_data):
     _, data = chain_data
     chart = stabilisation_chart(data, 2)
     assert chart.band_hz == (data.freq_hz[0], data.freq_hz[-1]) == (1.0, 200.0)
+
+
+def test_a_chart_without_orders_writes_its_header_alone(tmp_path):
+    from podid_rs.stabilisation import StabilisationChart
+
+    chart = StabilisationChart((), np.array([1.0, 2.0]), np.ones(2), True, 0.01, 0.05)
+    assert chart.rows() == []
+    assert chart.to_csv(tmp_path / "empty.csv").read_bytes() == b"m\r\n"  # csv ends rows with CR LF
+
+
+def test_the_rows_of_a_chart_by_hand():
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import StabilisationChart, StabilisationOrder
+
+    lam = np.array([-1.0 + 5.0j, 0.0 + 7.0j, -3.0 + 0.0j])
+    modes = ModalParameters(lam, np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam), 0)
+    order = StabilisationOrder(3, model_with_modes([1.0, 2.0, 3.0], 0.01), modes, True,
+                               np.array([True, False, True]), np.array([False, False, True]))
+    chart = StabilisationChart((order,), np.array([0.5, 1.0]), np.ones(2), True, 0.01, 0.05,
+                               chosen_m=3)
+    rows = chart.rows()
+    assert list(rows[0]) == ["m", "mode", "f_hz", "zeta", "re_lambda", "im_lambda", "stable",
+                             "physical", "consistent_f", "consistent", "real_pole", "in_band",
+                             "chosen"]
+    assert [r["mode"] for r in rows] == [1, 2, 3]
+    assert [r["im_lambda"] for r in rows] == [5.0, 7.0, 0.0]
+    assert [r["re_lambda"] for r in rows] == [-1.0, 0.0, -3.0]
+    assert [r["stable"] for r in rows] == [True, False, True]
+    assert [r["consistent_f"] for r in rows] == [True, False, True]
+    assert [r["consistent"] for r in rows] == [False, False, True]
+    assert [r["real_pole"] for r in rows] == [False, False, True]
+    # f = |λ| / 2π: 0.81, 1.11 and 0.48 Hz against the band 0.5-1 Hz
+    assert [r["in_band"] for r in rows] == [True, False, False]
+    assert all(r["chosen"] and r["physical"] and r["m"] == 3 for r in rows)
+
+
+def test_damping_may_be_semidefinite_to_the_tolerance_of_its_largest_eigenvalue():
+    from dataclasses import replace
+
+    from podid_rs.stabilisation import PHYSICAL_RTOL
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert is_physical(replace(good, C=np.diag([1.0, 0.0])))  # one undamped direction
+    assert is_physical(replace(good, C=np.diag([1.0, -0.5 * PHYSICAL_RTOL])))
+    assert not is_physical(replace(good, C=np.diag([1.0, -2.0 * PHYSICAL_RTOL])))
+
+
+def test_a_pole_at_either_tolerance_exactly_is_consistent():
+    # |1.5 - 1| = 0.5 × 1 Hz and |0.75 - 0.5| = 0.5 × 0.5: both exact in binary
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    def modes(f, z):
+        return ModalParameters(np.array([-1.0 + 1.0j]), np.array([f]), np.array([z]), 0)
+
+    cf, c = _match_previous(modes(1.5, 0.75), modes(1.0, 0.5), 0.5, 0.5)
+    assert cf.tolist() == [True] and c.tolist() == [True]
+    cf, c = _match_previous(modes(1.5, 0.76), modes(1.0, 0.5), 0.5, 0.5)
+    assert cf.tolist() == [True] and c.tolist() == [False]
+
+
+def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_data):
+    _, data = chain_data
+    chart = stabilisation_chart(data, 2, progress=False, chosen_m=2)
+    assert np.array_equal(chart.summed_frf, np.sum(np.abs(data.U), axis=(1, 2)))
+    assert chart.chosen_m == 2
+    with pytest.raises(ValueError, match=r"^chosen_m must be"):
+        stabilisation_chart(data, 2, progress=False, chosen_m=0)

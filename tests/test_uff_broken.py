@@ -124,6 +124,12 @@ def test_a_missing_delimiter_is_refused(beam_bytes):
                                              r"file \(dataset 58, response 3:-3 / reference "
                                              r"10:-3"):
             read_uff(path)
+    # where the run-together text starts: the first line after record 10's end, the
+    # dataset number of the record whose opening delimiter is gone
+    line = damaged[:closing + 7].count(b"\n") + 1
+    with pytest.raises(ValueError, match=rf"from line \d+\): line {line} \('58 +'\) belongs "
+                                         r"to no record, so two records ran together$"):
+        read_uff(path)
 
 
 def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
@@ -311,6 +317,27 @@ def test_labels_that_differ_in_spelling_only_agree(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", DataWarning)
         read_uff(path)
+
+
+def test_how_far_apart_two_records_are_counts_the_lines_both_hold():
+    # the median |dB| over lines 0 and 1 (0 and 20 dB); line 2, where one record is zero,
+    # has no ratio and is not counted
+    from podid_rs.io.uff import _median_db_apart
+
+    assert _median_db_apart(np.array([1.0, 10.0, 0.0]), np.array([1.0, 1.0, 5.0])) == 10.0
+    assert _median_db_apart(np.zeros(3), np.ones(3)) == 0.0
+
+
+def test_labels_none_or_empty_are_no_units():
+    # pyuff writes NONE where a file gives no units: such a record is unlabelled (kept
+    # whatever the others say), and a label is normalised (case, spaces, ^ * and brackets)
+    from podid_rs.io.uff import _units
+
+    assert _units({"ordinate_axis_units_lab": "NONE", "orddenom_axis_units_lab": " none "}) is None
+    assert _units({}) is None
+    assert _units({"ordinate_axis_units_lab": "(m/s^2)", "orddenom_axis_units_lab": "NONE"}) \
+        == "m/s2/"
+    assert _units({"ordinate_axis_units_lab": "M", "orddenom_axis_units_lab": "[N]"}) == "m/n"
 
 
 def test_a_tie_between_two_units_is_refused(tmp_path):

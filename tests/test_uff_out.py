@@ -135,6 +135,9 @@ def test_bad_input_is_named(written, tmp_path):
     out = tmp_path / "x.uff"
     with pytest.raises(ValueError, match="no measured-DOF labelling"):
         write_uff(out, result, R)
+    with pytest.raises(ValueError, match=r"^UFF output needs the basis R \(n, m\) that maps "
+                       r"the model to its DOFs$"):
+        write_uff(out, result, None, data)
     with pytest.raises(ValueError, match=r"basis must have shape \(n, m\) with m = 4"):
         write_uff(out, result, R.T, data)
     with pytest.raises(ValueError, match="need both inputs= and omega="):
@@ -154,6 +157,29 @@ def test_bad_input_is_named(written, tmp_path):
     modes = pr.mode_shapes(result, R, data.dofs)
     with pytest.raises(ValueError, match="no dataset 55"):
         pr.plot_mac(modes, source, tmp_path / "mac.png")
+
+
+def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(written, tmp_path):
+    _, data, result, R, _, _ = written
+    out = tmp_path / "x.uff"
+    for extra in ({"inputs": data.inputs}, {"omega": data.omega}, {"dofs": data.dofs}):
+        with pytest.raises(ValueError, match=r"^give data, or dofs / inputs / omega, not both$"):
+            write_uff(out, result, R, data, **extra)
+    with pytest.raises(ValueError, match=r"^geometry's first column must hold distinct integer "
+                       r"node numbers$"):
+        write_uff(out, result, R, data, geometry=np.r_[GEOMETRY[:1], GEOMETRY])
+    assert not out.exists()
+
+
+def test_velocity_frfs_are_the_receptances_times_i_omega(written, tmp_path):
+    _, data, result, R, _, _ = written
+    path = write_uff(tmp_path / "v.uff", result, R, data, quantity="velocity", binary=True)
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    H = identified_frf(result, R, data) * (1j * data.omega)[:, None, None]
+    got = {(d["rsp_node"], d["ref_node"]): d["data"] for d in s58}
+    assert np.max(np.abs(got[(4, 5)] - H[:, 3, 1])) <= 1e-12 * np.max(np.abs(H[:, 3, 1]))
+    assert uff_quantity(path) == "velocity"
+    assert all(d["id1"] == "FRF" for d in s58) and len(s58) == 12
 
 
 def test_mac_figure_against_the_written_file(written, tmp_path):
