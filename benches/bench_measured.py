@@ -201,6 +201,8 @@ def run_high_resolution() -> tuple[list[list[str]], list[str]]:
         f"noise-free FRFs {ours_truth[0] / peer_truth[0]:.2f}× the peer's, against the "
         f"measured ones {ours['median'] / peer['median']:.2f}× (target ≤ 0.5); final fit: "
         f"{fr['reason']}",
+        "- high resolution: identify's phases: " + ", ".join(
+            f"{name} {seconds:.2f} s" for name, seconds in ours["phases"].items()),
     ]
     return rows, summary
 
