@@ -5,7 +5,9 @@ Asserted: the observation matrix is [R_p, 0] and malformed bases are refused; th
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
 order sweep goes past the single sensor, recovers every in-band mode of a 6-mode chain
-from a noisy driving-point FRF (f within 0.1 %, ζ within 10 %); an order the data
+from a noisy driving-point FRF (f within 0.1 %, ζ within 10 %); the last observed order
+is run to convergence before latent orders are weighed, a latent order counts only where it
+gains ``PROGRESS_STEP``, and a chain measured at every DOF keeps its order; an order the data
 cannot determine is refused with the limit named; what is written downstream (mode
 shapes, state space, UFF) is the model's response on the measured DOFs.
 """
@@ -25,7 +27,13 @@ from podid_rs.identification.latent import (
     latent_starts,
     observed_count,
 )
-from podid_rs.identification.order import order_limit, sweep_orders
+from podid_rs.identification.order import (
+    PROGRESS_STEP,
+    OrderFit,
+    counted_orders,
+    order_limit,
+    sweep_orders,
+)
 
 
 def chain_data(n_mass: int, points: list[int], f_hz: np.ndarray, noise: float = 0.0, seed=0):
@@ -202,6 +210,37 @@ def test_the_sweep_goes_past_one_sensor_and_finds_every_mode():
     exact = chain.response(data.omega, np.eye(12)[None, :, [0]].repeat(data.s, 0))[:, [0], :]
     err = np.abs(20 * np.log10(np.abs(X) / np.abs(exact)))
     assert np.median(err) < 0.05
+
+
+def test_latent_orders_do_not_win_where_every_dof_is_measured():
+    # a 4-mass chain seen at all four DOFs: the model class holds the truth, so latent
+    # coordinates have nothing to add but noise. Weighed against an unconverged m = 4
+    # this seed's sweep chose m = 7 (each latent order gained by its extra steps alone)
+    _, data = chain_data(4, [0, 1, 2, 3], np.arange(5.0, 150.25, 0.25), noise=0.02)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sweep = sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m_max=8)
+    assert [f.m for f in sweep.fits][-1] > 4  # latent orders were tried
+    observed = sweep.fit(4)
+    assert observed.start.endswith("to convergence")
+    assert observed.model.info["refinement"]["converged"]
+    assert sweep.chosen == 4
+
+
+def _order(m: int, test_db: float, observed: int) -> OrderFit:
+    return OrderFit(m=m, model=None, train_db=test_db, test_db=test_db, start="",
+                    stable=True, seconds=0.0, observed=min(m, observed))
+
+
+def test_a_latent_order_counts_only_where_it_gains_the_progress_step():
+    gain = 1 - PROGRESS_STEP
+    fits = [_order(1, 1.0, 2), _order(2, 0.99, 2),  # observed: any gain counts
+            _order(3, 0.99 * gain * 1.001, 2),      # latent, just short of the step
+            _order(4, 0.99 * gain * 0.999, 2),      # latent, just past it
+            _order(5, 0.99 * gain * 0.999 * 0.99, 2)]  # latent, 1 % past the last counted
+    assert [f.m for f in counted_orders(fits)] == [1, 2, 4]
+    # an observed order counts even where it is worse
+    assert [f.m for f in counted_orders([_order(1, 1.0, 3), _order(2, 1.5, 3)])] == [1, 2]
 
 
 def test_an_order_the_data_cannot_determine_is_refused():

@@ -129,14 +129,48 @@ def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):
         assert (fr["kept"] == p["pass"]) <= (p["db_after"][0] <= p["db_before"][0])
 
 
-def test_the_sweep_stops_after_patience_orders_without_progress():
-    """A 6-DOF chain with 3 % noise on every DOF, force at DOF 1: the held-out error last
-    drops by more than PROGRESS_STEP at some order, and then each unit of patience (up
-    to LATENT_PATIENCE past the observed DOFs) fits exactly one more order."""
+def _noisy_chain_sweep(**kwargs):
+    """The order sweep on a 6-DOF chain with 3 % noise on every DOF, force at DOF 1."""
     import warnings
 
+    chain = pr.mass_spring_chain(6)
+    w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
+    F_n = np.zeros((w.size, 6, 1), dtype=complex)
+    F_n[:, 1, 0] = 1.0
+    rng = np.random.default_rng(0)
+    U_n = chain.response(w, F_n) * (1 + 0.03 * rng.standard_normal((w.size, 6, 1)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), threads=1, **kwargs)
+
+
+def test_the_sweep_stops_after_flat_latent_orders():
+    """Past the six observed DOFs the latent orders fit the training lines no better (the
+    chain is all there is): the sweep stops after LATENT_FLAT such orders, well before its
+    patience runs out."""
+    from podid_rs.identification import order
+
+    sweep = _noisy_chain_sweep(patience=10)
+    fits = sweep.fits
+    assert fits[-1].m == 6 + order.LATENT_FLAT
+    for before, after in zip(fits[-order.LATENT_FLAT - 1:-1], fits[-order.LATENT_FLAT:],
+                             strict=True):
+        assert after.latent and after.train_db > (1 - order.PROGRESS_STEP / 3) * before.train_db
+    assert fits[5].train_db < (1 - order.PROGRESS_STEP / 3) * fits[4].train_db
+    assert sweep.chosen == 6
+
+
+def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
+    """A 6-DOF chain with 3 % noise on every DOF, force at DOF 1: the held-out error last
+    drops by more than PROGRESS_STEP at some order, and then each unit of patience (up
+    to LATENT_PATIENCE past the observed DOFs) fits exactly one more order (the stop on
+    flat latent orders switched off)."""
+    import warnings
+
+    from podid_rs.identification import order
     from podid_rs.identification.order import PROGRESS_STEP
 
+    monkeypatch.setattr(order, "LATENT_FLAT", 100)
     chain = pr.mass_spring_chain(6)
     w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
     F_n = np.zeros((w.size, 6, 1), dtype=complex)
