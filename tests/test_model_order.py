@@ -158,6 +158,8 @@ def test_the_sweep_stops_after_flat_latent_orders():
         assert after.latent and after.train_db > (1 - order.PROGRESS_STEP / 3) * before.train_db
     assert fits[5].train_db < (1 - order.PROGRESS_STEP / 3) * fits[4].train_db
     assert sweep.chosen == 6
+    assert sweep.reason.endswith(f"stopped after {order.LATENT_FLAT} latent orders that lowered "
+                                 "the training error by less than 1 % each")
 
 
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
@@ -189,4 +191,5 @@ def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
         assert all(t >= min(test[:last + 1 + k]) * (1 - PROGRESS_STEP)
                    for k, t in enumerate(test[last + 1:]))
         counts.append(len(test))
+        assert sweep.reason.endswith(f"stopped after {patience} orders without a 3 % gain")
     assert counts[1] == counts[0] + 1 and counts[2] == counts[0] + 2

@@ -593,6 +593,7 @@ def sweep_orders(
     previous = None
     filled = U_n
     best_test, since_best, flat = np.inf, 0, 0
+    stop = ""  # why the sweep stopped before m_max, for the reason
     for order in range(1, m_max + 1):
         t0 = time.perf_counter()
         k = min(order, observed)
@@ -620,6 +621,7 @@ def sweep_orders(
                 continue  # a start that cannot be made physical, or with a pole on a line
             trials.append((model.info["refinement"]["cost"], name, model))
         if not trials:
+            stop = f"; order {order} could not be started (no start of it could be fitted)"
             break
         _, name, model = min(trials, key=lambda t: t[0])
         if max_iter > TRIAL_ITER and not model.info["refinement"]["converged"]:
@@ -654,9 +656,14 @@ def sweep_orders(
         else:
             best_test = min(best_test, fit.test_db)
             since_best += 1
-            if m is None and (since_best >= (patience if order <= observed
-                                             else min(patience, LATENT_PATIENCE))
-                              or flat >= LATENT_FLAT):
+            if m is None and since_best >= (patience if order <= observed
+                                            else min(patience, LATENT_PATIENCE)):
+                stop = (f"; the sweep stopped after {since_best} orders without a "
+                        f"{100 * PROGRESS_STEP:g} % gain")
+                break
+            if m is None and flat >= LATENT_FLAT:
+                stop = (f"; the sweep stopped after {flat} latent orders that lowered the "
+                        f"training error by less than {100 * PROGRESS_STEP / 3:g} % each")
                 break
     if not fits:
         raise ValueError("no order could be fitted: the data give no physical start")
@@ -688,6 +695,7 @@ def sweep_orders(
             + ("" if len(counted) == len(fits) else
                f"; a latent order counts only where it lowers the best held-out error of the "
                f"smaller orders by {100 * PROGRESS_STEP:g} %")
+            + stop
         )
     return OrderSweep(tuple(fits), chosen, reason, test, used)
 
