@@ -101,6 +101,8 @@ def one_seed(seed: int, folder: Path) -> dict:
                probe=np.searchsorted(grid, probe_idx), truth=truth)
     v_true = true_variance(freq)[:, nodes - 1][:, :, None]  # (s, n, 1)
     lines = np.asarray(sweep.lines)
+    if model.info["refinement"]["final_refit"]["kept"] == "held-out fit":
+        lines = lines & ~np.asarray(sweep.test_lines)  # the lines that fit saw
     for label, kw in LABELS.items():
         unc = fit_uncertainty(data, model, R, sweep,
                               **(kw if label != "true" else dict(noise_variance=v_true)))
