@@ -16,8 +16,9 @@ sweep, final fit, covariance with the noise estimated from the residuals), and c
 
 for the band as identify draws it and for the band with the true noise variance given
 (``noise_variance``), which separates the estimate of the noise from the rest.
-The model order each seed's sweep chose is recorded; it varies (m = 9–28 over the first
-eight seeds), and the spread is over every seed's fit, whatever its order.
+The model order each seed's sweep chose is recorded (m = 9 on all 24 seeds since the sweep
+weighs latent orders against a converged fit; 9–28 before), and the spread is over every
+seed's fit, whatever its order.
 
     python3 benches/bench_band_resolution.py --seeds 24
     python3 benches/bench_band_resolution.py --seeds 24 --cache DIR   # resumable
