@@ -73,8 +73,10 @@ NoiseModel = Literal["local", "channel", "line", "global"]
 #: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
 PAIR_CHUNK_ELEMENTS = 1 << 18
 #: stars of coordinates whose blocks of N are formed at once (their memory: 9 m² doubles
-#: each, and m² complex numbers per power of ω)
+#: each, and m² complex numbers per power of ω), and the entries of the per-line matrices
+#: (columns × m × m) read at once for them
 STAR_GROUP = 8
+STAR_CHUNK_ELEMENTS = 1 << 18
 #: elements of D(ω) (lines × m × m) factorised at once once the inverses are released
 LINE_SOLVE_ELEMENTS = 1 << 18
 #: a coherence below this is taken as this (the variance of that entry is then huge)
@@ -503,7 +505,9 @@ class LinearisedFit:
                           size: int = STAR_GROUP):
         """N's blocks on the stars of coordinates (:meth:`star_blocks`), ``size`` stars at
         a time: yields (the first star's index, their blocks ``(size, 3m, 3m)``), so that
-        the preconditioner can take each group and drop it (``grams`` unpacked).
+        the preconditioner can take each group and drop it. ``grams`` as
+        :meth:`gram_product` takes them (G packed or not), read ``STAR_CHUNK_ELEMENTS``
+        of G's entries at a time.
 
         With v = φ_b f′(e_j x_k + e_k x_j) the direction of coordinate (b, j, k) in L·θ
         (f′ = 1/√2 off the diagonal, 1/2 on it) the entry is
@@ -516,35 +520,45 @@ class LinearisedFit:
         fp = np.where(np.arange(m)[:, None] == np.arange(m)[None, :], 0.5, 1 / np.sqrt(2))
         c = np.array([-1.0, 1j, 1.0])
         d = (2, 1, 0)
-        x = self.x.transpose(0, 2, 1).reshape(s * p, m)  # (columns, m)
-        w = np.repeat(self.w, p)
+        x_all = self.x.transpose(0, 2, 1).reshape(s * p, m)  # (columns, m)
+        w_all = np.repeat(self.w, p)
         parts = [(H.reshape(s * p, m, m), conj) for H, conj in ((G, True), (Gt, False))
                  if H is not None]
+        step = max(1, STAR_CHUNK_ELEMENTS // (m * m))
         for j0 in range(0, m, size):
             js = np.arange(j0, min(m, j0 + size))
             g = js.size
             out = np.zeros((g, 3, m, 3, m))
-            for H, conj in parts:
-                xl = x.conj() if conj else x
-                Hjj = np.einsum("cjj->cj", H)[:, js]  # (columns, g)
-                for power in range(5):
-                    wp = w**power
-                    # |x_j|² G_kk′ (or x_j² G̃_kk′): one product over the columns
-                    T = ((wp[:, None] * xl[:, js] * x[:, js]).T
-                         @ H.reshape(-1, m * m)).reshape(g, m, m)
-                    # x̄_k x_k′ G_jj
-                    a = (wp[:, None] * Hjj)[:, :, None] * xl[:, None, :]  # (columns, g, m)
-                    T += (a.reshape(s * p, g * m).T @ x).reshape(g, m, m)
-                    del a
-                    # x̄_k x_j G_jk′ and its transpose (conjugate): one product per j
-                    for i, j in enumerate(js):
-                        T2 = (xl * (wp * x[:, j])[:, None]).T @ H[:, j, :]  # [k, k′]
-                        T[i] += T2 + (T2.conj() if conj else T2).T
-                    for b in range(3):
-                        for bb in range(3):
-                            if d[b] + d[bb] == power:
-                                coef = (c[b].conj() if conj else c[b]) * c[bb]
-                                out[:, b, :, bb, :] += (coef * T).real
+            for Hall, conj in parts:
+                for lo in range(0, s * p, step):
+                    cs = slice(lo, lo + step)
+                    H = Hall[cs]
+                    if not np.iscomplexobj(H):  # packed: G = (P + Pᵀ)/2 + i (P − Pᵀ)/2
+                        Ht = np.swapaxes(H, 1, 2)
+                        H = 0.5 * (H + Ht) + 0.5j * (H - Ht)
+                    x, w = x_all[cs], w_all[cs]
+                    xl = x.conj() if conj else x
+                    Hjj = np.einsum("cjj->cj", H)[:, js]  # (columns, g)
+                    cols = x.shape[0]
+                    for power in range(5):
+                        wp = w**power
+                        # |x_j|² G_kk′ (or x_j² G̃_kk′): one product over the columns
+                        T = ((wp[:, None] * xl[:, js] * x[:, js]).T
+                             @ H.reshape(cols, m * m)).reshape(g, m, m)
+                        # x̄_k x_k′ G_jj
+                        a = (wp[:, None] * Hjj)[:, :, None] * xl[:, None, :]  # (cols, g, m)
+                        T += (a.reshape(cols, g * m).T @ x).reshape(g, m, m)
+                        del a
+                        # x̄_k x_j G_jk′ and its transpose (conjugate): one product per j
+                        for i, j in enumerate(js):
+                            T2 = (xl * (wp * x[:, j])[:, None]).T @ H[:, j, :]  # [k, k′]
+                            T[i] += T2 + (T2.conj() if conj else T2).T
+                        for b in range(3):
+                            for bb in range(3):
+                                if d[b] + d[bb] == power:
+                                    coef = (c[b].conj() if conj else c[b]) * c[bb]
+                                    out[:, b, :, bb, :] += (coef * T).real
+                    del H
             out *= fp[js][:, None, :, None, None] * fp[js][:, None, None, None, :]
             yield j0, out.reshape(g, 3 * m, 3 * m)
 
@@ -1126,8 +1140,10 @@ class MatrixFreeCovariance:
         self.bread = fit.bread()
         m, q = fit.m, fit.n_params
         with _one_blas_thread():  # as the solves: OpenBLAS's threads only contend
-            grams = fit.line_grams(self.bread)  # N is the cost's: line by line
+            G, Gt = fit.line_grams(self.bread)  # N is the cost's: line by line
             fit.release_inverses()
+            self._grams = (pack_hermitian(G), Gt)  # before the stars: G and D⁻¹ let go
+            del G
             # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal:
             # a group of stars' blocks at a time, each inverted and stored in its half
             self._star_index = fit.star_index()
@@ -1136,7 +1152,7 @@ class MatrixFreeCovariance:
             lower = np.tri(n3, dtype=bool)
             eye = STAR_RIDGE * np.eye(n3)
             diag = np.zeros(q)
-            for j0, blocks in fit.star_block_groups(grams):
+            for j0, blocks in fit.star_block_groups(self._grams):
                 for j, block in enumerate(blocks, start=j0):
                     dj = np.sqrt(np.maximum(np.diagonal(block), np.finfo(float).tiny))
                     diag[self._star_index[j]] = np.diagonal(block)
@@ -1149,8 +1165,6 @@ class MatrixFreeCovariance:
                         np.copyto(pair[:-1], inverse, where=lower.T)
                 del blocks
         self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
-        self._grams = (pack_hermitian(grams[0]), grams[1])
-        del grams
         self.meat: EntryWeights | None = None
         self.iterations: list[int] = []
 
@@ -1158,20 +1172,26 @@ class MatrixFreeCovariance:
         """The noise's weights (the sandwich's meat)."""
         self.meat = meat
 
-    def column_blocks(self, count: int) -> list[np.ndarray]:
+    def column_blocks(self, count: int, held: int = 0) -> list[np.ndarray]:
         """The right-hand sides of ``count`` that one block CG solves together: blocks of
         equal size (a small remainder would share a poor Krylov space), each within
-        ``CG_BLOCK_BYTES``. Callers that form right-hand sides (the modes' gradients, the
-        noise's draws) form one block at a time."""
-        most = max(CG_BLOCK_MIN, CG_BLOCK_BYTES // (CG_LIVE_BLOCKS * 8 * self.fit.n_params))
+        ``CG_BLOCK_BYTES`` less ``held`` bytes (what the caller keeps meanwhile, e.g. the
+        draws solved so far). Callers that form right-hand sides (the modes' gradients,
+        the noise's draws) form one block at a time."""
+        most = max(CG_BLOCK_MIN, (CG_BLOCK_BYTES - held)
+                   // (CG_LIVE_BLOCKS * 8 * self.fit.n_params))
         parts = np.array_split(np.arange(count), max(1, -(-count // most)))
         return [cols for cols in parts if cols.size]
 
-    def _precondition(self, r: np.ndarray) -> np.ndarray:
+    def _precondition(self, r: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """The preconditioner on residuals ``(n_params, k)`` in the unit-diagonal
         coordinates: the sum over the stars of the inverse of N's block on star j
-        (additive Schwarz). Fortran-ordered."""
-        z = np.zeros(r.shape, order="F")
+        (additive Schwarz). Fortran-ordered; into ``out`` when given."""
+        if out is None:
+            z = np.zeros(r.shape, order="F")
+        else:
+            z = out
+            z[...] = 0.0
         symm = scipy.linalg.blas.dsymm
         for j in range(self.fit.m):
             idx = self._star_index[j]
@@ -1197,11 +1217,12 @@ class MatrixFreeCovariance:
                 out[:, i:i + step] = self.fit.product(weights, cols)
         return out
 
-    def _apply_scaled(self, V: np.ndarray) -> np.ndarray:
+    def _apply_scaled(self, V: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """N in the unit-diagonal coordinates times ``V``: D⁻¹ N D⁻¹ V (D the diagonal
-        scale), a few columns at a time (no scaled copy of V)."""
+        scale), a few columns at a time (no scaled copy of V); into ``out`` when given."""
         d = self._diag_scale[:, None]
-        out = np.empty(V.shape, order="F")
+        if out is None:
+            out = np.empty(V.shape, order="F")
         step = self.fit.product_columns()
         for i in range(0, V.shape[1], step):
             cols = slice(i, i + step)
@@ -1213,12 +1234,16 @@ class MatrixFreeCovariance:
         """N X = B for ``B`` ``(n_params, k)`` by block preconditioned CG, in the blocks
         of :meth:`column_blocks`; returns X and whether each column reached the
         tolerance (a :class:`~podid_rs.ConvergenceWarning` for those that did not)."""
-        X = np.empty(B.shape, order="F")
-        ok = np.zeros(B.shape[1], dtype=bool)
-        res = np.zeros(B.shape[1])
+        blocks = self.column_blocks(B.shape[1])
         with _one_blas_thread():  # small products: OpenBLAS's threads only contend
-            for cols in self.column_blocks(B.shape[1]):
-                X[:, cols], ok[cols], res[cols] = self._solve(B[:, cols])
+            if len(blocks) == 1:  # (no second copy of the solution)
+                X, ok, res = self._solve(B)
+            else:
+                X = np.empty(B.shape, order="F")
+                ok = np.zeros(B.shape[1], dtype=bool)
+                res = np.zeros(B.shape[1])
+                for cols in blocks:
+                    X[:, cols], ok[cols], res[cols] = self._solve(B[:, cols])
         self._warn_unsolved(ok, res, "their variances are NaN")
         return X, ok
 
@@ -1243,13 +1268,15 @@ class MatrixFreeCovariance:
         scale = np.where(norm_b > 0, norm_b, 1.0)
         R /= scale  # unit columns: one tolerance and one rank threshold for all
         X = np.zeros(B.shape, order="F")
+        # the search block, N times it and the preconditioned residual: three blocks
+        # allocated once and reused by every iteration (no churn of the heap)
+        work = [np.empty(B.shape, order="F") for _ in range(3)]
         it = 0
         for _ in range(CG_RESTARTS + 1):
-            it = self._iterate(X, R, it)
+            it = self._iterate(X, R, it, work)
             # the recurrence's residual drifts from the true one where the search
             # directions are large along N's null space (a gauge): restart from the latter
-            del R
-            R = self._apply_scaled(X)
+            self._apply_scaled(X, out=R)
             R *= -1.0
             for i in range(0, B.shape[1], self.fit.product_columns()):
                 cols = slice(i, i + self.fit.product_columns())
@@ -1257,20 +1284,22 @@ class MatrixFreeCovariance:
             res = _column_norms(R)
             if np.all(res <= 10 * self.tol) or it >= CG_MAX_ITER:
                 break
-        del R
+        del R, work
         self.iterations.append(it)
         X /= d
         X *= scale
         return X, (res <= 10 * self.tol) & np.all(np.isfinite(X), axis=0), res
 
-    def _iterate(self, X: np.ndarray, R: np.ndarray, it: int) -> int:
+    def _iterate(self, X: np.ndarray, R: np.ndarray, it: int, work: list[np.ndarray]) -> int:
         """Block CG from X with residual R (both updated in place), unit-diagonal
-        coordinates; returns the iteration count so far."""
-        P = _orthonormal(self._precondition(R))
+        coordinates, in the three blocks ``work`` (X's shape, Fortran-ordered); returns
+        the iteration count so far."""
+        here, there, image = work  # the search block is formed in place of Z: they swap
+        P = _orthonormal(self._precondition(R, out=here))
         top = 0.0
         while P.shape[1] and it < CG_MAX_ITER:
             it += 1
-            Q = self._apply_scaled(P)
+            Q = self._apply_scaled(P, out=image[:, :P.shape[1]])
             PQ = P.T @ Q
             lam, V = np.linalg.eigh(0.5 * (PQ + PQ.T))
             top = max(top, float(lam[-1]) if lam.size else 0.0)
@@ -1285,11 +1314,12 @@ class MatrixFreeCovariance:
             _add_product(R, Q, alpha, -1.0)
             if np.all(_column_norms(R) <= self.tol):
                 break
-            Z = self._precondition(R)
+            Z = self._precondition(R, out=there)
             _add_product(Z, P, inverse @ (Q.T @ Z), -1.0)
-            del P, Q  # (memory: a block is n_params × its right-hand sides)
+            del P, Q
             P = _orthonormal(Z)  # in Z's memory
             del Z
+            here, there = there, here
         return it
 
     def undetermined(self, G: np.ndarray) -> np.ndarray:
@@ -1333,7 +1363,7 @@ class MatrixFreeCovariance:
             res = np.zeros(SAMPLES)
             made, spare = 0, np.empty((q, 0))
             with _one_blas_thread():
-                for cols in self.column_blocks(SAMPLES):
+                for cols in self.column_blocks(SAMPLES, held=Z.nbytes):
                     # the noise SAMPLE_CHUNK draws at a time (lines × n × p × draws), in
                     # the same order whatever the blocks: a block takes what it needs
                     B = np.empty((q, cols.size), order="F")
