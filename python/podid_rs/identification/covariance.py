@@ -217,7 +217,11 @@ class LinearisedFit:
         self.phi = np.stack([-(self.w**2) + 0j, 1j * self.w, np.ones_like(self.w) + 0j])  # (3, s)
         self.X = [np.asarray(X, dtype=np.float64) / c for X, c in zip((M, C, K), self.scales,
                                                                        strict=True)]
-        self.Dinv: np.ndarray | None = np.linalg.inv(self.dynamic_stiffness())  # (s, m, m)
+        # (s, m, m), a chunk of lines at a time: no second array of every line's D
+        self.Dinv: np.ndarray | None = np.empty((self.s, self.m, self.m), dtype=np.complex128)
+        chunk = max(1, LINE_SOLVE_ELEMENTS // (self.m * self.m))
+        for i in range(0, self.s, chunk):
+            self.Dinv[i:i + chunk] = np.linalg.inv(self.dynamic_stiffness(slice(i, i + chunk)))
         self.f = np.einsum("nm,snp->smp", R, F) / self.sf  # scaled reduced forces
         self.x = self.Dinv @ self.f  # (s, m, p) scaled responses of the coordinates
         self.y = np.einsum("nm,smp->snp", R, self.x)  # scaled responses on the measured DOFs
@@ -374,8 +378,10 @@ class LinearisedFit:
 
     def dynamic_stiffness(self, lines: slice = slice(None)) -> np.ndarray:
         """D(ω) = −ω²M̃ + iωC̃ + K̃ (scaled) on ``lines``: ``(lines, m, m)`` complex."""
-        return (self.phi[0][lines, None, None] * self.X[0]
-                + self.phi[1][lines, None, None] * self.X[1] + self.X[2][None])
+        D = self.phi[0][lines, None, None] * self.X[0]
+        D += self.phi[1][lines, None, None] * self.X[1]
+        D += self.X[2]
+        return D
 
     def release_inverses(self) -> None:
         """Let go of the per-line inverses D(ω)⁻¹ (s·m² complex, the refinement's largest
@@ -1038,9 +1044,9 @@ NULL_RTOL = 1e-14
 #: did, and CG stalled; 1e-6 takes as few iterations as 1e-8 on a chain at m = 40)
 STAR_RIDGE = 1e-6
 #: complex numbers of each per-line intermediate of a product with N or S (s·m·p per
-#: column): the columns of one product (:meth:`LinearisedFit.product_columns`; 13 at
+#: column): the columns of one product (:meth:`LinearisedFit.product_columns`; 6 at
 #: m = 100, 200 lines, where 16 columns' intermediates had held 40 MB at once)
-PRODUCT_ELEMENTS = 1 << 18
+PRODUCT_ELEMENTS = 1 << 17
 #: draws of the matrix-free path's sampled covariance (FRF bands), and their seed
 SAMPLES = 200
 SAMPLES_SEED = 20261125
