@@ -536,6 +536,9 @@ class ModelUncertainty:
         # the gradients of a block of lines at once: one pass over the covariance per
         # block, not per line (on the beam, m = 39: 26 s → 1.9 s for 251 lines, 2 entries)
         block = max(1, FRF_BLOCK_ELEMENTS // max(1, r * c * self.n_parameters))
+        draws = getattr(self._cov, "draws", None)
+        if draws is not None:  # matrix-free: its solves first, before any gradient is held
+            draws()
         for start in range(0, s, block):
             stop = min(s, start + block)
             wb = w[start:stop][:, None, None]  # the block's lines, batched
