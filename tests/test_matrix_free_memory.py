@@ -192,3 +192,42 @@ def test_a_mode_whose_interval_is_wider_than_its_value_says_so():
     modes = unc.modes()
     assert not modes.determined.any()
     assert set(modes.why_undetermined) == {"wider than the value"}
+
+
+def _resident_mb() -> float:
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    raise OSError("no VmRSS")
+
+
+def test_free_memory_is_given_back_to_the_system(monkeypatch):
+    """After a large array is freed glibc takes arrays up to 32 MiB from its heap, and keeps
+    them resident once freed: release_free_memory gives them back (glibc only), and does
+    nothing where there is no malloc_trim."""
+    from podid_rs import _memory
+
+    if _memory._malloc_trim() is None:
+        pytest.skip("not glibc")
+    try:
+        _resident_mb()
+    except OSError:
+        pytest.skip("no /proc")
+    big = np.ones(3_750_000)  # 30 MB: above the threshold, then raises it to 30 MB
+    del big
+    parts = [np.ones(250_000) for _ in range(200)]  # 2 MB each, 400 MB: from the heap
+    keep = parts[-1].copy()  # (the heap's top stays in use)
+    del parts
+    before = _resident_mb()
+    _memory.release_free_memory()
+    after = _resident_mb()
+    assert before - after > 200, (before, after)
+    del keep
+    monkeypatch.setattr(_memory.ctypes.util, "find_library", lambda name: None)
+    _memory._malloc_trim.cache_clear()
+    try:
+        assert _memory._malloc_trim() is None
+        _memory.release_free_memory()  # nothing to call: nothing done
+    finally:
+        _memory._malloc_trim.cache_clear()

@@ -64,6 +64,7 @@ import scipy.linalg.blas
 
 from .._arrays import as_array
 from .._linesolve import _one_blas_thread
+from .._memory import release_free_memory
 from .refinement import LOG_DYNAMIC_RANGE
 from .result import ConvergenceWarning
 
@@ -1145,6 +1146,7 @@ class MatrixFreeCovariance:
         self.tol = float(tol)
         self.bread = fit.bread()
         m, q = fit.m, fit.n_params
+        release_free_memory()  # what earlier work (a refinement) freed: not held meanwhile
         with _one_blas_thread():  # as the solves: OpenBLAS's threads only contend
             G, Gt = fit.line_grams(self.bread)  # N is the cost's: line by line
             fit.release_inverses()
@@ -1171,6 +1173,7 @@ class MatrixFreeCovariance:
                         np.copyto(pair[:-1], inverse, where=lower.T)
                 del blocks
         self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
+        release_free_memory()  # the setup's: D⁻¹, G unpacked, the stars' blocks
         self.meat: EntryWeights | None = None
         self.iterations: list[int] = []
 
@@ -1291,6 +1294,7 @@ class MatrixFreeCovariance:
             if np.all(res <= 10 * self.tol) or it >= CG_MAX_ITER:
                 break
         del R, work
+        release_free_memory()  # the block's: the next block's are taken anew
         self.iterations.append(it)
         X /= d
         X *= scale
