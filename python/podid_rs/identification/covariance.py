@@ -1086,6 +1086,25 @@ def _add_product(C: np.ndarray, A: np.ndarray, B: np.ndarray, alpha: float) -> N
         C += alpha * (A @ B)
 
 
+def _inverse_factor(block: np.ndarray) -> np.ndarray:
+    """F lower triangular with Fᵀ F = (B + STAR_RIDGE·I)⁻¹, B the block scaled to unit
+    diagonal: F = C⁻¹ for the Cholesky factor C of B + ridge (more ridge, tenfold at a time,
+    where it is not numerically positive definite). Kept in single precision, Fᵀ F stays
+    symmetric positive definite whatever its rounding: the preconditioner CG needs."""
+    d = np.sqrt(np.maximum(np.diagonal(block), np.finfo(float).tiny))
+    scaled = block / d[:, None] / d[None, :]
+    scaled = 0.5 * (scaled + scaled.T)
+    eye = np.eye(scaled.shape[0])
+    ridge = STAR_RIDGE
+    while True:
+        try:
+            C = np.linalg.cholesky(scaled + ridge * eye)
+            break
+        except np.linalg.LinAlgError:
+            ridge *= 10.0
+    return scipy.linalg.solve_triangular(C, eye, lower=True)
+
+
 def pack_hermitian(G: np.ndarray) -> np.ndarray:
     """Hermitian matrices ``(..., m, m)`` as the real P = Re G + Im G (half the memory):
     Re G = (P + Pᵀ)/2, Im G = (P − Pᵀ)/2 (:meth:`LinearisedFit.gram_product`)."""
@@ -1107,9 +1126,11 @@ class MatrixFreeCovariance:
     (j, k) of M, C and K for every k, 3m of them, and N's block there
     (:meth:`LinearisedFit.star_block_groups`) is inverted — in the model's undamped modal
     coordinates, where a mode's data bear mostly on its own row of M, C, K; every
-    coordinate lies in two stars. The inverses are symmetric: two share one
-    (3m + 1) × 3m array, one in its lower triangle and one in its upper, applied by
-    BLAS's symm (half the memory). All of it in coordinates scaled to N's unit
+    coordinate lies in two stars. Each inverse is kept as a triangular factor F (Fᵀ F, the
+    inverse; :func:`_inverse_factor`) in single precision, two to a (3m + 1) × 3m array,
+    one in its lower triangle and one in its upper, applied by BLAS's trmm (a quarter of
+    the inverses' memory; Fᵀ F is positive definite whatever F's rounding, and the
+    solves' accuracy is the tolerance's). All of it in coordinates scaled to N's unit
     diagonal, where the tolerance is taken. Measured on chains (random forces, 200
     lines, the modes' 2m gradients): at m = 40 one CG per right-hand side with the
     inverted 3 × 3 (M, C, K) blocks per coordinate needed 254 iterations (median; up
@@ -1153,24 +1174,21 @@ class MatrixFreeCovariance:
             self._grams = (pack_hermitian(G), Gt)  # before the stars: G and D⁻¹ let go
             del G
             # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal:
-            # a group of stars' blocks at a time, each inverted and stored in its half
+            # a group of stars' blocks at a time, each factored and stored in its half
             self._star_index = fit.star_index()
             n3 = 3 * m
-            self._star_pairs = np.zeros(((m + 1) // 2, n3 + 1, n3))
+            self._star_pairs = np.zeros(((m + 1) // 2, n3 + 1, n3), dtype=np.float32)
             lower = np.tri(n3, dtype=bool)
-            eye = STAR_RIDGE * np.eye(n3)
             diag = np.zeros(q)
             for j0, blocks in fit.star_block_groups(self._grams):
                 for j, block in enumerate(blocks, start=j0):
-                    dj = np.sqrt(np.maximum(np.diagonal(block), np.finfo(float).tiny))
                     diag[self._star_index[j]] = np.diagonal(block)
-                    block = block / dj[:, None] / dj[None, :] + eye
-                    inverse = np.linalg.inv(0.5 * (block + block.T))
+                    factor = _inverse_factor(block)
                     pair = self._star_pairs[j // 2]
                     if j % 2 == 0:
-                        np.copyto(pair[1:], inverse, where=lower)
+                        np.copyto(pair[1:], factor, where=lower)
                     else:
-                        np.copyto(pair[:-1], inverse, where=lower.T)
+                        np.copyto(pair[:-1], factor.T, where=lower.T)
                 del blocks
         self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
         release_free_memory()  # the setup's: D⁻¹, G unpacked, the stars' blocks
@@ -1201,16 +1219,21 @@ class MatrixFreeCovariance:
         else:
             z = out
             z[...] = 0.0
-        symm = scipy.linalg.blas.dsymm
+        trmm = scipy.linalg.blas.dtrmm
         for j in range(self.fit.m):
             idx = self._star_index[j]
             pair = self._star_pairs[j // 2]
-            # star 2i in the lower triangle of pair[1:], 2i + 1 in the upper of pair[:-1];
-            # transposed (Fortran-ordered, no copy) the triangles swap
+            # star 2i's factor F in the lower triangle of pair[1:], star 2i + 1's Fᵀ in the
+            # upper of pair[:-1]; transposed (Fortran-ordered) the triangles swap. The
+            # block's inverse is Fᵀ F: z = Fᵀ (F r), two triangular products
             if j % 2 == 0:
-                z[idx] += symm(1.0, pair[1:].T, r[idx], lower=0)
+                a = pair[1:].T.astype(np.float64)  # upper: Fᵀ
+                y = trmm(1.0, a, r[idx], lower=0, trans_a=1)
+                z[idx] += trmm(1.0, a, y, lower=0, trans_a=0, overwrite_b=1)
             else:
-                z[idx] += symm(1.0, pair[:-1].T, r[idx], lower=1)
+                a = pair[:-1].T.astype(np.float64)  # lower: F
+                y = trmm(1.0, a, r[idx], lower=1, trans_a=0)
+                z[idx] += trmm(1.0, a, y, lower=1, trans_a=1, overwrite_b=1)
         return z
 
     def _apply(self, weights: EntryWeights, V: np.ndarray) -> np.ndarray:
