@@ -1032,9 +1032,10 @@ CG_RESTARTS = 3
 #: times it and the preconditioned residual are alive at once). A larger block needs
 #: fewer products per right-hand side (chain, m = 60, the modes' 120 gradients: 33
 #: iterations in one block, 46 in two, 55 in three — 5.5, 7.9 and 9.0 s) but its memory
-#: grows with it: at m = 100, 200 lines, this is 4 blocks of 50 right-hand sides, within
-#: the memory of the refinement
-CG_BLOCK_BYTES = 40 << 20
+#: grows with it: at m = 100, 200 lines, this is 5 blocks of 40 of the modes' 200
+#: gradients (and 7 of 29 of the band's draws, beside the draws kept), within the
+#: refinement's peak memory
+CG_BLOCK_BYTES = 32 << 20
 CG_LIVE_BLOCKS = 6
 CG_BLOCK_MIN = 16
 #: a search direction of block CG whose Rayleigh quotient of N (unit diagonal) is below
