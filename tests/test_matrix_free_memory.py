@@ -33,11 +33,12 @@ def _chain_data(n: int, s: int, seed: int = 5):
     return system, U, F, omega
 
 
-def _linearised(n: int, s: int, objective: str = "complex") -> LinearisedFit:
+def _linearised(n: int, s: int, objective: str = "complex", **kw) -> LinearisedFit:
     system, U, F, omega = _chain_data(n, s)
     U, F = U[:, :, None], F[:, :, None]
     W = entry_weights("relative" if objective == "complex" else "uniform", U, objective, False)
-    return LinearisedFit(system.M, system.C, system.K, U, F, omega, np.eye(n), W, objective)
+    return LinearisedFit(system.M, system.C, system.K, U, F, omega, np.eye(n), W, objective,
+                         **kw)
 
 
 @pytest.mark.parametrize("objective", ["complex", "log-magnitude"])
@@ -54,6 +55,15 @@ def test_packed_grams_and_line_solves_give_the_same_products(objective):
     assert pack_hermitian(G).dtype == np.float64
     assert np.abs(packed - full).max() <= 1e-13 * np.abs(full).max()
     J, JT = fit.apply_jacobian(V), fit.apply_adjoint(fit.apply_jacobian(V))
+    # without the inverses from the start: the same responses and packed matrices
+    lean = _linearised(6, 40, objective, keep_inverses=False)
+    assert lean.Dinv is None
+    assert np.abs(lean.x - fit.x).max() <= 1e-13 * np.abs(fit.x).max()
+    P, Pt = lean.line_grams(lean.bread(), packed=True)
+    assert P.dtype == np.float64 and np.abs(P - pack_hermitian(G)).max() <= 1e-12 * np.abs(G).max()
+    assert (Pt is None) == (Gt is None)
+    if Gt is not None:
+        assert np.abs(Pt - Gt).max() <= 1e-12 * np.abs(Gt).max()
     fit.release_inverses()
     assert fit.Dinv is None
     J2, JT2 = fit.apply_jacobian(V), fit.apply_adjoint(fit.apply_jacobian(V))
@@ -143,7 +153,7 @@ def test_the_intervals_stay_within_their_memory_budget(monkeypatch):
     monkeypatch.setattr(pr.uncertainty, "FRF_BLOCK_ELEMENTS", 1 << 15)
     unc = pr.model_uncertainty(system, U, F, omega, solver="matrix-free")
     cov = unc._cov
-    assert cov.fit.Dinv is None  # let go: the products solve per line
+    assert cov.fit.Dinv is None  # never kept: the products solve per line
     assert cov._star_pairs.nbytes <= 0.55 * n * (3 * n) ** 2 * 8
     assert cov._grams[0].dtype == np.float64 and cov._grams[0].nbytes == s * n * n * 8
     draws = covariance.SAMPLES * q * 4

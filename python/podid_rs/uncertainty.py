@@ -718,11 +718,14 @@ def model_uncertainty(
         ``"dense"`` forms the Gauss–Newton matrix ((3m(m+1)/2)² doubles) and
         eigendecomposes it, which also finds the directions the data do not determine;
         ``"matrix-free"`` solves with it for the variances asked, by block
-        preconditioned CG (the right-hand sides share a Krylov space; N applied line
-        by line through its per-line m × m matrices, memory O(s·m²) as the
-        refinement's matrix-free step, and the 3m × 3m blocks of N on each mode's
-        row of M, C, K, O(m³), as the preconditioner), in the model's undamped modal
-        coordinates; ``"auto"`` dense up to m = 40.
+        preconditioned CG (the right-hand sides share a Krylov space, in blocks whose
+        memory is bounded: ``CG_BLOCK_BYTES`` of
+        :mod:`podid_rs.identification.covariance`; N applied line by line through its
+        per-line m × m matrices, memory O(s·m²) as the refinement's matrix-free step,
+        and the 3m × 3m blocks of N on each mode's row of M, C, K, O(m³), as the
+        preconditioner), in the model's undamped modal coordinates; a solve that does
+        not converge gives NaN with a :class:`~podid_rs.ConvergenceWarning`. ``"auto"``
+        dense up to m = 40.
 
     Returns
     -------
@@ -803,8 +806,10 @@ def model_uncertainty(
     else:
         # the undamped modes: TᵀMT = I, TᵀKT = Ω² (where N is nearly block diagonal)
         _, T = scipy.linalg.eigh(K, M)
+        # without every line's D⁻¹ (the solves' products go through N's per-line matrices)
         fit = LinearisedFit(T.T @ M @ T, T.T @ C @ T, T.T @ K @ T, Ua[keep], Fa[keep], w[keep],
-                            R @ T, W_all[keep], objective, grid=np.flatnonzero(keep))
+                            R @ T, W_all[keep], objective, grid=np.flatnonzero(keep),
+                            keep_inverses=False)
         observed = observed_count(R)
         cov = MatrixFreeCovariance(fit, fit.n_params - gauge_dimension(m, observed))
     dof = None

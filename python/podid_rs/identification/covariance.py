@@ -188,6 +188,9 @@ class LinearisedFit:
         ``(s,)`` the index of each line on the data's grid of lines (the fit may have
         used a subset), for noise correlated between neighbouring lines; default
         0 … s − 1.
+    keep_inverses : bool
+        Keep every line's D(ω)⁻¹ (s·m² complex; :meth:`jacobian` and the dense matrices
+        need them); without, the products solve per line (:meth:`solve_lines`).
 
     Attributes
     ----------
@@ -200,7 +203,7 @@ class LinearisedFit:
     """
 
     def __init__(self, M, C, K, U, F, omega, R, W, objective: Objective,
-                 grid: np.ndarray | None = None) -> None:
+                 grid: np.ndarray | None = None, keep_inverses: bool = True) -> None:
         self.objective = objective
         self.m = M.shape[0]
         self.s, self.n, self.p = U.shape
@@ -218,13 +221,15 @@ class LinearisedFit:
         self.phi = np.stack([-(self.w**2) + 0j, 1j * self.w, np.ones_like(self.w) + 0j])  # (3, s)
         self.X = [np.asarray(X, dtype=np.float64) / c for X, c in zip((M, C, K), self.scales,
                                                                        strict=True)]
-        # (s, m, m), a chunk of lines at a time: no second array of every line's D
-        self.Dinv: np.ndarray | None = np.empty((self.s, self.m, self.m), dtype=np.complex128)
-        chunk = max(1, LINE_SOLVE_ELEMENTS // (self.m * self.m))
-        for i in range(0, self.s, chunk):
-            self.Dinv[i:i + chunk] = np.linalg.inv(self.dynamic_stiffness(slice(i, i + chunk)))
         self.f = np.einsum("nm,snp->smp", R, F) / self.sf  # scaled reduced forces
-        self.x = self.Dinv @ self.f  # (s, m, p) scaled responses of the coordinates
+        self.Dinv: np.ndarray | None = None
+        if keep_inverses:
+            # (s, m, m), a chunk of lines at a time: no second array of every line's D
+            self.Dinv = np.empty((self.s, self.m, self.m), dtype=np.complex128)
+            for sl in self._line_chunks():
+                self.Dinv[sl] = np.linalg.inv(self.dynamic_stiffness(sl))
+        # (s, m, p) scaled responses of the coordinates
+        self.x = self.solve_lines(self.f.astype(np.complex128))
         self.y = np.einsum("nm,smp->snp", R, self.x)  # scaled responses on the measured DOFs
         self.u = U / self.su
         self.grid = np.arange(self.s) if grid is None else np.asarray(grid)
@@ -370,12 +375,15 @@ class LinearisedFit:
                              out=out)
         if out is None:
             out = np.empty_like(y)
-        chunk = max(1, LINE_SOLVE_ELEMENTS // (self.m * self.m))
-        for i in range(0, self.s, chunk):
-            sl = slice(i, i + chunk)
+        for sl in self._line_chunks():
             D = self.dynamic_stiffness(sl)
             out[sl] = np.linalg.solve(D.transpose(0, 2, 1) if transpose else D, y[sl])
         return out
+
+    def _line_chunks(self) -> list[slice]:
+        """The lines ``LINE_SOLVE_ELEMENTS`` of D's entries at a time."""
+        chunk = max(1, LINE_SOLVE_ELEMENTS // (self.m * self.m))
+        return [slice(i, i + chunk) for i in range(0, self.s, chunk)]
 
     def dynamic_stiffness(self, lines: slice = slice(None)) -> np.ndarray:
         """D(ω) = −ω²M̃ + iωC̃ + K̃ (scaled) on ``lines``: ``(lines, m, m)`` complex."""
@@ -441,28 +449,37 @@ class LinearisedFit:
         complex numbers each) within ``PRODUCT_ELEMENTS``."""
         return max(1, PRODUCT_ELEMENTS // max(1, self.s * self.m * self.p))
 
-    def line_grams(self, weights: EntryWeights) -> tuple[np.ndarray, np.ndarray | None] | None:
+    def line_grams(self, weights: EntryWeights, packed: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray | None] | None:
         """Per column, the m × m matrices through which lag-0 ``weights`` act on L·θ:
         G_c = D⁻ᴴ Rᵀ diag(h_c) R D⁻¹ (Hermitian) and G̃_c = D⁻ᵀ Rᵀ diag(t_c) R D⁻¹ (or
         None), ``(s, p, m, m)``, so that the matrix of ``weights`` is
-        θ ↦ Re Lᴴ (G L θ + conj(G̃ L θ)) (:meth:`gram_product`). None unless the weights
-        pair every line with itself once, in order (the Gauss–Newton matrix N)."""
+        θ ↦ Re Lᴴ (G L θ + conj(G̃ L θ)) (:meth:`gram_product`); with ``packed`` G as
+        :func:`pack_hermitian` keeps it, formed a chunk of lines at a time (never whole
+        and complex). None unless the weights pair every line with itself once, in order
+        (the Gauss–Newton matrix N). Without the inverses (``keep_inverses=False``)
+        each chunk's are formed and dropped."""
         if not (weights.left.size == self.s and np.array_equal(weights.left, np.arange(self.s))
                 and np.all(weights.diagonal)):
             return None
         s, n, p, m = self.s, self.n, self.p, self.m
-        chunk = max(1, PAIR_CHUNK_ELEMENTS // max(1, p * n * m))
+        chunk = max(1, min(PAIR_CHUNK_ELEMENTS // max(1, p * n * m),
+                           LINE_SOLVE_ELEMENTS // (m * m)))
         out = []
         for h, conj in ((weights.hermitian, True), (weights.symmetric, False)):
             if h is None:
                 out.append(None)
                 continue
-            G = np.empty((s, p, m, m), dtype=complex)
+            pack = packed and conj
+            G = np.empty((s, p, m, m), dtype=np.float64 if pack else complex)
             for i in range(0, s, chunk):
                 sl = slice(i, i + chunk)
+                Dinv = (self.Dinv[sl] if self.Dinv is not None
+                        else np.linalg.inv(self.dynamic_stiffness(sl)))
                 Q = self.R.T @ (h[sl].transpose(0, 2, 1)[..., None] * self.R)  # (P, p, m, m)
-                left = self.Dinv[sl].conj() if conj else self.Dinv[sl]
-                G[sl] = left.transpose(0, 2, 1)[:, None] @ Q @ self.Dinv[sl][:, None]
+                left = Dinv.conj() if conj else Dinv
+                Gc = left.transpose(0, 2, 1)[:, None] @ Q @ Dinv[:, None]
+                G[sl] = pack_hermitian(Gc) if pack else Gc
             out.append(G)
         return out[0], out[1]
 
@@ -1170,10 +1187,9 @@ class MatrixFreeCovariance:
         m, q = fit.m, fit.n_params
         release_free_memory()  # what earlier work (a refinement) freed: not held meanwhile
         with _one_blas_thread():  # as the solves: OpenBLAS's threads only contend
-            G, Gt = fit.line_grams(self.bread)  # N is the cost's: line by line
+            # N is the cost's: line by line, packed as it is formed
+            self._grams = fit.line_grams(self.bread, packed=True)
             fit.release_inverses()
-            self._grams = (pack_hermitian(G), Gt)  # before the stars: G and D⁻¹ let go
-            del G
             # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal:
             # a group of stars' blocks at a time, each factored and stored in its half
             self._star_index = fit.star_index()
