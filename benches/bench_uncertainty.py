@@ -323,6 +323,18 @@ def cost_identify(sizes: list[int], out_dir: Path) -> str:
                            "added to identify"], rows)
 
 
+def resident_gb() -> float:
+    """This process's resident size now (VmRSS), GB; NaN where /proc cannot be read."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) * 1024 / 1e9
+    except OSError:
+        pass
+    return float("nan")
+
+
 def large_worker(case: dict) -> dict:
     """Refine the chain at m from the truth, then the matrix-free intervals: times and the
     peak resident memory after each (also written to ``case["progress"]`` as they come, for
@@ -350,6 +362,7 @@ def large_worker(case: dict) -> dict:
         out["peak_reset"] = True
     except OSError:
         out["peak_reset"] = False
+    out["resident_at_reset_gb"] = resident_gb()
     t0 = time.perf_counter()
     unc = pr.model_uncertainty(model, U, F, omega, solver="matrix-free")
     done(covariance_s=time.perf_counter() - t0, peak_covariance_gb=peak_rss_gb())
@@ -399,7 +412,8 @@ def cost_large(m: int, s: int, progress: Path, timeout: float) -> str:
             f"entries at {s} lines {r['band_s']:.0f} s, its draws in {len(band_its)} blocks, "
             f"{min(band_its, default=0)}–{max(band_its, default=0)} iterations each, "
             f"finite: {'yes' if r['finite_band'] else 'no'}); peak after them "
-            f"{r['peak_gb']:.3f} GB ({'their own' if r['peak_reset'] else 'the process'}'s) "
+            f"{r['peak_gb']:.3f} GB ({'their own' if r['peak_reset'] else 'the process'}'s; "
+            f"resident when they began {r['resident_at_reset_gb']:.3f} GB) "
             f"— {added / r['refine_s']:.1f}× the refinement's time, "
             f"{r['peak_gb'] / r['peak_refine_gb']:.2f}× its peak memory")
 

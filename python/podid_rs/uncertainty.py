@@ -40,6 +40,7 @@ import scipy.linalg
 import scipy.stats
 
 from ._arrays import as_array, as_omega
+from ._memory import release_free_memory
 from .identification.covariance import (
     DenseCovariance,
     LinearisedFit,
@@ -804,6 +805,8 @@ def model_uncertainty(
         cov: DenseCovariance | MatrixFreeCovariance = DenseCovariance(
             gauss_newton_matrix(fit, fit.bread()))
     else:
+        # what earlier work (a refinement) freed is given back before anything is formed
+        release_free_memory()
         # the undamped modes: TᵀMT = I, TᵀKT = Ω² (where N is nearly block diagonal)
         _, T = scipy.linalg.eigh(K, M)
         # without every line's D⁻¹ (the solves' products go through N's per-line matrices)
