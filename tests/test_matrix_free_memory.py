@@ -150,7 +150,7 @@ def test_the_intervals_stay_within_their_memory_budget(monkeypatch):
     monkeypatch.setattr(covariance, "CG_BLOCK_BYTES", budget)
     monkeypatch.setattr(covariance, "PRODUCT_ELEMENTS", s * n * 4)
     monkeypatch.setattr(covariance, "LINE_SOLVE_ELEMENTS", n * n * 10)
-    monkeypatch.setattr(pr.uncertainty, "FRF_BLOCK_ELEMENTS", 1 << 15)
+    monkeypatch.setattr(pr.uncertainty, "FRF_BLOCK_ELEMENTS_MATRIX_FREE", 1 << 15)
     unc = pr.model_uncertainty(system, U, F, omega, solver="matrix-free")
     cov = unc._cov
     assert cov.fit.Dinv is None  # never kept: the products solve per line

@@ -66,8 +66,13 @@ LEVEL = 0.95
 #: ``solver="auto"`` forms N densely up to this order (3m(m+1)/2 = 2460 coordinates, as
 #: the refinement's dense step) and solves with it matrix-free beyond
 AUTO_DENSE_MAX_M = 40
-#: gradient entries (lines × entries × parameters) of an FRF band formed at once
+#: gradient entries (lines × entries × parameters) of an FRF band formed at once: on the
+#: dense path one pass over the covariance per block; on the matrix-free path (a pass over
+#: the draws) fewer, their intermediates (about four times the gradients) beside the draws
+#: kept being the band's peak (at m = 100, 200 lines: 0.224 GB with 1 << 19, the
+#: refinement's 0.218)
 FRF_BLOCK_ELEMENTS = 1 << 19
+FRF_BLOCK_ELEMENTS_MATRIX_FREE = 1 << 17
 
 
 def _check_level(level: object) -> float:
@@ -536,7 +541,8 @@ class ModelUncertainty:
         var_re, var_im, cov_ri = (np.empty((s, r, c)) for _ in range(3))
         # the gradients of a block of lines at once: one pass over the covariance per
         # block, not per line (on the beam, m = 39: 26 s → 1.9 s for 251 lines, 2 entries)
-        block = max(1, FRF_BLOCK_ELEMENTS // max(1, r * c * self.n_parameters))
+        elements = FRF_BLOCK_ELEMENTS if self.solver == "dense" else FRF_BLOCK_ELEMENTS_MATRIX_FREE
+        block = max(1, elements // max(1, r * c * self.n_parameters))
         draws = getattr(self._cov, "draws", None)
         if draws is not None:  # matrix-free: its solves first, before any gradient is held
             draws()

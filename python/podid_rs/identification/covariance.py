@@ -1137,9 +1137,10 @@ class MatrixFreeCovariance:
     sides share one Krylov space, as many as ``CG_BLOCK_BYTES`` holds (:meth:`column_blocks`),
     whose search block is re-orthonormalised every iteration (directions below 1e-10 of
     the largest dropped). The products apply N line by line through its per-line m × m
-    matrices (:meth:`LinearisedFit.line_grams`, Hermitian: kept packed, half the memory of
-    D⁻¹); the per-line inverses D⁻¹ are let go once those are formed (the products with
-    the meat and the noise's draws solve per line instead). The preconditioner is
+    matrices (:meth:`LinearisedFit.line_grams`, Hermitian: formed packed, half the memory
+    of D⁻¹); the per-line inverses D⁻¹ are not kept (a fit made with
+    ``keep_inverses=False`` never holds them, another's are released here): the products
+    with the meat and the noise's draws solve per line instead. The preconditioner is
     additive Schwarz on the stars of coordinates: star j holds the symmetric coordinates
     (j, k) of M, C and K for every k, 3m of them, and N's block there
     (:meth:`LinearisedFit.star_block_groups`) is inverted — in the model's undamped modal
@@ -1165,7 +1166,7 @@ class MatrixFreeCovariance:
     Parameters
     ----------
     fit : LinearisedFit
-        The linearised fit (its inverses D⁻¹ are released here).
+        The linearised fit (its inverses D⁻¹, if it holds them, are released here).
     rank : int
         The determined directions (n_params less the gauge): not measured here.
     tol : float
