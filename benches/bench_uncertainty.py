@@ -44,7 +44,9 @@ the FRF overlays; (2) at m = 100 (``--large-m``), matrix-free: the chain's respo
 random forces on every DOF at 1000 lines (``--large-s``; ``_common.chain_problem``, 0.1 %
 noise), refined from the truth, then ``model_uncertainty(solver="matrix-free")``, every
 mode's interval and the band of two FRF entries at every line — in a fresh process, its
-peak resident memory after the refinement and after the intervals.
+peak resident memory after the refinement, then (the peak reset to the resident size,
+Linux's ``clear_refs``) the intervals' own after each phase, the reasons of the modes
+without an interval and the ConvergenceWarnings.
 """
 
 from __future__ import annotations
@@ -321,6 +323,18 @@ def cost_identify(sizes: list[int], out_dir: Path) -> str:
                            "added to identify"], rows)
 
 
+def resident_gb() -> float:
+    """This process's resident size now (VmRSS), GB; NaN where /proc cannot be read."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) * 1024 / 1e9
+    except OSError:
+        pass
+    return float("nan")
+
+
 def large_worker(case: dict) -> dict:
     """Refine the chain at m from the truth, then the matrix-free intervals: times and the
     peak resident memory after each (also written to ``case["progress"]`` as they come, for
@@ -340,18 +354,34 @@ def large_worker(case: dict) -> dict:
         warnings.simplefilter("ignore")
         model = pr.refine(system, U, F, omega, max_iter=200)
     done(refine_s=time.perf_counter() - t0, steps=model.iterations, peak_refine_gb=peak_rss_gb())
+    # the intervals' own peak from here: Linux resets VmHWM to the current resident size
+    # on "5" written to clear_refs (the peaks below would otherwise be at least the
+    # refinement's)
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        out["peak_reset"] = True
+    except OSError:
+        out["peak_reset"] = False
+    out["resident_at_reset_gb"] = resident_gb()
     t0 = time.perf_counter()
     unc = pr.model_uncertainty(model, U, F, omega, solver="matrix-free")
-    done(covariance_s=time.perf_counter() - t0)
+    done(covariance_s=time.perf_counter() - t0, peak_covariance_gb=peak_rss_gb())
     t0 = time.perf_counter()
-    modes = unc.modes()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", pr.ConvergenceWarning)
+        modes = unc.modes()
+    reasons = {str(r): int(c) for r, c in zip(*np.unique(modes.why_undetermined[
+        ~modes.determined], return_counts=True), strict=True)}
     done(modes_s=time.perf_counter() - t0, determined=int(np.sum(modes.determined)),
-         modes=int(modes.determined.size),
+         modes=int(modes.determined.size), why_undetermined=reasons,
+         convergence_warnings=len(caught), peak_modes_gb=peak_rss_gb(),
          median_rel_f=float(np.nanmedian(modes.std_frequency_hz / modes.frequencies_hz)),
          cg_iterations=[int(v) for v in unc._cov.iterations])
+    blocks = len(unc._cov.iterations)
     t0 = time.perf_counter()
     band = unc.frf(omega, rows=[0, m - 1], cols=[0])
-    done(band_s=time.perf_counter() - t0, finite_band=bool(np.all(np.isfinite(band.upper))))
+    done(band_s=time.perf_counter() - t0, finite_band=bool(np.all(np.isfinite(band.upper))),
+         band_iterations=[int(v) for v in unc._cov.iterations[blocks:]])
     return out
 
 
@@ -368,17 +398,24 @@ def cost_large(m: int, s: int, progress: Path, timeout: float) -> str:
     if "error" in r:
         got = json.loads(progress.read_text()) if progress.exists() else {}
         return f"- m = {m}, s = {s}, matrix-free: {r['error']}; what had finished: {got}"
-    its = r["cg_iterations"]
+    its, band_its = r["cg_iterations"], r["band_iterations"]
     added = r["covariance_s"] + r["modes_s"] + r["band_s"]
+    why = ", ".join(f"{c} {w}" for w, c in r["why_undetermined"].items()) or "none"
     return (f"- m = {m}, s = {s}, matrix-free: refine {r['refine_s']:.1f} s ({r['steps']} "
-            f"steps, from the truth), peak {r['peak_refine_gb']:.2f} GB; the intervals "
-            f"{added:.0f} s (covariance {r['covariance_s']:.1f} s, {r['modes']} modes' "
-            f"intervals {r['modes_s']:.0f} s in {len(its)} blocks of CG, {min(its)}–{max(its)} "
-            f"iterations each, {r['determined']} determined, their median σ_f/f "
-            f"{r['median_rel_f']:.1e}; the band of 2 entries at {s} lines {r['band_s']:.0f} s, "
+            f"steps, from the truth), peak {r['peak_refine_gb']:.3f} GB; the intervals "
+            f"{added:.0f} s (covariance {r['covariance_s']:.1f} s, peak "
+            f"{r['peak_covariance_gb']:.3f} GB; {r['modes']} modes' intervals "
+            f"{r['modes_s']:.0f} s in {len(its)} blocks of CG, {min(its)}–{max(its)} "
+            f"iterations each, {r['determined']} determined (without an interval: {why}; "
+            f"{r['convergence_warnings']} ConvergenceWarning), their median σ_f/f "
+            f"{r['median_rel_f']:.1e}, peak {r['peak_modes_gb']:.3f} GB; the band of 2 "
+            f"entries at {s} lines {r['band_s']:.0f} s, its draws in {len(band_its)} blocks, "
+            f"{min(band_its, default=0)}–{max(band_its, default=0)} iterations each, "
             f"finite: {'yes' if r['finite_band'] else 'no'}); peak after them "
-            f"{r['peak_gb']:.2f} GB — {added / r['refine_s']:.1f}× the refinement's time, "
-            f"{r['peak_gb'] / r['peak_refine_gb']:.1f}× its peak memory")
+            f"{r['peak_gb']:.3f} GB ({'their own' if r['peak_reset'] else 'the process'}'s; "
+            f"resident when they began {r['resident_at_reset_gb']:.3f} GB) "
+            f"— {added / r['refine_s']:.1f}× the refinement's time, "
+            f"{r['peak_gb'] / r['peak_refine_gb']:.2f}× its peak memory")
 
 
 def table(results: list, seeds: int) -> str:

@@ -12,6 +12,10 @@ place to fake it in a test.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import functools
+
 #: Fraction of the available memory a single request may take.
 FRACTION = 0.9
 COMPLEX_BYTES = 16
@@ -55,3 +59,31 @@ def require_memory(nbytes: float, what: str, hint: str = "") -> None:
             f"{what} needs {nbytes / 1e9:.3g} GB but only {avail / 1e9:.3g} GB of memory is "
             "available" + (f"; {hint}" if hint else "")
         )
+
+
+@functools.lru_cache(maxsize=1)
+def _malloc_trim():
+    """glibc's ``malloc_trim``, or None (another C library, or none found)."""
+    try:
+        name = ctypes.util.find_library("c")
+        trim = ctypes.CDLL(name).malloc_trim if name else None
+    except (OSError, AttributeError):
+        return None
+    if trim is not None:
+        trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
+    return trim
+
+
+def release_free_memory() -> None:
+    """Give the C heap's free pages back to the operating system (glibc's
+    ``malloc_trim(0)``; nothing elsewhere).
+
+    glibc keeps what earlier work freed resident: once an array above its mmap threshold
+    has been freed it raises the threshold (up to 32 MiB), so that arrays up to that size
+    come from the heap, where freed pages stay resident until trimmed. Long computations
+    after a large one (the matrix-free intervals after a refinement) call this before
+    they start and between their phases, so that their own peak is what they hold.
+    """
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)

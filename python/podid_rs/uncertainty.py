@@ -40,6 +40,7 @@ import scipy.linalg
 import scipy.stats
 
 from ._arrays import as_array, as_omega
+from ._memory import release_free_memory
 from .identification.covariance import (
     DenseCovariance,
     LinearisedFit,
@@ -65,8 +66,13 @@ LEVEL = 0.95
 #: ``solver="auto"`` forms N densely up to this order (3m(m+1)/2 = 2460 coordinates, as
 #: the refinement's dense step) and solves with it matrix-free beyond
 AUTO_DENSE_MAX_M = 40
-#: gradient entries (lines × entries × parameters) of an FRF band formed at once
+#: gradient entries (lines × entries × parameters) of an FRF band formed at once: on the
+#: dense path one pass over the covariance per block; on the matrix-free path (a pass over
+#: the draws) fewer, their intermediates (about four times the gradients) beside the draws
+#: kept being the band's peak (at m = 100, 200 lines: 0.224 GB with 1 << 19, the
+#: refinement's 0.218)
 FRF_BLOCK_ELEMENTS = 1 << 19
+FRF_BLOCK_ELEMENTS_MATRIX_FREE = 1 << 17
 
 
 def _check_level(level: object) -> float:
@@ -101,6 +107,11 @@ class ModeIntervals:
         The mode shapes on the measured DOFs, largest entry 1 (with ``shapes=True``).
     std_shapes_real, std_shapes_imag : numpy.ndarray, (n, k), or None
         Standard deviations of their real and imaginary parts (0 at the reference entry).
+    why_undetermined : numpy.ndarray of str, (k,), or None
+        Why a mode has no interval: ``""`` where it has one; ``"undetermined"`` (it
+        depends on a direction the data do not fix: the dense path), ``"wider than the
+        value"``, or ``"not converged"`` (a matrix-free solve did not reach its
+        tolerance, with a :class:`~podid_rs.ConvergenceWarning`).
     frequency_intervals_hz, damping_intervals : numpy.ndarray, (k, 2)
         Lower and upper ends, estimate ± z·σ (NaN where not determined).
     """
@@ -116,6 +127,7 @@ class ModeIntervals:
     shapes: np.ndarray | None = None
     std_shapes_real: np.ndarray | None = None
     std_shapes_imag: np.ndarray | None = None
+    why_undetermined: np.ndarray | None = None
 
     @property
     def frequency_intervals_hz(self) -> np.ndarray:
@@ -362,6 +374,20 @@ class ModelUncertainty:
         parts = [sym_gradient(g) * c for g, c in zip(grads, self._scales, strict=True)]
         return np.concatenate(parts, axis=-1)
 
+    def _scaled_multiples(self, A: np.ndarray, coefs: list[np.ndarray]) -> np.ndarray:
+        """As :meth:`_scaled` of the gradients coefs[b] · A for b = M, C, K (``coefs``
+        broadcasting over A's leading axes), A taken to the coordinates once: a third of
+        the memory of the three gradients (an FRF band's block of lines, the modes)."""
+        if self._Tinv is not None:
+            A = self._Tinv @ A @ self._Tinv.T
+        base = sym_gradient(A)
+        del A
+        nb = base.shape[-1]
+        out = np.empty(base.shape[:-1] + (3 * nb,), dtype=np.result_type(base, *coefs))
+        for b in range(3):
+            out[..., b * nb:(b + 1) * nb] = (coefs[b] * self._scales[b])[..., None] * base
+        return out
+
     def modes(self, level: float = LEVEL, *, shapes: bool = False) -> ModeIntervals:
         """Natural frequencies and damping ratios with intervals (and the mode shapes').
 
@@ -385,24 +411,30 @@ class ModelUncertainty:
         z = self.z(level)
         lam, psi, a, pick = _all_modes(self.M, self.C, self.K)
         sel = lam[pick]
-        powers = np.stack([sel**2, sel, np.ones_like(sel)])  # c_b(λ) for b = M, C, K
-        outer = psi[:, pick].T[:, :, None] * psi[:, pick].T[:, None, :]  # ψψᵀ (k, m, m)
-        dlam = self._scaled([-(powers[b] / a[pick])[:, None, None] * outer for b in range(3)])
         mag = np.abs(sel)
-        g_f = (np.conj(sel)[:, None] * dlam).real / (2 * np.pi * mag[:, None])
-        g_z = (-dlam.real / mag[:, None]
-               + sel.real[:, None] * (np.conj(sel)[:, None] * dlam).real / mag[:, None] ** 3)
-        del outer, dlam  # (memory: modes × parameters each, while the solves run)
-        # one set of solves for both: on the matrix-free path they share a Krylov space
-        g = np.concatenate([g_f, g_z])
-        del g_f, g_z
-        var_f, var_z = np.split(self._cov.variances(g), 2)
+        var_f, var_z = np.empty(sel.size), np.empty(sel.size)
+        # the gradients a block of modes at a time, as many as one solve takes (on the
+        # matrix-free path the blocks of the solve bound the memory; the dense: all)
+        blocks = max(1, len(self._cov.column_blocks(2 * sel.size)))
+        for idx in np.array_split(np.arange(sel.size), blocks):
+            if not idx.size:
+                continue
+            g = self._mode_gradients(sel[idx], psi[:, pick[idx]], a[pick[idx]])
+            # one set of solves for both: on the matrix-free path they share a Krylov space
+            var_f[idx], var_z[idx] = np.split(self._cov.variances(g), 2)
+            del g
         real_root = np.abs(sel.imag) <= 1e-12 * mag
         var_z = np.where(real_root & np.isfinite(var_z), 0.0, var_z)
+        # NaN: a direction the data do not fix (dense) or a solve that did not converge
+        # (matrix-free, which warned)
+        unsolved = ~(np.isfinite(var_f) & np.isfinite(var_z))
         # an interval wider than the value itself — a frequency's reaching 0, a damping
         # ratio's spanning more than critical damping — is no interval: the data do not fix
         # that pole (a fit's residual term far outside the band, first order long invalid)
         loose = (z * np.sqrt(var_f) >= mag / (2 * np.pi)) | (z * np.sqrt(var_z) >= 1.0)
+        why = np.full(sel.size, "", dtype=object)
+        why[loose] = "wider than the value"
+        why[unsolved] = "not converged" if self.solver == "matrix-free" else "undetermined"
         var_f = np.where(loose, np.nan, var_f)
         var_z = np.where(loose, np.nan, var_z)
         determined = np.isfinite(var_f) & np.isfinite(var_z)
@@ -410,11 +442,25 @@ class ModelUncertainty:
             eigenvalues=sel, frequencies_hz=mag / (2 * np.pi),
             damping_ratios=np.where(mag > 0, -sel.real / np.maximum(mag, 1e-300), 0.0),
             std_frequency_hz=np.sqrt(var_f), std_damping=np.sqrt(var_z), level=_check_level(level),
-            z=z, determined=determined,
+            z=z, determined=determined, why_undetermined=why.astype(str),
         )
         if shapes:
             out.update(self._shape_std(lam, psi, a, pick))
         return ModeIntervals(**out)
+
+    def _mode_gradients(self, sel: np.ndarray, psi: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """Gradients of the natural frequencies (Hz) and damping ratios of the modes of
+        eigenvalues ``sel``, vectors ``psi`` (m, k) and a = ψᵀ(2λM + C)ψ: ``(2k, q)``, the
+        frequencies' rows first."""
+        powers = np.stack([sel**2, sel, np.ones_like(sel)])  # c_b(λ) for b = M, C, K
+        outer = psi.T[:, :, None] * psi.T[:, None, :]  # ψψᵀ (k, m, m)
+        dlam = self._scaled_multiples(outer, [-(powers[b] / a) for b in range(3)])
+        del outer
+        mag = np.abs(sel)
+        g_f = (np.conj(sel)[:, None] * dlam).real / (2 * np.pi * mag[:, None])
+        g_z = (-dlam.real / mag[:, None]
+               + sel.real[:, None] * (np.conj(sel)[:, None] * dlam).real / mag[:, None] ** 3)
+        return np.concatenate([g_f, g_z])
 
     def _shape_std(self, lam, psi, a, pick) -> dict[str, np.ndarray]:
         """Mode shapes R ψ (largest entry 1) and the standard deviations of their parts."""
@@ -495,7 +541,11 @@ class ModelUncertainty:
         var_re, var_im, cov_ri = (np.empty((s, r, c)) for _ in range(3))
         # the gradients of a block of lines at once: one pass over the covariance per
         # block, not per line (on the beam, m = 39: 26 s → 1.9 s for 251 lines, 2 entries)
-        block = max(1, FRF_BLOCK_ELEMENTS // max(1, r * c * self.n_parameters))
+        elements = FRF_BLOCK_ELEMENTS if self.solver == "dense" else FRF_BLOCK_ELEMENTS_MATRIX_FREE
+        block = max(1, elements // max(1, r * c * self.n_parameters))
+        draws = getattr(self._cov, "draws", None)
+        if draws is not None:  # matrix-free: its solves first, before any gradient is held
+            draws()
         for start in range(0, s, block):
             stop = min(s, start + block)
             wb = w[start:stop][:, None, None]  # the block's lines, batched
@@ -506,7 +556,8 @@ class ModelUncertainty:
             outer = (np.swapaxes(g, 1, 2)[:, :, None, :, None]
                      * np.swapaxes(h, 1, 2)[:, None, :, None, :])  # (b, r, c, m, m)
             phis = (-(wb**2), 1j * wb, np.ones_like(wb))
-            grad = self._scaled([-ph[..., None, None] * outer for ph in phis])
+            grad = self._scaled_multiples(outer, [-ph for ph in phis])
+            del outer
             grad = grad.reshape((stop - start) * r * c, -1)
             moments = self._cov.pair_moments(grad.real, grad.imag)
             var_re[start:stop], var_im[start:stop], cov_ri[start:stop] = (
@@ -674,11 +725,14 @@ def model_uncertainty(
         ``"dense"`` forms the Gauss–Newton matrix ((3m(m+1)/2)² doubles) and
         eigendecomposes it, which also finds the directions the data do not determine;
         ``"matrix-free"`` solves with it for the variances asked, by block
-        preconditioned CG (the right-hand sides share a Krylov space; N applied line
-        by line through its per-line m × m matrices, memory O(s·m²) as the
-        refinement's matrix-free step, and the 3m × 3m blocks of N on each mode's
-        row of M, C, K, O(m³), as the preconditioner), in the model's undamped modal
-        coordinates; ``"auto"`` dense up to m = 40.
+        preconditioned CG (the right-hand sides share a Krylov space, in blocks whose
+        memory is bounded: ``CG_BLOCK_BYTES`` of
+        :mod:`podid_rs.identification.covariance`; N applied line by line through its
+        per-line m × m matrices, memory O(s·m²) as the refinement's matrix-free step,
+        and the 3m × 3m blocks of N on each mode's row of M, C, K, O(m³), as the
+        preconditioner), in the model's undamped modal coordinates; a solve that does
+        not converge gives NaN with a :class:`~podid_rs.ConvergenceWarning`. ``"auto"``
+        dense up to m = 40.
 
     Returns
     -------
@@ -757,10 +811,14 @@ def model_uncertainty(
         cov: DenseCovariance | MatrixFreeCovariance = DenseCovariance(
             gauss_newton_matrix(fit, fit.bread()))
     else:
+        # what earlier work (a refinement) freed is given back before anything is formed
+        release_free_memory()
         # the undamped modes: TᵀMT = I, TᵀKT = Ω² (where N is nearly block diagonal)
         _, T = scipy.linalg.eigh(K, M)
+        # without every line's D⁻¹ (the solves' products go through N's per-line matrices)
         fit = LinearisedFit(T.T @ M @ T, T.T @ C @ T, T.T @ K @ T, Ua[keep], Fa[keep], w[keep],
-                            R @ T, W_all[keep], objective, grid=np.flatnonzero(keep))
+                            R @ T, W_all[keep], objective, grid=np.flatnonzero(keep),
+                            keep_inverses=False)
         observed = observed_count(R)
         cov = MatrixFreeCovariance(fit, fit.n_params - gauge_dimension(m, observed))
     dof = None

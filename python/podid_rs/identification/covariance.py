@@ -54,24 +54,32 @@ coordinates, the matrix-free solves' preconditioner.
 from __future__ import annotations
 
 import functools
+import warnings
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.blas
 
 from .._arrays import as_array
 from .._linesolve import _one_blas_thread
+from .._memory import release_free_memory
 from .refinement import LOG_DYNAMIC_RANGE
+from .result import ConvergenceWarning
 
 Objective = Literal["complex", "log-magnitude"]
 NoiseModel = Literal["local", "channel", "line", "global"]
 
 #: elements of Rᵀ diag(h) R's intermediate (lines × p × n × m) formed at once
 PAIR_CHUNK_ELEMENTS = 1 << 18
-#: elements of the responses' outer products (columns × m × m) formed at once for N's
-#: blocks on the stars of coordinates
-STAR_CHUNK_ELEMENTS = 1 << 20
+#: stars of coordinates whose blocks of N are formed at once (their memory: 9 m² doubles
+#: each, and m² complex numbers per power of ω), and the entries of the per-line matrices
+#: (columns × m × m) read at once for them
+STAR_GROUP = 8
+STAR_CHUNK_ELEMENTS = 1 << 18
+#: elements of D(ω) (lines × m × m) factorised at once once the inverses are released
+LINE_SOLVE_ELEMENTS = 1 << 18
 #: a coherence below this is taken as this (the variance of that entry is then huge)
 COHERENCE_FLOOR = 1e-12
 #: the noise model "local" fits a channel's residuals on this many fitted lines on each
@@ -180,6 +188,9 @@ class LinearisedFit:
         ``(s,)`` the index of each line on the data's grid of lines (the fit may have
         used a subset), for noise correlated between neighbouring lines; default
         0 … s − 1.
+    keep_inverses : bool
+        Keep every line's D(ω)⁻¹ (s·m² complex; :meth:`jacobian` and the dense matrices
+        need them); without, the products solve per line (:meth:`solve_lines`).
 
     Attributes
     ----------
@@ -192,7 +203,7 @@ class LinearisedFit:
     """
 
     def __init__(self, M, C, K, U, F, omega, R, W, objective: Objective,
-                 grid: np.ndarray | None = None) -> None:
+                 grid: np.ndarray | None = None, keep_inverses: bool = True) -> None:
         self.objective = objective
         self.m = M.shape[0]
         self.s, self.n, self.p = U.shape
@@ -210,11 +221,15 @@ class LinearisedFit:
         self.phi = np.stack([-(self.w**2) + 0j, 1j * self.w, np.ones_like(self.w) + 0j])  # (3, s)
         self.X = [np.asarray(X, dtype=np.float64) / c for X, c in zip((M, C, K), self.scales,
                                                                        strict=True)]
-        D = (self.phi[0][:, None, None] * self.X[0] + self.phi[1][:, None, None] * self.X[1]
-             + self.X[2][None])  # fmt: skip
-        self.Dinv = np.linalg.inv(D)  # (s, m, m)
         self.f = np.einsum("nm,snp->smp", R, F) / self.sf  # scaled reduced forces
-        self.x = self.Dinv @ self.f  # (s, m, p) scaled responses of the coordinates
+        self.Dinv: np.ndarray | None = None
+        if keep_inverses:
+            # (s, m, m), a chunk of lines at a time: no second array of every line's D
+            self.Dinv = np.empty((self.s, self.m, self.m), dtype=np.complex128)
+            for sl in self._line_chunks():
+                self.Dinv[sl] = np.linalg.inv(self.dynamic_stiffness(sl))
+        # (s, m, p) scaled responses of the coordinates
+        self.x = self.solve_lines(self.f.astype(np.complex128))
         self.y = np.einsum("nm,smp->snp", R, self.x)  # scaled responses on the measured DOFs
         self.u = U / self.su
         self.grid = np.arange(self.s) if grid is None else np.asarray(grid)
@@ -300,16 +315,22 @@ class LinearisedFit:
         dZ = np.concatenate([sym_matrix(theta[b * nb:(b + 1) * nb].T, m) for b in range(3)],
                             axis=2)  # (k, m, 3m)
         y = (dZ.reshape(k * m, 3 * m) @ self._stacked_responses).reshape(k, m, 2, s, p)
-        return (y[:, :, 0] + 1j * y[:, :, 1]).transpose(2, 1, 3, 0)
+        del dZ
+        out = np.empty((k, m, s, p), dtype=np.complex128)  # no complex temporary
+        out.real, out.imag = y[:, :, 0], y[:, :, 1]
+        return out.transpose(2, 1, 3, 0)
 
     def apply_load_adjoint(self, w: np.ndarray) -> np.ndarray:
         """Re Lᴴ w: ``(s, m, p, k)`` complex → ``(n_params, k)``, the coordinates of
         A_b = Re Σ_c w̄_c (φ_b x_c)ᵀ."""
         s, m, p = self.s, self.m, self.p
         k = w.shape[3]
-        W = w.transpose(3, 1, 0, 2).reshape(k * m, s * p)
-        Wr = np.concatenate([W.real, W.imag], axis=1)  # Re(w̄ a) = Re w Re a + Im w Im a
-        A = (Wr @ self._stacked_responses.T).reshape(k, m, 3, m)
+        # Re(w̄ a) = Re w Re a + Im w Im a: the parts side by side, without a complex copy
+        Wr = np.empty((k, m, 2, s, p))
+        Wt = w.transpose(3, 1, 0, 2)
+        Wr[:, :, 0], Wr[:, :, 1] = Wt.real, Wt.imag
+        A = (Wr.reshape(k * m, 2 * s * p) @ self._stacked_responses.T).reshape(k, m, 3, m)
+        del Wr
         return np.concatenate([sym_gradient(A[:, :, b]).T for b in range(3)], axis=0)
 
     def apply_jacobian(self, theta: np.ndarray) -> np.ndarray:
@@ -320,18 +341,62 @@ class LinearisedFit:
         """
         s, m, p = self.s, self.m, self.p
         k = theta.shape[1]
-        y = self.apply_load(theta)
-        dx = -(self.Dinv @ y.reshape(s, m, p * k)).reshape(s, m, p, k)
-        return np.einsum("nm,smpk->snpk", self.R, dx, optimize=True)
+        y = np.ascontiguousarray(self.apply_load(theta)).reshape(s, m, p * k)
+        y = self.solve_lines(y, out=y if self.Dinv is None else None).reshape(s, m, p, k)
+        y *= -1.0
+        return np.einsum("nm,smpk->snpk", self.R, y, optimize=True)
 
     def apply_adjoint(self, t: np.ndarray) -> np.ndarray:
         """Re(Jᴴ t): ``(s, n, p, k)`` complex → ``(n_params, k)``."""
         s, m, p = self.s, self.m, self.p
         k = t.shape[3]
-        z = np.einsum("nm,snpk->smpk", self.R, t, optimize=True).reshape(s, m, p * k)
-        # −D⁻ᴴ Rᵀ t as −conj(D⁻ᵀ conj(z)): no conjugate copy of every line's D⁻¹
-        z = -(self.Dinv.transpose(0, 2, 1) @ z.conj()).conj().reshape(s, m, p, k)
-        return self.apply_load_adjoint(z)
+        z = np.ascontiguousarray(np.einsum("nm,snpk->smpk", self.R, t, optimize=True))
+        z = z.reshape(s, m, p * k)
+        # −D⁻ᴴ Rᵀ t as −conj(D⁻ᵀ conj(z)): no conjugate copy of every line's D⁻¹ (and,
+        # solving per line, none of z)
+        np.conjugate(z, out=z)
+        z = self.solve_lines(z, transpose=True, out=z if self.Dinv is None else None)
+        np.conjugate(z, out=z)
+        z *= -1.0
+        return self.apply_load_adjoint(z.reshape(s, m, p, k))
+
+    def solve_lines(self, y: np.ndarray, transpose: bool = False,
+                    out: np.ndarray | None = None) -> np.ndarray:
+        """D(ω)⁻¹ y (or D(ω)⁻ᵀ y) on every line: ``(s, m, k)`` complex.
+
+        By the per-line inverses while they are held; after :meth:`release_inverses` by
+        an LU solve per line, ``LINE_SOLVE_ELEMENTS`` of D's entries at a time (the
+        matrix-free covariance's products with the meat and its noise draws: a few per
+        solve, where the inverses would be the memory of its solves' blocks). ``out``
+        may be ``y`` itself (solving per line: each chunk is read before it is written).
+        """
+        if self.Dinv is not None:
+            return np.matmul(self.Dinv.transpose(0, 2, 1) if transpose else self.Dinv, y,
+                             out=out)
+        if out is None:
+            out = np.empty_like(y)
+        for sl in self._line_chunks():
+            D = self.dynamic_stiffness(sl)
+            out[sl] = np.linalg.solve(D.transpose(0, 2, 1) if transpose else D, y[sl])
+        return out
+
+    def _line_chunks(self) -> list[slice]:
+        """The lines ``LINE_SOLVE_ELEMENTS`` of D's entries at a time."""
+        chunk = max(1, LINE_SOLVE_ELEMENTS // (self.m * self.m))
+        return [slice(i, i + chunk) for i in range(0, self.s, chunk)]
+
+    def dynamic_stiffness(self, lines: slice = slice(None)) -> np.ndarray:
+        """D(ω) = −ω²M̃ + iωC̃ + K̃ (scaled) on ``lines``: ``(lines, m, m)`` complex."""
+        D = self.phi[0][lines, None, None] * self.X[0]
+        D += self.phi[1][lines, None, None] * self.X[1]
+        D += self.X[2]
+        return D
+
+    def release_inverses(self) -> None:
+        """Let go of the per-line inverses D(ω)⁻¹ (s·m² complex, the refinement's largest
+        array): the products solve per line from here on (:meth:`solve_lines`), and
+        :meth:`jacobian`, :meth:`line_grams` and the dense matrices need them."""
+        self.Dinv = None
 
     def sample_noise_gradients(
         self, variance: np.ndarray, correlation: tuple[float, ...], k: int,
@@ -347,8 +412,9 @@ class LinearisedFit:
         """
         n, p = self.n, self.p
         length = int(self.grid.max()) + 1 + 2 * len(correlation) + 8
-        white = rng.standard_normal((length, n, p, k)) + 1j * rng.standard_normal(
-            (length, n, p, k))
+        white = np.empty((length, n, p, k), dtype=np.complex128)  # the same draws, in place
+        white.real = rng.standard_normal((length, n, p, k))
+        white.imag = rng.standard_normal((length, n, p, k))
         white /= np.sqrt(2.0)
         if correlation:
             theta = 2 * np.pi * np.fft.fftfreq(length)
@@ -359,104 +425,166 @@ class LinearisedFit:
                                  "sequence (its spectrum is negative somewhere)")
             white = np.fft.ifft(np.sqrt(np.maximum(spectrum, 0.0))[:, None, None, None]
                                 * np.fft.fft(white, axis=0), axis=0)
-        du = np.sqrt(variance / self.su**2)[..., None] * white[self.grid]  # (s, n, p, k)
+        white = white[self.grid]  # (s, n, p, k)
+        white *= np.sqrt(variance / self.su**2)[..., None]  # δu
         W2 = (self.W**2)[..., None]
         if self.objective == "complex":
-            t = W2 * du
+            white *= W2
+            t = white
         else:
             used = (self.W > 0)[..., None]
             u = np.where(used, self.u[..., None], 1.0)
             y = np.where(used, self.y[..., None], 1.0)
-            t = np.where(used, W2 * np.real(du / u) / np.conj(y), 0.0)
-        return self.apply_adjoint(t)
+            t = np.where(used, W2 * np.real(white / u) / np.conj(y), 0.0)
+        del white
+        # the adjoint a few draws at a time (its intermediates: s·m·p of them each)
+        out = np.empty((self.n_params, k))
+        step = self.product_columns()
+        for i in range(0, k, step):
+            out[:, i:i + step] = self.apply_adjoint(t[..., i:i + step])
+        return out
 
-    def line_grams(self, weights: EntryWeights) -> tuple[np.ndarray, np.ndarray | None] | None:
+    def product_columns(self) -> int:
+        """Columns per product with N, S or Jᵀ: their per-line intermediates (s·m·p
+        complex numbers each) within ``PRODUCT_ELEMENTS``."""
+        return max(1, PRODUCT_ELEMENTS // max(1, self.s * self.m * self.p))
+
+    def line_grams(self, weights: EntryWeights, packed: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray | None] | None:
         """Per column, the m × m matrices through which lag-0 ``weights`` act on L·θ:
         G_c = D⁻ᴴ Rᵀ diag(h_c) R D⁻¹ (Hermitian) and G̃_c = D⁻ᵀ Rᵀ diag(t_c) R D⁻¹ (or
         None), ``(s, p, m, m)``, so that the matrix of ``weights`` is
-        θ ↦ Re Lᴴ (G L θ + conj(G̃ L θ)) (:meth:`gram_product`). None unless the weights
-        pair every line with itself once, in order (the Gauss–Newton matrix N)."""
+        θ ↦ Re Lᴴ (G L θ + conj(G̃ L θ)) (:meth:`gram_product`); with ``packed`` G as
+        :func:`pack_hermitian` keeps it, formed a chunk of lines at a time (never whole
+        and complex). None unless the weights pair every line with itself once, in order
+        (the Gauss–Newton matrix N). Without the inverses (``keep_inverses=False``)
+        each chunk's are formed and dropped."""
         if not (weights.left.size == self.s and np.array_equal(weights.left, np.arange(self.s))
                 and np.all(weights.diagonal)):
             return None
         s, n, p, m = self.s, self.n, self.p, self.m
-        chunk = max(1, PAIR_CHUNK_ELEMENTS // max(1, p * n * m))
+        chunk = max(1, min(PAIR_CHUNK_ELEMENTS // max(1, p * n * m),
+                           LINE_SOLVE_ELEMENTS // (m * m)))
         out = []
         for h, conj in ((weights.hermitian, True), (weights.symmetric, False)):
             if h is None:
                 out.append(None)
                 continue
-            G = np.empty((s, p, m, m), dtype=complex)
+            pack = packed and conj
+            G = np.empty((s, p, m, m), dtype=np.float64 if pack else complex)
             for i in range(0, s, chunk):
                 sl = slice(i, i + chunk)
+                Dinv = (self.Dinv[sl] if self.Dinv is not None
+                        else np.linalg.inv(self.dynamic_stiffness(sl)))
                 Q = self.R.T @ (h[sl].transpose(0, 2, 1)[..., None] * self.R)  # (P, p, m, m)
-                left = self.Dinv[sl].conj() if conj else self.Dinv[sl]
-                G[sl] = left.transpose(0, 2, 1)[:, None] @ Q @ self.Dinv[sl][:, None]
+                left = Dinv.conj() if conj else Dinv
+                Gc = left.transpose(0, 2, 1)[:, None] @ Q @ Dinv[:, None]
+                G[sl] = pack_hermitian(Gc) if pack else Gc
             out.append(G)
         return out[0], out[1]
 
     def gram_product(self, grams: tuple[np.ndarray, np.ndarray | None],
                      theta: np.ndarray) -> np.ndarray:
         """The matrix of :meth:`line_grams`' ``grams`` times ``theta`` ``(n_params, k)``:
-        Re Lᴴ (G L θ + conj(G̃ L θ)), one m × m product per column and line."""
+        Re Lᴴ (G L θ + conj(G̃ L θ)), one m × m product per column and line.
+
+        G may also be given packed, as the real matrices P = Re G + Im G
+        (:func:`pack_hermitian`: half the memory): Re G = (P + Pᵀ)/2 and Im G = (P − Pᵀ)/2,
+        so with u = P y and v = Pᵀ y, G y = (u + v)/2 + i (u − v)/2 — as many flops.
+        """
         G, Gt = grams
         s, m, p = self.s, self.m, self.p
         k = theta.shape[1]
-        y = self.apply_load(theta).transpose(0, 2, 1, 3)  # (s, p, m, k)
-        w = G @ y
+        y = np.ascontiguousarray(self.apply_load(theta).transpose(0, 2, 1, 3))  # (s, p, m, k)
+        w = G @ y if np.iscomplexobj(G) else None
         if Gt is not None:
-            w += np.conj(Gt @ y)
+            gt = np.conj(Gt @ y)
+        if w is None:
+            # real and imaginary parts side by side: real products, no complex copy of P
+            yr = y.view(np.float64)  # (s, p, m, 2k)
+            w = (G @ yr).view(np.complex128)  # u = P y
+            del y
+            v = (np.swapaxes(G, -1, -2) @ yr).view(np.complex128)
+            del yr
+            w += v  # u + v
+            v *= -2.0
+            v += w  # u − v
+            w.real -= v.imag  # (u + v) + i (u − v), in place
+            w.imag += v.real
+            del v
+            w *= 0.5
+        if Gt is not None:
+            w += gt
+            del gt
         return self.apply_load_adjoint(w.transpose(0, 2, 1, 3).reshape(s, m, p, k))
 
     def star_blocks(self, grams: tuple[np.ndarray, np.ndarray | None]) -> np.ndarray:
         """N's blocks on the stars of coordinates: star j holds the symmetric coordinates
         (j, k) of M, C and K for every k, ``(m, 3m, 3m)`` (rows and columns block-major,
-        k within a block; :meth:`star_index`), from :meth:`line_grams`' ``grams``.
+        k within a block; :meth:`star_index`), from :meth:`line_grams`' ``grams``: the
+        groups of :meth:`star_block_groups` side by side."""
+        return np.concatenate([blocks for _, blocks in self.star_block_groups(grams)])
+
+    def star_block_groups(self, grams: tuple[np.ndarray, np.ndarray | None],
+                          size: int = STAR_GROUP):
+        """N's blocks on the stars of coordinates (:meth:`star_blocks`), ``size`` stars at
+        a time: yields (the first star's index, their blocks ``(size, 3m, 3m)``), so that
+        the preconditioner can take each group and drop it. ``grams`` as
+        :meth:`gram_product` takes them (G packed or not), read ``STAR_CHUNK_ELEMENTS``
+        of G's entries at a time.
 
         With v = φ_b f′(e_j x_k + e_k x_j) the direction of coordinate (b, j, k) in L·θ
         (f′ = 1/√2 off the diagonal, 1/2 on it) the entry is
         Re Σ_c v̄ᵀ G v′ + vᵀ G̃ v′: per power ω^P of φ̄_b φ_b′ four sums over the columns,
-        x̄_k x_k′ G_jj + x̄_k x_j G_jk′ + x̄_j x_k′ G_kj + |x_j|² G_kk′ (three m × m × m
-        products over the columns; the symmetric part unconjugated).
+        x̄_k x_k′ G_jj + x̄_k x_j G_jk′ + x̄_j x_k′ G_kj + |x_j|² G_kk′ (products over the
+        columns; the symmetric part unconjugated).
         """
         G, Gt = grams
         m, s, p = self.m, self.s, self.p
         fp = np.where(np.arange(m)[:, None] == np.arange(m)[None, :], 0.5, 1 / np.sqrt(2))
-        out = np.zeros((m, 3, m, 3, m))
         c = np.array([-1.0, 1j, 1.0])
         d = (2, 1, 0)
-        x = self.x.transpose(0, 2, 1).reshape(s * p, m)  # (columns, m)
-        w = np.repeat(self.w, p)
-        chunk = max(1, STAR_CHUNK_ELEMENTS // max(1, m * m))
-        for H, conj in ((G, True), (Gt, False)):
-            if H is None:
-                continue
-            H = H.reshape(s * p, m, m)
-            xl = x.conj() if conj else x
-            Hjj = np.einsum("cjj->cj", H)
-            for power in range(5):
-                wp = w**power
-                # |x_j|² G_kk′ (or x_j² G̃_kk′): one product over the columns
-                T = ((wp[:, None] * xl * x).T @ H.reshape(-1, m * m)).reshape(m, m, m)
-                # x̄_k x_k′ G_jj, the outer products of the responses a block of columns
-                # at a time
-                a = wp[:, None] * Hjj
-                for i in range(0, s * p, chunk):
-                    sl = slice(i, i + chunk)
-                    XX = (xl[sl, :, None] * x[sl, None, :]).reshape(-1, m * m)
-                    T += (a[sl].T @ XX).reshape(m, m, m)
-                # x̄_k x_j G_jk′ and its transpose (conjugate): one product per j
-                xw = wp[:, None] * x
-                for j in range(m):
-                    T2 = (xl * xw[:, j:j + 1]).T @ H[:, j, :]  # [k, k′]
-                    T[j] += T2 + (T2.conj() if conj else T2).T
-                for b in range(3):
-                    for bb in range(3):
-                        if d[b] + d[bb] == power:
-                            coef = (c[b].conj() if conj else c[b]) * c[bb]
-                            out[:, b, :, bb, :] += (coef * T).real
-        out *= fp[:, None, :, None, None] * fp[:, None, None, None, :]
-        return out.reshape(m, 3 * m, 3 * m)
+        x_all = self.x.transpose(0, 2, 1).reshape(s * p, m)  # (columns, m)
+        w_all = np.repeat(self.w, p)
+        parts = [(H.reshape(s * p, m, m), conj) for H, conj in ((G, True), (Gt, False))
+                 if H is not None]
+        step = max(1, STAR_CHUNK_ELEMENTS // (m * m))
+        for j0 in range(0, m, size):
+            js = np.arange(j0, min(m, j0 + size))
+            g = js.size
+            out = np.zeros((g, 3, m, 3, m))
+            for Hall, conj in parts:
+                for lo in range(0, s * p, step):
+                    cs = slice(lo, lo + step)
+                    H = Hall[cs]
+                    if not np.iscomplexobj(H):  # packed: G = (P + Pᵀ)/2 + i (P − Pᵀ)/2
+                        Ht = np.swapaxes(H, 1, 2)
+                        H = 0.5 * (H + Ht) + 0.5j * (H - Ht)
+                    x, w = x_all[cs], w_all[cs]
+                    xl = x.conj() if conj else x
+                    Hjj = np.einsum("cjj->cj", H)[:, js]  # (columns, g)
+                    cols = x.shape[0]
+                    for power in range(5):
+                        wp = w**power
+                        # |x_j|² G_kk′ (or x_j² G̃_kk′): one product over the columns
+                        T = ((wp[:, None] * xl[:, js] * x[:, js]).T
+                             @ H.reshape(cols, m * m)).reshape(g, m, m)
+                        # x̄_k x_k′ G_jj
+                        a = (wp[:, None] * Hjj)[:, :, None] * xl[:, None, :]  # (cols, g, m)
+                        T += (a.reshape(cols, g * m).T @ x).reshape(g, m, m)
+                        del a
+                        # x̄_k x_j G_jk′ and its transpose (conjugate): one product per j
+                        for i, j in enumerate(js):
+                            T2 = (xl * (wp * x[:, j])[:, None]).T @ H[:, j, :]  # [k, k′]
+                            T[i] += T2 + (T2.conj() if conj else T2).T
+                        for b in range(3):
+                            for bb in range(3):
+                                if d[b] + d[bb] == power:
+                                    coef = (c[b].conj() if conj else c[b]) * c[bb]
+                                    out[:, b, :, bb, :] += (coef * T).real
+                    del H
+            out *= fp[js][:, None, :, None, None] * fp[js][:, None, None, None, :]
+            yield j0, out.reshape(g, 3 * m, 3 * m)
 
     def star_index(self) -> np.ndarray:
         """``(m, 3m)``: the coordinates of star j (:meth:`star_blocks`), block-major."""
@@ -472,10 +600,18 @@ class LinearisedFit:
         vec = theta.ndim == 1
         th = theta[:, None] if vec else theta
         u = self.apply_jacobian(th)  # (s, n, p, k)
-        t = np.zeros_like(u)
         lft, rgt, diag = weights.left, weights.right, weights.diagonal
         hH = weights.hermitian[..., None]
         hS = None if weights.symmetric is None else weights.symmetric[..., None]
+        if lft.size == self.s and np.all(diag) and np.array_equal(lft, np.arange(self.s)):
+            # every line with itself once, in order: the weights act line by line
+            t = hH * u
+            if hS is not None:
+                t += np.conj(hS * u)
+            del u
+            out = self.apply_adjoint(t)
+            return out[:, 0] if vec else out
+        t = np.zeros_like(u)
         # A v = Re J_lᴴ (h J_r v + conj(t J_r v)); Aᵀ v = Re J_rᴴ (h̄ J_l v + conj(t J_l v))
         np.add.at(t, lft, hH * u[rgt] + (0 if hS is None else np.conj(hS * u[rgt])))
         off = ~diag
@@ -840,6 +976,11 @@ class DenseCovariance:
         self._half = V[:, keep] / np.sqrt(lam[keep]) / d[:, None]
         self.covariance = np.zeros_like(N)
 
+    def column_blocks(self, count: int) -> list[np.ndarray]:
+        """The right-hand sides of ``count`` to give at once: all (the covariance is
+        formed)."""
+        return [np.arange(count)]
+
     def set_meat(self, S: np.ndarray) -> None:
         """Form N⁺ S N⁺ for the meat S ``(q, q)``."""
         B = self._half
@@ -902,12 +1043,17 @@ CG_TOL = 1e-6
 CG_MAX_ITER = 2000
 #: restarts of block CG from the true residual when the recurrence's has drifted
 CG_RESTARTS = 3
-#: right-hand sides that share one block Krylov space: as many as make a block of
-#: CG_BLOCK_ELEMENTS (n_params × right-hand sides), at least CG_BLOCK_MIN. A larger
-#: block needs fewer products per right-hand side (chain, m = 100, the modes' 200
-#: gradients, linearised at the truth: 2 × 152 iterations in blocks of 100, 89 in one of
-#: 200 — 222 s and 105 s) at about ten blocks' memory
-CG_BLOCK_ELEMENTS = 1 << 22
+#: memory (bytes) of block CG's blocks: the right-hand sides that share one block Krylov
+#: space are as many as make CG_LIVE_BLOCKS blocks of n_params × them in this, at least
+#: CG_BLOCK_MIN (the right-hand sides, the solution, the residual, the search block, N
+#: times it and the preconditioned residual are alive at once). A larger block needs
+#: fewer products per right-hand side (chain, m = 60, the modes' 120 gradients: 33
+#: iterations in one block, 46 in two, 55 in three — 5.5, 7.9 and 9.0 s) but its memory
+#: grows with it: at m = 100, 200 lines, this is 5 blocks of 40 of the modes' 200
+#: gradients (and 7 of 29 of the band's draws, beside the draws kept), within the
+#: refinement's peak memory
+CG_BLOCK_BYTES = 32 << 20
+CG_LIVE_BLOCKS = 6
 CG_BLOCK_MIN = 16
 #: a search direction of block CG whose Rayleigh quotient of N (unit diagonal) is below
 #: this fraction of the largest seen lies along N's null space (a gauge) and is dropped
@@ -916,8 +1062,10 @@ NULL_RTOL = 1e-14
 #: leaves them singular, and its directions must not dominate their inverse (1e-10
 #: did, and CG stalled; 1e-6 takes as few iterations as 1e-8 on a chain at m = 40)
 STAR_RIDGE = 1e-6
-#: columns per product with N or S (memory of the per-line intermediates: s·m·p of them)
-PRODUCT_COLUMNS = 16
+#: complex numbers of each per-line intermediate of a product with N or S (s·m·p per
+#: column): the columns of one product (:meth:`LinearisedFit.product_columns`; 6 at
+#: m = 100, 200 lines, where 16 columns' intermediates had held 40 MB at once)
+PRODUCT_ELEMENTS = 1 << 17
 #: draws of the matrix-free path's sampled covariance (FRF bands), and their seed
 SAMPLES = 200
 SAMPLES_SEED = 20261125
@@ -929,7 +1077,8 @@ def _orthonormal(Y: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
     """An orthonormal basis of the columns of ``Y`` (pivoted QR), without the directions
     below ``rtol`` of the largest: the search block of breakdown-free block CG. (Unpivoted
     QR is twice as fast on 15 150 × 200, but a small diagonal entry of R there does not
-    mark a direction the later columns do without.)"""
+    mark a direction the later columns do without.) ``Y`` is overwritten: when it is
+    Fortran-ordered, the basis is formed in its memory."""
     if Y.shape[1] == 0:
         return Y
     Q, Rf, _ = scipy.linalg.qr(Y, mode="economic", pivoting=True, overwrite_a=True)
@@ -939,20 +1088,68 @@ def _orthonormal(Y: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
     return Q[:, :int(np.sum(d > rtol * d[0]))]
 
 
+def _column_norms(A: np.ndarray) -> np.ndarray:
+    """The 2-norm of each column of ``A``, without a temporary of A's size."""
+    return np.sqrt(np.einsum("ij,ij->j", A, A))
+
+
+def _add_product(C: np.ndarray, A: np.ndarray, B: np.ndarray, alpha: float) -> None:
+    """C += alpha · A B in place: BLAS's gemm with beta = 1 when C is Fortran-ordered, so
+    that no block of C's size is formed (A B would be one)."""
+    if C.flags.f_contiguous and C.dtype == np.float64 and C.size:
+        out = scipy.linalg.blas.dgemm(alpha, A, B, beta=1.0, c=C, overwrite_c=True)
+        if out is not C and not np.shares_memory(out, C):  # pragma: no cover - f2py copied
+            C[...] = out
+    else:
+        C += alpha * (A @ B)
+
+
+def _inverse_factor(block: np.ndarray) -> np.ndarray:
+    """F lower triangular with Fᵀ F = (B + STAR_RIDGE·I)⁻¹, B the block scaled to unit
+    diagonal: F = C⁻¹ for the Cholesky factor C of B + ridge (more ridge, tenfold at a time,
+    where it is not numerically positive definite). Kept in single precision, Fᵀ F stays
+    symmetric positive definite whatever its rounding: the preconditioner CG needs."""
+    d = np.sqrt(np.maximum(np.diagonal(block), np.finfo(float).tiny))
+    scaled = block / d[:, None] / d[None, :]
+    scaled = 0.5 * (scaled + scaled.T)
+    eye = np.eye(scaled.shape[0])
+    ridge = STAR_RIDGE
+    while True:
+        try:
+            C = np.linalg.cholesky(scaled + ridge * eye)
+            break
+        except np.linalg.LinAlgError:
+            ridge *= 10.0
+    return scipy.linalg.solve_triangular(C, eye, lower=True)
+
+
+def pack_hermitian(G: np.ndarray) -> np.ndarray:
+    """Hermitian matrices ``(..., m, m)`` as the real P = Re G + Im G (half the memory):
+    Re G = (P + Pᵀ)/2, Im G = (P − Pᵀ)/2 (:meth:`LinearisedFit.gram_product`)."""
+    return G.real + G.imag
+
+
 class MatrixFreeCovariance:
     """cov θ̂ = N⁻¹ S N⁻¹ applied by solves with N: only the variances asked for.
 
     Every variance gᵀ N⁻¹ S N⁻¹ g is a solve N a = g and one product S a. The
     solves are breakdown-free block preconditioned CG (Ji & Li 2017): right-hand
-    sides share one Krylov space (as many as ``CG_BLOCK_ELEMENTS`` allows), whose
-    search block is re-orthonormalised every iteration (directions below 1e-10 of the largest
-    dropped). The products apply N line by line through its per-line m × m matrices
-    (:meth:`LinearisedFit.line_grams`: the memory of D⁻¹ once more). The
-    preconditioner is additive Schwarz on the stars of coordinates: star j holds the
-    symmetric coordinates (j, k) of M, C and K for every k, 3m of them, and N's block
-    there (:meth:`LinearisedFit.star_blocks`) is inverted — in the model's undamped
-    modal coordinates, where a mode's data bear mostly on its own row of M, C, K; every
-    coordinate lies in two stars. All of it in coordinates scaled to N's unit
+    sides share one Krylov space, as many as ``CG_BLOCK_BYTES`` holds (:meth:`column_blocks`),
+    whose search block is re-orthonormalised every iteration (directions below 1e-10 of
+    the largest dropped). The products apply N line by line through its per-line m × m
+    matrices (:meth:`LinearisedFit.line_grams`, Hermitian: formed packed, half the memory
+    of D⁻¹); the per-line inverses D⁻¹ are not kept (a fit made with
+    ``keep_inverses=False`` never holds them, another's are released here): the products
+    with the meat and the noise's draws solve per line instead. The preconditioner is
+    additive Schwarz on the stars of coordinates: star j holds the symmetric coordinates
+    (j, k) of M, C and K for every k, 3m of them, and N's block there
+    (:meth:`LinearisedFit.star_block_groups`) is inverted — in the model's undamped modal
+    coordinates, where a mode's data bear mostly on its own row of M, C, K; every
+    coordinate lies in two stars. Each inverse is kept as a triangular factor F (Fᵀ F, the
+    inverse; :func:`_inverse_factor`) in single precision, two to a (3m + 1) × 3m array,
+    one in its lower triangle and one in its upper, applied by BLAS's trmm (a quarter of
+    the inverses' memory; Fᵀ F is positive definite whatever F's rounding, and the
+    solves' accuracy is the tolerance's). All of it in coordinates scaled to N's unit
     diagonal, where the tolerance is taken. Measured on chains (random forces, 200
     lines, the modes' 2m gradients): at m = 40 one CG per right-hand side with the
     inverted 3 × 3 (M, C, K) blocks per coordinate needed 254 iterations (median; up
@@ -964,12 +1161,12 @@ class MatrixFreeCovariance:
     aᵀ S a does not depend on which solution CG finds. Search directions along which
     N vanishes are dropped, and where the recurrence's residual has drifted from the
     true one CG restarts from the latter. A solve that does not reach ``tol`` gives
-    NaN.
+    NaN, with a :class:`~podid_rs.ConvergenceWarning`.
 
     Parameters
     ----------
     fit : LinearisedFit
-        The linearised fit.
+        The linearised fit (its inverses D⁻¹, if it holds them, are released here).
     rank : int
         The determined directions (n_params less the gauge): not measured here.
     tol : float
@@ -988,20 +1185,31 @@ class MatrixFreeCovariance:
         self.rank = int(rank)
         self.tol = float(tol)
         self.bread = fit.bread()
+        m, q = fit.m, fit.n_params
+        release_free_memory()  # what earlier work (a refinement) freed: not held meanwhile
         with _one_blas_thread():  # as the solves: OpenBLAS's threads only contend
-            self._grams = fit.line_grams(self.bread)  # N is the cost's: line by line
-            # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal
-            stars = fit.star_blocks(self._grams)
-        self._star_index = fit.star_index()
-        diag = np.zeros(fit.n_params)
-        diag[self._star_index] = np.diagonal(stars, axis1=1, axis2=2)
+            # N is the cost's: line by line, packed as it is formed
+            self._grams = fit.line_grams(self.bread, packed=True)
+            fit.release_inverses()
+            # additive Schwarz on the stars, in coordinates scaled to N's unit diagonal:
+            # a group of stars' blocks at a time, each factored and stored in its half
+            self._star_index = fit.star_index()
+            n3 = 3 * m
+            self._star_pairs = np.zeros(((m + 1) // 2, n3 + 1, n3), dtype=np.float32)
+            lower = np.tri(n3, dtype=bool)
+            diag = np.zeros(q)
+            for j0, blocks in fit.star_block_groups(self._grams):
+                for j, block in enumerate(blocks, start=j0):
+                    diag[self._star_index[j]] = np.diagonal(block)
+                    factor = _inverse_factor(block)
+                    pair = self._star_pairs[j // 2]
+                    if j % 2 == 0:
+                        np.copyto(pair[1:], factor, where=lower)
+                    else:
+                        np.copyto(pair[:-1], factor.T, where=lower.T)
+                del blocks
         self._diag_scale = np.sqrt(np.maximum(diag, np.finfo(float).tiny))
-        eye = STAR_RIDGE * np.eye(stars.shape[1])
-        for j in range(fit.m):  # one star at a time: no second copy of them all
-            dj = self._diag_scale[self._star_index[j]]
-            block = stars[j] / dj[:, None] / dj[None, :] + eye
-            stars[j] = np.linalg.inv(0.5 * (block + block.T))
-        self._stars = stars
+        release_free_memory()  # the setup's: D⁻¹, G unpacked, the stars' blocks
         self.meat: EntryWeights | None = None
         self.iterations: list[int] = []
 
@@ -1009,75 +1217,142 @@ class MatrixFreeCovariance:
         """The noise's weights (the sandwich's meat)."""
         self.meat = meat
 
-    def _precondition(self, r: np.ndarray) -> np.ndarray:
+    def column_blocks(self, count: int, held: int = 0) -> list[np.ndarray]:
+        """The right-hand sides of ``count`` that one block CG solves together: blocks of
+        equal size (a small remainder would share a poor Krylov space), each within
+        ``CG_BLOCK_BYTES`` less ``held`` bytes (what the caller keeps meanwhile, e.g. the
+        draws solved so far). Callers that form right-hand sides (the modes' gradients,
+        the noise's draws) form one block at a time."""
+        most = max(CG_BLOCK_MIN, (CG_BLOCK_BYTES - held)
+                   // (CG_LIVE_BLOCKS * 8 * self.fit.n_params))
+        parts = np.array_split(np.arange(count), max(1, -(-count // most)))
+        return [cols for cols in parts if cols.size]
+
+    def _precondition(self, r: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """The preconditioner on residuals ``(n_params, k)`` in the unit-diagonal
         coordinates: the sum over the stars of the inverse of N's block on star j
-        (additive Schwarz)."""
-        z = np.zeros_like(r)
+        (additive Schwarz). Fortran-ordered; into ``out`` when given."""
+        if out is None:
+            z = np.zeros(r.shape, order="F")
+        else:
+            z = out
+            z[...] = 0.0
+        trmm = scipy.linalg.blas.dtrmm
         for j in range(self.fit.m):
             idx = self._star_index[j]
-            z[idx] += self._stars[j] @ r[idx]
+            pair = self._star_pairs[j // 2]
+            # star 2i's factor F in the lower triangle of pair[1:], star 2i + 1's Fᵀ in the
+            # upper of pair[:-1]; transposed (Fortran-ordered) the triangles swap. The
+            # block's inverse is Fᵀ F: z = Fᵀ (F r), two triangular products
+            if j % 2 == 0:
+                a = pair[1:].T.astype(np.float64)  # upper: Fᵀ
+                y = trmm(1.0, a, r[idx], lower=0, trans_a=1)
+                z[idx] += trmm(1.0, a, y, lower=0, trans_a=0, overwrite_b=1)
+            else:
+                a = pair[:-1].T.astype(np.float64)  # lower: F
+                y = trmm(1.0, a, r[idx], lower=1, trans_a=0)
+                z[idx] += trmm(1.0, a, y, lower=1, trans_a=1, overwrite_b=1)
         return z
 
     def _apply(self, weights: EntryWeights, V: np.ndarray) -> np.ndarray:
-        """The matrix of ``weights`` times ``V`` ``(n_params, k)``, ``PRODUCT_COLUMNS``
-        columns at a time."""
-        out = np.empty_like(V)
-        for i in range(0, V.shape[1], PRODUCT_COLUMNS):
-            cols = V[:, i:i + PRODUCT_COLUMNS]
+        """The matrix of ``weights`` times ``V`` ``(n_params, k)``, a few columns at a time
+        (:meth:`LinearisedFit.product_columns`; Fortran-ordered)."""
+        out = np.empty(V.shape, order="F")
+        step = self.fit.product_columns()
+        for i in range(0, V.shape[1], step):
+            cols = V[:, i:i + step]
             if weights is self.bread:
-                out[:, i:i + PRODUCT_COLUMNS] = self.fit.gram_product(self._grams, cols)
+                out[:, i:i + step] = self.fit.gram_product(self._grams, cols)
             else:
-                out[:, i:i + PRODUCT_COLUMNS] = self.fit.product(weights, cols)
+                out[:, i:i + step] = self.fit.product(weights, cols)
+        return out
+
+    def _apply_scaled(self, V: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """N in the unit-diagonal coordinates times ``V``: D⁻¹ N D⁻¹ V (D the diagonal
+        scale), a few columns at a time (no scaled copy of V); into ``out`` when given."""
+        d = self._diag_scale[:, None]
+        if out is None:
+            out = np.empty(V.shape, order="F")
+        step = self.fit.product_columns()
+        for i in range(0, V.shape[1], step):
+            cols = slice(i, i + step)
+            out[:, cols] = self.fit.gram_product(self._grams, V[:, cols] / d)
+            out[:, cols] /= d
         return out
 
     def solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """N X = B for ``B`` ``(n_params, k)`` by block preconditioned CG, in blocks of
-        equal size (``CG_BLOCK_ELEMENTS``); returns X and whether each column
-        reached the tolerance."""
-        X = np.zeros_like(B)
-        ok = np.zeros(B.shape[1], dtype=bool)
+        """N X = B for ``B`` ``(n_params, k)`` by block preconditioned CG, in the blocks
+        of :meth:`column_blocks`; returns X and whether each column reached the
+        tolerance (a :class:`~podid_rs.ConvergenceWarning` for those that did not)."""
+        blocks = self.column_blocks(B.shape[1])
         with _one_blas_thread():  # small products: OpenBLAS's threads only contend
-            # blocks of equal size: a small remainder would share a poor Krylov space
-            block = max(CG_BLOCK_MIN, CG_BLOCK_ELEMENTS // max(1, B.shape[0]))
-            count = -(-B.shape[1] // block)
-            for cols in np.array_split(np.arange(B.shape[1]), max(count, 1)):
-                if cols.size:
-                    X[:, cols], ok[cols] = self._solve(B[:, cols])
+            if len(blocks) == 1:  # (no second copy of the solution)
+                X, ok, res = self._solve(B)
+            else:
+                X = np.empty(B.shape, order="F")
+                ok = np.zeros(B.shape[1], dtype=bool)
+                res = np.zeros(B.shape[1])
+                for cols in blocks:
+                    X[:, cols], ok[cols], res[cols] = self._solve(B[:, cols])
+        self._warn_unsolved(ok, res, "their variances are NaN")
         return X, ok
 
-    def _solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _warn_unsolved(self, ok: np.ndarray, res: np.ndarray, what: str) -> None:
+        if not ok.all():
+            bad = ~ok
+            worst = float(np.max(res[bad]))  # NaN where the solve itself gave NaN
+            warnings.warn(ConvergenceWarning(
+                f"{int(bad.sum())} of {ok.size} matrix-free solves with the Gauss–Newton "
+                f"matrix did not reach the relative residual {10 * self.tol:g} in "
+                f"{CG_MAX_ITER} iterations and {CG_RESTARTS} restarts (the worst at "
+                f"{worst:.2g}): {what}"), stacklevel=3)
+
+    def _solve(self, B: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # in coordinates scaled to N's unit diagonal (d): there N's eigenvalues span what
         # the data determine (the dense path's rank threshold is taken there too), not
-        # the ω⁴ between M and K as well
+        # the ω⁴ between M and K as well. Every block n_params × k is Fortran-ordered:
+        # the QR of the search block and the updates are then done in place
         d = self._diag_scale[:, None]
-        norm_b = np.linalg.norm(B / d, axis=0)
+        R = np.divide(B, d, out=np.empty(B.shape, order="F"))
+        norm_b = _column_norms(R)
         scale = np.where(norm_b > 0, norm_b, 1.0)
-        R = B / d / scale  # unit columns: one tolerance and one rank threshold for all
-        X = np.zeros_like(R)
+        R /= scale  # unit columns: one tolerance and one rank threshold for all
+        X = np.zeros(B.shape, order="F")
+        # the search block, N times it and the preconditioned residual: three blocks
+        # allocated once and reused by every iteration (no churn of the heap)
+        work = [np.empty(B.shape, order="F") for _ in range(3)]
         it = 0
         for _ in range(CG_RESTARTS + 1):
-            it = self._iterate(X, R, it)
+            it = self._iterate(X, R, it, work)
             # the recurrence's residual drifts from the true one where the search
             # directions are large along N's null space (a gauge): restart from the latter
-            R = B / d / scale
-            R -= self._apply(self.bread, X / d) / d
-            res = np.linalg.norm(R, axis=0)
+            self._apply_scaled(X, out=R)
+            R *= -1.0
+            for i in range(0, B.shape[1], self.fit.product_columns()):
+                cols = slice(i, i + self.fit.product_columns())
+                R[:, cols] += B[:, cols] / d / scale[cols]
+            res = _column_norms(R)
             if np.all(res <= 10 * self.tol) or it >= CG_MAX_ITER:
                 break
+        del R, work
+        release_free_memory()  # the block's: the next block's are taken anew
         self.iterations.append(it)
-        return X / d * scale, (res <= 10 * self.tol) & np.all(np.isfinite(X), axis=0)
+        X /= d
+        X *= scale
+        return X, (res <= 10 * self.tol) & np.all(np.isfinite(X), axis=0), res
 
-    def _iterate(self, X: np.ndarray, R: np.ndarray, it: int) -> int:
+    def _iterate(self, X: np.ndarray, R: np.ndarray, it: int, work: list[np.ndarray]) -> int:
         """Block CG from X with residual R (both updated in place), unit-diagonal
-        coordinates; returns the iteration count so far."""
-        d = self._diag_scale[:, None]
-        P = _orthonormal(self._precondition(R))
+        coordinates, in the three blocks ``work`` (X's shape, Fortran-ordered); returns
+        the iteration count so far."""
+        here, there, image = work  # the search block is formed in place of Z: they swap
+        P = _orthonormal(self._precondition(R, out=here))
         top = 0.0
         while P.shape[1] and it < CG_MAX_ITER:
             it += 1
-            Q = self._apply(self.bread, P / d) / d
-            lam, V = np.linalg.eigh(0.5 * (P.T @ Q + Q.T @ P))
+            Q = self._apply_scaled(P, out=image[:, :P.shape[1]])
+            PQ = P.T @ Q
+            lam, V = np.linalg.eigh(0.5 * (PQ + PQ.T))
             top = max(top, float(lam[-1]) if lam.size else 0.0)
             # (PᵀNP)⁺ without the directions along which N vanishes (a gauge); not P
             # rotated, which would hold two more blocks at once
@@ -1086,15 +1361,16 @@ class MatrixFreeCovariance:
                 break
             inverse = (V[:, keep] / lam[keep]) @ V[:, keep].T
             alpha = inverse @ (P.T @ R)
-            X += P @ alpha
-            R -= Q @ alpha
-            if np.all(np.linalg.norm(R, axis=0) <= self.tol):
+            _add_product(X, P, alpha, 1.0)
+            _add_product(R, Q, alpha, -1.0)
+            if np.all(_column_norms(R) <= self.tol):
                 break
-            Z = self._precondition(R)
-            Z -= P @ (inverse @ (Q.T @ Z))
-            del P, Q  # (memory: a block is n_params × its right-hand sides)
-            P = _orthonormal(Z)
+            Z = self._precondition(R, out=there)
+            _add_product(Z, P, inverse @ (Q.T @ Z), -1.0)
+            del P, Q
+            P = _orthonormal(Z)  # in Z's memory
             del Z
+            here, there = there, here
         return it
 
     def undetermined(self, G: np.ndarray) -> np.ndarray:
@@ -1103,14 +1379,14 @@ class MatrixFreeCovariance:
 
     def covariances(self, G: np.ndarray, H: np.ndarray) -> np.ndarray:
         """gᵀ N⁻¹ S N⁻¹ h of the rows of ``G`` and ``H`` ``(k, q)``; NaN where a solve
-        did not converge."""
+        did not converge (with a :class:`~podid_rs.ConvergenceWarning`)."""
         G, H = np.atleast_2d(G), np.atleast_2d(H)
         same = G is H or (G.shape == H.shape and np.array_equal(G, H))
         a, ok_a = self.solve(G.T)
         b, ok_b = (a, ok_a) if same else self.solve(H.T)
         with _one_blas_thread():
             Sb = self._apply(self.meat, b)
-        return np.where(ok_a & ok_b, np.sum(a * Sb, axis=0), np.nan)
+        return np.where(ok_a & ok_b, np.einsum("ij,ij->j", a, Sb), np.nan)
 
     def variances(self, G: np.ndarray) -> np.ndarray:
         """Variances gᵀ cov g of the rows of ``G`` ``(k, q)`` (NaN where not solved)."""
@@ -1123,17 +1399,40 @@ class MatrixFreeCovariance:
 
     def draws(self) -> np.ndarray:
         """``SAMPLES`` draws z = N⁻¹ ξ, ξ the noise's perturbation of the gradient:
-        ``(n_params, SAMPLES)`` whose covariance is N⁻¹ S N⁻¹ (seeded: reproducible)."""
+        ``(n_params, SAMPLES)`` single precision, whose covariance is N⁻¹ S N⁻¹ (seeded:
+        reproducible).
+        A draw whose solve did not converge is left out, with a
+        :class:`~podid_rs.ConvergenceWarning`."""
         if self._draws is None:
             rng = np.random.default_rng(SAMPLES_SEED)
-            # SAMPLE_CHUNK draws of the noise at a time (lines × n × p × draws), then
-            # solved together
-            xi = np.concatenate([
-                self.fit.sample_noise_gradients(*self._noise,
-                                                min(SAMPLE_CHUNK, SAMPLES - start), rng)
-                for start in range(0, SAMPLES, SAMPLE_CHUNK)], axis=1)
-            z, good = self.solve(xi)
-            self._draws = z[:, good]
+            q = self.fit.n_params
+            # kept in single precision (half the memory, for every band asked after): the
+            # band's standard deviations move by 7e-8 relative (chain, m = 40), against
+            # the draws' own √(2/SAMPLES)
+            Z = np.empty((q, SAMPLES), dtype=np.float32)
+            ok = np.zeros(SAMPLES, dtype=bool)
+            res = np.zeros(SAMPLES)
+            made, spare = 0, np.empty((q, 0))
+            with _one_blas_thread():
+                for cols in self.column_blocks(SAMPLES, held=Z.nbytes):
+                    # the noise SAMPLE_CHUNK draws at a time (lines × n × p × draws), in
+                    # the same order whatever the blocks: a block takes what it needs
+                    B = np.empty((q, cols.size), order="F")
+                    filled = 0
+                    while filled < cols.size:
+                        if not spare.shape[1]:
+                            spare = self.fit.sample_noise_gradients(
+                                *self._noise, min(SAMPLE_CHUNK, SAMPLES - made), rng)
+                            made += spare.shape[1]
+                        take = min(spare.shape[1], cols.size - filled)
+                        B[:, filled:filled + take] = spare[:, :take]
+                        spare = spare[:, take:]
+                        filled += take
+                    Z[:, cols], ok[cols], res[cols] = self._solve(B)
+                    del B
+            self._warn_unsolved(ok, res, "those draws are left out of the FRF band's "
+                                "covariance")
+            self._draws = Z if ok.all() else Z[:, ok]
         return self._draws
 
     def pair_moments(self, G: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -1145,6 +1444,11 @@ class MatrixFreeCovariance:
         if Z.shape[1] == 0:
             nan = np.full(np.atleast_2d(G).shape[0], np.nan)
             return nan, nan, nan
-        a, b = np.atleast_2d(G) @ Z, np.atleast_2d(H) @ Z
+        # contiguous (the real and imaginary parts of complex gradients are not): BLAS
+        G, H = np.ascontiguousarray(np.atleast_2d(G)), np.ascontiguousarray(np.atleast_2d(H))
         k = Z.shape[1]
+        a, b = np.empty((G.shape[0], k)), np.empty((H.shape[0], k))
+        for i in range(0, k, SAMPLE_CHUNK):  # a few draws in double precision at a time
+            draws = Z[:, i:i + SAMPLE_CHUNK].astype(np.float64)
+            a[:, i:i + SAMPLE_CHUNK], b[:, i:i + SAMPLE_CHUNK] = G @ draws, H @ draws
         return (np.sum(a * a, axis=1) / k, np.sum(b * b, axis=1) / k, np.sum(a * b, axis=1) / k)
