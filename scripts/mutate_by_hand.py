@@ -14,6 +14,7 @@ restores the file (also on Ctrl-C). Run from anywhere:
     python3 scripts/mutate_by_hand.py         # every mutant
     python3 scripts/mutate_by_hand.py 3 12    # only these (by number)
     python3 scripts/mutate_by_hand.py 27-68   # a range of numbers (both ends included)
+    python3 scripts/mutate_by_hand.py --suite 35 44   # against the whole suite instead
 
 A mutant the tests pass is printed as SURVIVED. Do not edit the package while it runs.
 """
@@ -35,7 +36,7 @@ TESTS = {
     "statespace": ["tests/test_statespace.py"],
     "uncertainty": ["tests/test_uncertainty.py"],
     "io/uff": ["tests/test_uff_modes.py", "tests/test_uff_out.py", "tests/test_uff_broken.py",
-               "tests/test_uff_layout.py", "tests/test_measured.py"],
+               "tests/test_uff_layout.py", "tests/test_measured.py", "tests/test_measurements.py"],
     "identification/refinement": ["tests/test_refinement.py", "tests/test_refine_solver.py"],
     "identification/latent": ["tests/test_latent.py"],
     "identification/lines": ["tests/test_holdout.py"],
@@ -46,7 +47,10 @@ TESTS = {
 # of what calls it)
 AUDIT_TESTS = {
     "simulation": ["tests/test_uncertainty.py"],
-    "identification/order": ["tests/test_holdout.py"],
+    "io/uff": ["tests/test_two_campaigns.py"],
+    "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
+                                  "tests/test_holes.py", "tests/test_identify_outputs.py"],
+    "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py"],
 }
 MUTANTS = [
     ("pod", "stacklevel=4,", "stacklevel=5,"),
@@ -213,8 +217,9 @@ AUDIT = [
      "((z_all * w_all)[:, None] * A_inv)"),
     ("identification/modal_start", "(w_all[:, None] ** 2 * A_inv)", "(w_all[:, None] * A_inv)"),
 ]
+suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()
-for arg in sys.argv[1:]:
+for arg in (a for a in sys.argv[1:] if a != "--suite"):
     first, _, last = arg.partition("-")
     only.update(str(k) for k in range(int(first), int(last or first) + 1))
 for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
@@ -237,8 +242,8 @@ for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
                 "-q",
                 "-p",
                 "no:cacheprovider",
-                *TESTS[mod],
-                *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) else []),
+                *(["tests"] if suite else TESTS[mod]),
+                *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) and not suite else []),
             ],
             cwd=ROOT,
             capture_output=True,
