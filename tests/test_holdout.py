@@ -483,3 +483,16 @@ def test_a_block_given_three_lines_keeps_its_peak_and_its_dip():
     U = np.exp(np.concatenate([3 * t, t, 0 * t, 0 * t])).reshape(64, 1, 1).astype(complex)
     keep = informative_lines(U, 16)
     assert np.flatnonzero(keep[16:32]).tolist() == [0, 3, 8, 11, 15]
+
+
+def test_the_phase_counts_unwrapped_along_the_lines():
+    """The first block's phase turns by 1 rad a line (15 rad over the block, unwrapped;
+    taken modulo 2π it would span less than 2π), the second block's log-magnitude range
+    is 2: the first block's activity, 15, takes the budget and leaves the second block
+    one line; with the phase wrapped, the second would get five."""
+    t = np.zeros(16)
+    t[3], t[11] = 1.0, -1.0
+    phase = np.concatenate([-np.arange(16.0), np.zeros(48)])
+    U = np.exp(np.concatenate([0 * t, t, 0 * t, 0 * t]) + 1j * phase).reshape(64, 1, 1)
+    keep = informative_lines(U, 16)
+    assert keep[16:32].sum() == 1 and keep[:16].sum() >= 13

@@ -296,3 +296,15 @@ def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
     U[3, 0, 0] = np.nan
     with pytest.raises(ValueError, match="U contains non-finite values"):
         mode_kinds(shapes, w, U, [0])
+
+
+def test_each_entry_rises_above_its_own_ring():
+    """Two entries flat at 1 and at 1e-3 around a pole at 100 rad/s (half-power half-width
+    1): neither rises at the pole, so there is no peak — though the first stands above
+    the second's ring a thousandfold."""
+    from podid_rs.modes import _data_peak
+
+    w = np.linspace(50.0, 150.0, 201)
+    Ua = np.ones((w.size, 2, 1))
+    Ua[:, 1] = 1e-3
+    assert not _data_peak(w, Ua, np.ones((2, 1), dtype=bool), complex(-1.0, 100.0))
