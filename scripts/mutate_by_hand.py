@@ -16,9 +16,11 @@ restores the file (also on Ctrl-C). Run from anywhere:
     python3 scripts/mutate_by_hand.py 27-68   # a range of numbers (both ends included)
     python3 scripts/mutate_by_hand.py --suite 35 44   # against the whole suite instead
 
-A mutant the tests pass is printed as SURVIVED. Do not edit the package while it runs.
+A mutant the tests pass is printed as SURVIVED. Do not edit the package while it runs, and
+do not run it while ``scripts/mutation.sh`` runs (mutmut would copy a mutated source).
 """
 
+import os
 import pathlib
 import subprocess
 import sys
@@ -229,7 +231,7 @@ for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
     if only and str(i) not in only:
         continue
     path = PKG / f"{mod}.py"
-    src = path.read_text()
+    src, stat = path.read_text(), path.stat()
     assert src.count(old) == 1, (mod, old, src.count(old))
     path.write_text(src.replace(old, new))
     try:
@@ -254,6 +256,9 @@ for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
         )
     finally:
         path.write_text(src)
+        # the old modification time too: mutmut regenerates the mutants of a source newer
+        # than its mutated copy, and 3.8 then forgot the module's verdicts
+        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
     print(
         f"{i:2d} {'KILLED ' if r.returncode else 'SURVIVED'} {mod}: {old!r} -> {new!r} | {last}",
