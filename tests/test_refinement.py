@@ -535,3 +535,11 @@ def test_weights_given_as_arrays_are_reported_and_per_entry_ones_may_leave_out_t
     assert a["cost"] == b["cost"] and np.array_equal(runs["s, n"].K, runs["s, n, p"].K)
     timings = runs["user"].info["refinement"]["timings"]
     assert timings and all(t >= 0 for t in timings.values())
+
+
+def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():
+    chain, U_n, F_n, w = _entry_data()
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    start = (np.eye(5), np.eye(5), np.eye(5) * 1e4)
+    with pytest.raises(ValueError, match=r"basis must be \(n, m\) with n = the measured DOFs"):
+        refine(start, U_n, F_n, w, basis=R[:-1])

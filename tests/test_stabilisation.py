@@ -241,3 +241,10 @@ def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
     stabilisation_chart(chain_data[1], 3, progress=True)
     last = screen.getvalue()[:-1].split("\r")[-1]
     assert last.startswith("stabilisation: 100%") and "| 3/3 [" in last
+
+
+def test_a_mass_with_a_zero_eigenvalue_is_not_physical():
+    from dataclasses import replace
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert not is_physical(replace(good, M=np.diag([1.0, 0.0])))
