@@ -1,15 +1,26 @@
-"""Mutants that mutmut cannot check: the properties (it skips decorated functions) and a
-warning's stacklevel (its trampolines add stack frames between the caller and the warning).
+"""Mutants by hand, of two kinds.
+
+``MUTANTS``: what mutmut cannot check — the properties (it skips decorated functions) and
+a warning's stacklevel (its trampolines add stack frames between the caller and the
+warning). ``AUDIT``: one-line bugs of the kinds a reviewer plants by hand, which mutmut's
+operators do not make (a sign, a factor of 2, ``<`` for ``<=``, a slice off by one, the
+wrong axis or set of rows, a swapped argument, a missing conjugate or transpose, a dropped
+weight), over the pipeline's modules — a check of the suite with mutants nobody wrote the
+tests against. They are numbered after ``MUTANTS``.
 
 Each entry replaces one expression by a plausible bug, runs the module's test files, and
 restores the file (also on Ctrl-C). Run from anywhere:
 
     python3 scripts/mutate_by_hand.py         # every mutant
     python3 scripts/mutate_by_hand.py 3 12    # only these (by number)
+    python3 scripts/mutate_by_hand.py 27-68   # a range of numbers (both ends included)
+    python3 scripts/mutate_by_hand.py --suite 35 44   # against the whole suite instead
 
-A mutant the tests pass is printed as SURVIVED. Do not edit the package while it runs.
+A mutant the tests pass is printed as SURVIVED. Do not edit the package while it runs, and
+do not run it while ``scripts/mutation.sh`` runs (mutmut would copy a mutated source).
 """
 
+import os
 import pathlib
 import subprocess
 import sys
@@ -24,6 +35,24 @@ TESTS = {
     "modes": ["tests/test_modes.py", "tests/test_uff_out.py", "tests/test_uff_modes.py"],
     "stabilisation": ["tests/test_stabilisation.py"],
     "identification/order": ["tests/test_model_order.py", "tests/test_latent.py"],
+    "statespace": ["tests/test_statespace.py"],
+    "uncertainty": ["tests/test_uncertainty.py"],
+    "io/uff": ["tests/test_uff_modes.py", "tests/test_uff_out.py", "tests/test_uff_broken.py",
+               "tests/test_uff_layout.py", "tests/test_measured.py", "tests/test_measurements.py"],
+    "identification/refinement": ["tests/test_refinement.py", "tests/test_refine_solver.py"],
+    "identification/latent": ["tests/test_latent.py"],
+    "identification/lines": ["tests/test_holdout.py"],
+    "identification/holes": ["tests/test_holes.py"],
+    "identification/modal_start": ["tests/test_modal_start.py"],
+}
+# the audit's mutants of a module run these files besides the module's own (the tests
+# of what calls it)
+AUDIT_TESTS = {
+    "simulation": ["tests/test_uncertainty.py"],
+    "io/uff": ["tests/test_two_campaigns.py"],
+    "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
+                                  "tests/test_holes.py", "tests/test_identify_outputs.py"],
+    "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py"],
 }
 MUTANTS = [
     ("pod", "stacklevel=4,", "stacklevel=5,"),
@@ -94,12 +123,115 @@ MUTANTS = [
     ),
     ("identification/order", "return self.m - self.observed", "return self.m + self.observed"),
 ]
-only = sys.argv[1:]
-for i, (mod, old, new) in enumerate(MUTANTS):
+AUDIT = [
+    # POD: the trapezoid weights halved, the weights not square-rooted, Parseval's 1/r²
+    ("pod", "d = 0.5 * np.diff(w)", "d = np.diff(w)"),
+    ("pod", "Y = Y * np.sqrt(weights)[", "Y = Y * (weights)["),
+    ("pod", "scale = 2.0 / r**2", "scale = 2.0 / r"),
+    ("pod", "phi[np.argmax(np.abs(phi), axis=0)", "phi[np.argmax(phi, axis=0)"),
+    # simulation: band ends, complex noise's 1/√2, H1's and the coherence's conjugates,
+    # Welch's step for odd segments
+    ("simulation", "lines = np.flatnonzero((f >= lo) & (f <= hi))",
+     "lines = np.flatnonzero((f > lo) & (f <= hi))"),
+    ("simulation", "c = sigma / np.sqrt(2)", "c = sigma"),
+    ("simulation", "Xh = X.conj().transpose(0, 2, 1)", "Xh = X.transpose(0, 2, 1)"),
+    ("simulation", 'Syx = np.einsum("sok,sk->so", Y, X.conj())',
+     'Syx = np.einsum("sok,sk->so", Y, X)'),
+    ("simulation", "step = nperseg - nperseg // 2", "step = nperseg // 2"),
+    # measured data: velocity's sign, a band's upper end, the driven DOFs' rows of R
+    ("measured", "return Xa / (1j * w)", "return Xa / (-1j * w)"),
+    ("measured", "keep = (freq_hz >= b[0]) & (freq_hz <= b[1])",
+     "keep = (freq_hz >= b[0]) & (freq_hz < b[1])"),
+    ("measured", 'np.einsum("im,sip->smp", Ra[self.inputs], self.F)',
+     'np.einsum("im,sip->smp", Ra[: self.p], self.F)'),
+    # physical model: the count of raised eigenvalues, the companion form's sign, the
+    # relative error's denominator
+    ("physical", "int(np.sum(d < floor))", "int(np.sum(d <= floor))"),
+    ("physical", "A = np.block([[zero, eye], [-K, -C]])", "A = np.block([[zero, eye], [-K, C]])"),
+    ("physical", '"f_rel_error": float((f - f_true[j]) / f_true[j])',
+     '"f_rel_error": float((f - f_true[j]) / f)'),
+    # modes: MAC's conjugate, the modal constant's 2, the band's upper end
+    ("modes", "cross = np.abs((a / na).conj().T @ (b / nb))",
+     "cross = np.abs((a / na).T @ (b / nb))"),
+    ("modes", 'lam * np.einsum("ik,ij,jk->k", psi, 2 * M, psi)',
+     'lam * np.einsum("ik,ij,jk->k", psi, M, psi)'),
+    ("modes", "(f >= band_hz[0]) & (f <= band_hz[1])", "(f >= band_hz[0]) & (f < band_hz[1])"),
+    # stabilisation: consistency without the frequency's, the nearest pole by signed gap
+    ("stabilisation", "c[i] = cf[i] and abs(z - zp[j])", "c[i] = abs(z - zp[j])"),
+    ("stabilisation", "j = int(np.argmin(np.abs(fp - f)))", "j = int(np.argmin(fp - f))"),
+    # state space: K and C swapped, the output the velocity
+    ("statespace", "[-MinvK, -MinvC]", "[-MinvC, -MinvK]"),
+    ("statespace", "Cout = np.hstack([R, np.zeros((R.shape[0], m))])",
+     "Cout = np.hstack([np.zeros((R.shape[0], m)), R])"),
+    # UFF: the reference's sign, a normal mode's damping sign, modal B's sign, the
+    # acceleration's sign, duplicates compared with every other, rotations dropped, 0 Hz kept
+    ("io/uff", "sign = (-1.0 if rsp[1] < 0 else 1.0) * (-1.0 if ref[1] < 0 else 1.0)",
+     "sign = -1.0 if rsp[1] < 0 else 1.0"),
+    ("io/uff", "eig.append(w * complex(-z, np.sqrt", "eig.append(w * complex(z, np.sqrt"),
+    ("io/uff", "modal_b=-lam * a,", "modal_b=lam * a,"),
+    ("io/uff", '"acceleration": -(omega**2) + 0j', '"acceleration": (omega**2) + 0j'),
+    ("io/uff", "        for b in group[i + 1:]:\n", "        for b in group[i + 2:]:\n"),
+    ("io/uff", "for k in range(1, 7):", "for k in range(1, 4):"),
+    ("io/uff", "positive = np.flatnonzero(freq > 0)", "positive = np.flatnonzero(freq >= 0)"),
+    # uncertainty: the cross term's 2, the origin test against z, the dB band without the
+    # correlation, the damping interval without z, the modal constant's 2
+    ("uncertainty", "var_r = (a**2 * vr + b**2 * vi + 2 * a * b * cri)",
+     "var_r = (a**2 * vr + b**2 * vi + a * b * cri)"),
+    ("uncertainty", "np.where(dist2 <= z**2,", "np.where(dist2 <= z,"),
+    ("uncertainty", "+ 2 * a * b * self.corr * self.std_real", "+ 2 * a * b * self.std_real"),
+    ("uncertainty", "h = self.z * self.std_damping", "h = self.std_damping"),
+    ("uncertainty", 'np.einsum("ir,ij,jr->r", psi, 2 * M, psi) * lam',
+     'np.einsum("ir,ij,jr->r", psi, M, psi) * lam'),
+    # refinement: 10 log10 for 20, the dynamic range per DOF instead of per line, the 90th
+    # percentile reported as the 95th
+    ("identification/refinement", "np.abs(20.0 * (np.log10(a[keep])",
+     "np.abs(10.0 * (np.log10(a[keep])"),
+    ("identification/refinement", "LOG_DYNAMIC_RANGE * A.max(axis=1, keepdims=True)",
+     "LOG_DYNAMIC_RANGE * A.max(axis=0, keepdims=True)"),
+    ("identification/refinement", "float(np.percentile(e, 95)))  # noqa: E731",
+     "float(np.percentile(e, 90)))  # noqa: E731"),
+    # order: weights 1/‖u‖², an order start's damping halved, the held-out metric over the
+    # holes too, the last order among the earlier ones, the tolerance's and the progress
+    # step's signs
+    ("identification/order", "w[norms > 0] = 1.0 / norms[norms > 0]",
+     "w[norms > 0] = 1.0 / norms[norms > 0] ** 2"),
+    ("identification/order", "return mu, 2 * zeta * wc * mu, wc**2 * mu",
+     "return mu, zeta * wc * mu, wc**2 * mu"),
+    ("identification/order", "diff = np.sum(np.abs(X - U_n) ** 2 * mask, axis=1)",
+     "diff = np.sum(np.abs(X - U_n) ** 2, axis=1)"),
+    ("identification/order", "best = min(fits[:-1],", "best = min(fits,"),
+    ("identification/order", "(1 + tolerance) * best_fit.test_db",
+     "(1 - tolerance) * best_fit.test_db"),
+    ("identification/order", "best_test * (1 - PROGRESS_STEP)", "best_test * (1 + PROGRESS_STEP)"),
+    # latent: the residual peak one line early, the congruence without its transpose
+    ("identification/latent", "& (excess[1:-1] >= excess[2:])) + 1",
+     "& (excess[1:-1] >= excess[2:]))"),
+    ("identification/latent", "Z = Ti.T @ Y @ Ti", "Z = Ti @ Y @ Ti"),
+    # informative lines: the peak and dip from 4 kept lines, the phase's activity dropped
+    ("identification/lines", "if c >= 3:", "if c > 3:"),
+    ("identification/lines", "np.ptp(logmag[a:b], axis=0) + np.ptp(phase[a:b], axis=0)",
+     "np.ptp(logmag[a:b], axis=0)"),
+    # holes: the measured entries' mask dropped from the full energy
+    ("identification/holes", "full = np.sum(d[None, :] * np.abs(U_n[:, :, j]) ** 2, axis=1)",
+     "full = np.sum(np.abs(U_n[:, :, j]) ** 2, axis=1)"),
+    # modal start: the damping's 2, the stiffness's square
+    ("identification/modal_start", "((2.0 * z_all * w_all)[:, None] * A_inv)",
+     "((z_all * w_all)[:, None] * A_inv)"),
+    ("identification/modal_start", "(w_all[:, None] ** 2 * A_inv)", "(w_all[:, None] * A_inv)"),
+    # (like MUTANTS: a stacklevel mutmut cannot check) read_uff's dead-channel warning
+    ("io/uff", 'warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=2)',
+     'warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=3)'),
+]
+suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
+only = set()
+for arg in (a for a in sys.argv[1:] if a != "--suite"):
+    first, _, last = arg.partition("-")
+    only.update(str(k) for k in range(int(first), int(last or first) + 1))
+for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
     if only and str(i) not in only:
         continue
     path = PKG / f"{mod}.py"
-    src = path.read_text()
+    src, stat = path.read_text(), path.stat()
     assert src.count(old) == 1, (mod, old, src.count(old))
     path.write_text(src.replace(old, new))
     try:
@@ -115,7 +247,8 @@ for i, (mod, old, new) in enumerate(MUTANTS):
                 "-q",
                 "-p",
                 "no:cacheprovider",
-                *TESTS[mod],
+                *(["tests"] if suite else TESTS[mod]),
+                *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) and not suite else []),
             ],
             cwd=ROOT,
             capture_output=True,
@@ -123,6 +256,9 @@ for i, (mod, old, new) in enumerate(MUTANTS):
         )
     finally:
         path.write_text(src)
+        # the old modification time too: mutmut regenerates the mutants of a source newer
+        # than its mutated copy, and 3.8 then forgot the module's verdicts
+        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
     print(
         f"{i:2d} {'KILLED ' if r.returncode else 'SURVIVED'} {mod}: {old!r} -> {new!r} | {last}",

@@ -13,6 +13,9 @@
 #                                       # draw 40 not-run mutants of each module at random
 #                                       # (seed 20261126) into docs/mutation-sample.txt and
 #                                       # run them; --sample alone resumes that sample
+#   scripts/mutation.sh --sample-share 130 20261127 modes.py io/uff.py
+#                                       # 130 in all instead, split over the modules in
+#                                       # proportion to their mutants not run
 #   scripts/mutation.sh --restat        # forget which tests reach which function: the
 #                                       # next run maps them again (after functions were
 #                                       # added or moved; the verdicts are kept)
@@ -62,10 +65,11 @@ if [[ "${1:-}" == "--not-run" ]]; then
         exit 0
     fi
     set -- "${names[@]}"
-elif [[ "${1:-}" == "--sample" ]]; then
+elif [[ "${1:-}" == "--sample" || "${1:-}" == "--sample-share" ]]; then
+    how="$1"
     shift
     if (( $# > 0 )); then
-        python "$repo/scripts/mutation_summary.py" --sample "$@" > /dev/null
+        python "$repo/scripts/mutation_summary.py" "$how" "$@" > /dev/null
     fi
     mapfile -t sampled < <(grep -v '^#' "$repo/docs/mutation-sample.txt")
     mapfile -t pending < <(python "$repo/scripts/mutation_summary.py" --not-run-of "${sampled[@]}")

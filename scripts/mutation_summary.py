@@ -19,7 +19,10 @@ With ``--not-run-of NAME...`` it prints those of the given mutants not yet run.
 With ``--sample N SEED MODULE...`` it draws, for each module, a uniform random sample of
 ``N`` of its mutants not yet run (all of them if fewer), with ``random.Random(SEED)``
 over the names in mutmut's order, writes the names to ``SAMPLE`` (replacing the file) and
-prints them, for ``scripts/mutation.sh --sample``. When ``SAMPLE`` exists, the summary
+prints them, for ``scripts/mutation.sh --sample``. With ``--sample-share N SEED MODULE...``
+it draws ``N`` in all instead, each module's number in proportion to its mutants not yet
+run (largest remainders), so that the sample's kill rate estimates the rate over all
+of them. When ``SAMPLE`` exists, the summary
 adds a table of the sample's verdicts per module: the kill rate of the mutants not run
 in full, estimated from the sample, with its 95 % (Wilson) interval.
 """
@@ -160,15 +163,36 @@ def sample_table(equivalent_all: set[str], by_hand: set[str]) -> None:
               f"{c['equivalent']:7} {c['not run']:8} {rate:>27}")  # fmt: skip
 
 
-def sample(size: int, seed: int, modules: list[str]) -> None:
-    """Draw and record ``size`` not-yet-run mutants per module, uniformly at random."""
+def pending_of(module: str) -> list[str]:
+    """The names of one module's mutants not yet run, in mutmut's order."""
+    meta = pathlib.Path("mutants/src/podid_rs") / f"{module}.meta"
+    return [name for name, code in json.loads(meta.read_text())["exit_code_by_key"].items()
+            if code is None]  # fmt: skip
+
+
+def shares(total: int, sizes: list[int]) -> list[int]:
+    """``total`` split in proportion to ``sizes`` (each at most its size): the integer
+    parts first, then one more each to the largest remainders."""
+    whole = sum(sizes)
+    exact = [total * s / whole if whole else 0.0 for s in sizes]
+    counts = [min(int(e), s) for e, s in zip(exact, sizes, strict=True)]
+    by_remainder = sorted(range(len(sizes)), key=lambda i: exact[i] - counts[i], reverse=True)
+    for i in by_remainder[: max(0, min(total, whole) - sum(counts))]:
+        counts[i] += 1
+    return counts
+
+
+def sample(size: int, seed: int, modules: list[str], share: bool = False) -> None:
+    """Draw and record ``size`` not-yet-run mutants per module (or, with ``share``,
+    ``size`` in all, split over the modules by their numbers not run), uniformly at
+    random within each module."""
     rng = random.Random(seed)
-    lines = [f"# scripts/mutation.sh --sample {size} {seed} {' '.join(modules)}"]
-    for module in modules:
-        meta = pathlib.Path("mutants/src/podid_rs") / f"{module}.meta"
-        pending = [name for name, code in json.loads(meta.read_text())["exit_code_by_key"].items()
-                   if code is None]  # fmt: skip
-        lines += rng.sample(pending, min(size, len(pending)))
+    flag = "--sample-share" if share else "--sample"
+    lines = [f"# scripts/mutation.sh {flag} {size} {seed} {' '.join(modules)}"]
+    pending = [pending_of(module) for module in modules]
+    sizes = shares(size, [len(p) for p in pending]) if share else [size] * len(modules)
+    for names, n in zip(pending, sizes, strict=True):
+        lines += rng.sample(names, min(n, len(names)))
     SAMPLE.write_text("\n".join(lines) + "\n")
     print("\n".join(lines[1:]))
 
@@ -190,7 +214,8 @@ if __name__ == "__main__":
         for name in sys.argv[2:]:
             if name in pending:
                 print(name)
-    elif sys.argv[1:2] == ["--sample"]:
-        sample(int(sys.argv[2]), int(sys.argv[3]), sys.argv[4:])
+    elif sys.argv[1:2] in (["--sample"], ["--sample-share"]):
+        sample(int(sys.argv[2]), int(sys.argv[3]), sys.argv[4:],
+               share=sys.argv[1] == "--sample-share")
     else:
         main()

@@ -470,3 +470,29 @@ def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_i
     assert kept["kept"] == "held-out fit" and log["db_after"][0] >= kept["db_all_lines"][0]
     assert (f"; the log-magnitude refit did not lower it ({kept['db_all_lines'][0]:.2f} → "
             f"{log['db_after'][0]:.2f} dB)") in kept["reason"]
+
+
+def test_a_block_given_three_lines_keeps_its_peak_and_its_dip():
+    """64 lines, a target of 16: four blocks of 16 and 12 lines to share beyond one each.
+    Log-magnitude ranges 6, 2, 0 and 0 (a peak at the 4th line of a block and a dip at
+    the 12th): the activities' median is 1, the excesses 5 and 1 take 10 and 2 of the
+    12, so the second block keeps 3 evenly spaced lines (its 1st, 9th and 16th) and,
+    as every block of three or more, its peak and its dip."""
+    t = np.zeros(16)
+    t[3], t[11] = 1.0, -1.0
+    U = np.exp(np.concatenate([3 * t, t, 0 * t, 0 * t])).reshape(64, 1, 1).astype(complex)
+    keep = informative_lines(U, 16)
+    assert np.flatnonzero(keep[16:32]).tolist() == [0, 3, 8, 11, 15]
+
+
+def test_the_phase_counts_unwrapped_along_the_lines():
+    """The first block's phase turns by 1 rad a line (15 rad over the block, unwrapped;
+    taken modulo 2π it would span less than 2π), the second block's log-magnitude range
+    is 2: the first block's activity, 15, takes the budget and leaves the second block
+    one line; with the phase wrapped, the second would get five."""
+    t = np.zeros(16)
+    t[3], t[11] = 1.0, -1.0
+    phase = np.concatenate([-np.arange(16.0), np.zeros(48)])
+    U = np.exp(np.concatenate([0 * t, t, 0 * t, 0 * t]) + 1j * phase).reshape(64, 1, 1)
+    keep = informative_lines(U, 16)
+    assert keep[16:32].sum() == 1 and keep[:16].sum() >= 13

@@ -378,6 +378,8 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     back = load_data(path)
     for k in ("omega", "U", "F", "dofs", "inputs"):
         assert np.array_equal(getattr(back, k), getattr(data, k))
+    band = load_data(path, band_hz=(20.0, 40.0))
+    assert np.array_equal(band.U, data.band((20.0, 40.0)).U) and band.s == 21
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RankDeficientWarning)
@@ -402,6 +404,7 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
         ({"inputs": [0, 9]}, "index the 3 measured DOFs"),
         ({"inputs": [1, 1]}, "not repeat"),
         ({"inputs": [0.5, 1]}, "integer indices"),
+        ({"inputs": [0j, 2j]}, "inputs must be real"),
         ({"inputs": None}, "must be given"),
         ({"dofs": [(1, 1), (1, 1), (2, 1)]}, "not repeat"),
         ({"dofs": [(1, 1)]}, "shape"),
@@ -422,6 +425,14 @@ def test_measured_data_refuses_inconsistent_input(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         MeasuredData(**args)
+
+
+def test_two_lines_are_data_and_frf_arrays_must_be_three_dimensional():
+    rng = np.random.default_rng(1)
+    data = MeasuredData([1.0, 2.0], rng.standard_normal((2, 3, 1)), np.ones((2, 1, 1)), inputs=[0])
+    assert data.s == 2
+    with pytest.raises(ValueError, match=r"H must have shape \(s, n_out, n_in\), got \(2, 3\)"):
+        from_frf(np.ones((2, 3)), [1.0, 2.0])
 
 
 def test_band_must_keep_two_lines_and_order_or_energy(chain6):

@@ -274,3 +274,37 @@ def test_a_mode_the_sensors_do_not_see_is_refused():
     with pytest.raises(ValueError, match=r"^a mode has no component on the measured DOFs "
                        r"\(R ψ = 0\)$"):
         mode_shapes(model, np.array([[1.0, 0.0]]))
+
+
+def test_in_band_keeps_a_mode_at_either_end_of_the_band():
+    lam = 2 * np.pi * np.array([10.0, 20.0, 30.0]) * complex(-0.01, np.sqrt(1 - 1e-4))
+    modes = ModeShapes(lam, np.eye(3, dtype=complex))
+    f = modes.frequencies_hz
+    assert modes.in_band((f[0], f[1])).mode_numbers.tolist() == [1, 2]
+    assert modes.in_band((f[1], f[2])).mode_numbers.tolist() == [2, 3]
+
+
+def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
+    from podid_rs.modes import mode_kinds
+
+    model = SecondOrderSystem(np.eye(2), np.diag([0.5, 1.0]), np.diag([400.0, 2500.0]))
+    shapes = mode_shapes(model)
+    w = np.linspace(10.0, 60.0, 51)
+    U = model.frf(w)[:, :, :1]
+    with pytest.raises(ValueError, match=r"U must be \(s, n, p\) = \(51, 2, 1\)"):
+        mode_kinds(shapes, w, U[:-1], [0])  # one line short, the DOFs right
+    U[3, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="U contains non-finite values"):
+        mode_kinds(shapes, w, U, [0])
+
+
+def test_each_entry_rises_above_its_own_ring():
+    """Two entries flat at 1 and at 1e-3 around a pole at 100 rad/s (half-power half-width
+    1): neither rises at the pole, so there is no peak — though the first stands above
+    the second's ring a thousandfold."""
+    from podid_rs.modes import _data_peak
+
+    w = np.linspace(50.0, 150.0, 201)
+    Ua = np.ones((w.size, 2, 1))
+    Ua[:, 1] = 1e-3
+    assert not _data_peak(w, Ua, np.ones((2, 1), dtype=bool), complex(-1.0, 100.0))

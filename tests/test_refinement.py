@@ -28,8 +28,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import podid_rs as pr
+from podid_rs._validation import FrequencyData
 from podid_rs.identification import ConvergenceWarning
-from podid_rs.identification.refinement import StartWarning, db_errors, physical_start, refine
+from podid_rs.identification.refinement import (
+    START_KEEP,
+    StartWarning,
+    _log_magnitude_targets,
+    db_errors,
+    physical_start,
+    refine,
+)
 
 
 def rel(a, b) -> float:
@@ -483,3 +491,55 @@ def test_column_weights_with_a_basis_are_column_weights():
         uniform = refine(start, U_n, F_n, w, basis=R, weights="uniform", max_iter=3, threads=1)
     for k in "MCK":
         assert np.array_equal(getattr(ones, k), getattr(uniform, k))
+
+
+def test_the_log_magnitude_weights_leave_out_entries_beyond_the_dynamic_range_of_their_line():
+    # line 0: DOF 2 is 1e-13 of the line's largest (beyond LOG_DYNAMIC_RANGE = 1e-12):
+    # weight 0; line 1: every entry is tiny but within 1e-12 of its line's largest: kept
+    U = np.array([[[1.0], [0.5], [1e-13]], [[1e-14], [2e-14], [1e-14]]], dtype=complex)
+    data = FrequencyData(U, np.ones_like(U), np.array([1.0, 2.0]))
+    weighting, label = _log_magnitude_targets("uniform", data, None, None)
+    assert np.asarray(weighting.entry_weights).tolist() == [[1, 1, 0], [1, 1, 1]]
+    assert label == "log-magnitude, uniform per entry"
+
+
+def test_a_start_is_kept_only_with_every_eigenvalue_above_start_keep_of_the_largest():
+    # K's eigenvalues 1e4 and 1e-8: the smaller is below START_KEEP = 1e-10 of the
+    # largest (1e-6), so it is raised to rtol = 1e-8 of the largest (1e-4); M, C kept
+    M, C, K = np.eye(2), np.zeros((2, 2)), np.diag([1e4, 1e-8])
+    (M2, C2, K2), report = physical_start(M, C, K)
+    assert report["eigenvalues_raised"] == (0, 0, 1)
+    assert np.array_equal(M2, M) and np.array_equal(C2, C)
+    assert np.allclose(np.linalg.eigvalsh(K2), [1e-4, 1e4], rtol=1e-12)
+    # at 2 START_KEEP of the largest it is kept as it is
+    (_, _, K3), report = physical_start(M, C, np.diag([1e4, 2 * START_KEEP * 1e4]))
+    assert report["eigenvalues_raised"] == (0, 0, 0) and K3[1, 1] == 2 * START_KEEP * 1e4
+
+
+def test_weights_given_as_arrays_are_reported_and_per_entry_ones_may_leave_out_the_load_case():
+    chain, U_n, F_n, w = _entry_data(noise=0.02)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    U, F = np.einsum("nm,snp->smp", R, U_n), np.einsum("nm,snp->smp", R, F_n)
+    start = pr.identify(U, F, w, symmetric=True)
+    W = 10.0 ** np.random.default_rng(3).uniform(-1, 1, U_n.shape[:2])  # (s, n)
+    runs = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        runs["user"] = refine(start, U, F, w, weights=W[:, 0], max_iter=3)
+        for name, weights in (("s, n", W), ("s, n, p", W[:, :, None])):
+            runs[name] = refine(start, U_n, F_n, w, basis=R, weights=weights, max_iter=3)
+    assert runs["user"].info["refinement"]["weights"] == "user"
+    a, b = runs["s, n"].info["refinement"], runs["s, n, p"].info["refinement"]
+    assert a["weights"] == b["weights"] == "user, per entry"
+    assert a["cost"] == b["cost"] and np.array_equal(runs["s, n"].K, runs["s, n, p"].K)
+    timings = runs["user"].info["refinement"]["timings"]
+    assert timings and all(t >= 0 for t in timings.values())
+
+
+def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():
+    chain, U_n, F_n, w = _entry_data()
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    start = (np.eye(5), np.eye(5), np.eye(5) * 1e4)
+    with pytest.raises(ValueError, match=r"basis must be \(n, m\) with n = the measured DOFs"):
+        refine(start, U_n, F_n, w, basis=R[:-1])

@@ -165,12 +165,13 @@ def test_h1_recovers_the_frf_from_long_multi_record_simulation():
     assert np.median(err) < 0.005
 
 
-def test_h1_siso_equals_scipy_csd_over_welch(sim):
+@pytest.mark.parametrize("nperseg", [512, 511])  # odd: the hop is 256 too (scipy's overlap 255)
+def test_h1_siso_equals_scipy_csd_over_welch(sim, nperseg):
     x, y = sim.forces[:, 0], sim.response[:, 1]
-    f, Pxy = signal.csd(x, y, fs=1 / DT, nperseg=512, window="hann")
-    _, Pxx = signal.welch(x, fs=1 / DT, nperseg=512, window="hann")
+    f, Pxy = signal.csd(x, y, fs=1 / DT, nperseg=nperseg, window="hann")
+    _, Pxx = signal.welch(x, fs=1 / DT, nperseg=nperseg, window="hann")
     in_band = (f >= BAND[0]) & (f <= BAND[1])
-    omega, H = frf_h1(x[:, None], y[:, None], DT, nperseg=512, band_hz=BAND)
+    omega, H = frf_h1(x[:, None], y[:, None], DT, nperseg=nperseg, band_hz=BAND)
     np.testing.assert_allclose(omega, 2 * np.pi * f[in_band])
     np.testing.assert_allclose(H[:, 0, 0], (Pxy / Pxx)[in_band], rtol=1e-10)
 

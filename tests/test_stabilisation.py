@@ -226,3 +226,25 @@ def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_dat
     assert chart.chosen_m == 2
     with pytest.raises(ValueError, match=r"^chosen_m must be"):
         stabilisation_chart(data, 2, progress=False, chosen_m=0)
+
+
+def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    screen = Terminal()
+    monkeypatch.setattr(sys, "stderr", screen)
+    stabilisation_chart(chain_data[1], 3, progress=True)
+    last = screen.getvalue()[:-1].split("\r")[-1]
+    assert last.startswith("stabilisation: 100%") and "| 3/3 [" in last
+
+
+def test_a_mass_with_a_zero_eigenvalue_is_not_physical():
+    from dataclasses import replace
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert not is_physical(replace(good, M=np.diag([1.0, 0.0])))

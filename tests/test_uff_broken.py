@@ -32,6 +32,7 @@ import pytest
 
 import podid_rs as pr
 from podid_rs import DataWarning, read_uff
+from podid_rs.io.uff import _delimiters, _uff_int
 
 pyuff = pytest.importorskip("pyuff")
 
@@ -361,3 +362,43 @@ def test_a_record_left_out_for_its_units_is_not_fitted(tmp_path):
     assert data.measured.all()
     _, freq, H = write_chain(tmp_path / "chain.uff")
     np.testing.assert_allclose(data.U, H[1:][:, :, [0, 2]], rtol=1e-6)
+
+
+def test_the_dead_channel_warning_points_at_the_callers_line(tmp_path):
+    path, _, _ = write_chain(tmp_path / "dead.uff", references=2,
+                             change=lambda o, r, v: 0 * v if (o, r) == (2, 0) else v)
+    with pytest.warns(DataWarning, match="dead channel") as caught:
+        read_uff(path)
+    assert caught[0].filename == __file__
+
+
+def test_a_delimiter_is_minus_one_alone_on_its_line_or_followed_by_blanks_to_column_80():
+    raw = (b"    -1\n"
+           b"    58\n"
+           b"        -1      NONE" + b" " * 60 + b"\n"  # -1 in an I10 field: data, not a delimiter
+           b"    -1" + b" " * 74 + b"\n"  # padded to 80 columns
+           b"    -1")  # the end of the file
+    padded = raw.index(b"    -1" + b" " * 74)
+    assert _delimiters(raw) == [0, padded, len(raw) - 6]
+
+
+@pytest.mark.parametrize("value", [None, 3.0, "3", True])
+def test_an_integer_field_of_another_type_is_refused_by_name(value):
+    with pytest.raises(ValueError, match=r"record 2: field 'rsp_dir' must be an integer"):
+        _uff_int({"rsp_dir": value}, "rsp_dir", "record 2")
+    assert _uff_int({"rsp_dir": np.int32(-3)}, "rsp_dir", "record 2") == -3
+
+
+def test_frequency_lines_are_compared_relative_only(tmp_path):
+    """Record 2's lines are record 1's but its first, 0 Hz, is 1e-9 Hz: they differ (an
+    absolute tolerance would take any two lines closer than it for the same)."""
+    freq = np.arange(0.0, 51.0)
+    H = np.zeros((freq.size, 3, 3), dtype=complex)
+    H[1:] = pr.mass_spring_chain(3, m1=1.0, m2=1.0).frf(2 * np.pi * freq[1:])
+    shifted = freq.copy()
+    shifted[0] = 1e-9
+    path = tmp_path / "lines.uff"
+    pyuff.UFF(str(path)).write_sets([frf_record(DOFS[0], DOFS[0], freq, H[:, 0, 0]),
+                                     frf_record(DOFS[1], DOFS[0], shifted, H[:, 1, 0])], "add")
+    with pytest.raises(ValueError, match="its frequency lines differ from those of record 1"):
+        read_uff(path)

@@ -106,6 +106,8 @@ def test_a_shaker_column_and_a_hammer_row_are_two_columns(tmp_path):
         assert np.allclose(entry(data, o, 2), H[1:, o - 1, 1], rtol=1e-10)  # shaker column
     assert any("laid out as the FRF columns of forces at [(2, 3), (3, 3)]" in note
                for note in data.notes)
+    assert any("(the fewest force DOFs that hold every measured pair)" in note
+               for note in data.notes)
 
 
 def test_a_tie_goes_to_the_files_reference(tmp_path):

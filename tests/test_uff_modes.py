@@ -153,3 +153,17 @@ def test_modes_over_different_nodes_are_zero_where_a_mode_has_no_value(tmp_path)
     modes = read_uff_modes(path)
     assert modes.dofs.tolist() == [[5, 1], [6, 1], [6, 2]]
     np.testing.assert_array_equal(modes.shapes, [[1.0, 0.0], [0.5, 0.25], [0.0, 1.0]])
+
+
+def test_rotations_of_six_values_per_node_are_directions_4_to_6(tmp_path):
+    d = pyuff.prepare_55(
+        id1="a modal-analysis program", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
+        model_type=1, analysis_type=2, data_ch=3, spec_data_type=8, data_type=2,
+        n_data_per_node=6, r1=np.array([1.0, 0.0]), r2=np.zeros(2), r3=np.zeros(2),
+        r4=np.array([0.0, 0.5]), r5=np.zeros(2), r6=np.array([-0.25, 0.0]),
+        load_case=1, mode_n=1, freq=10.0, modal_m=1.0, modal_damp_vis=0.01,
+        modal_damp_his=0.0, node_nums=[5, 6],
+    )
+    modes = read_uff_modes(write(tmp_path / "rotations.uff", d))
+    assert modes.dofs.tolist() == [[5, 1], [5, 6], [6, 4]]
+    np.testing.assert_array_equal(modes.shapes[:, 0], [1.0, -0.25, 0.5])

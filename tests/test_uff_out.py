@@ -202,3 +202,16 @@ def test_frfs_read_by_reciprocity_say_so(written, tmp_path):
     path = write_uff(tmp_path / "roving.uff", result, R, data)
     s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
     assert len(s58) == data.n and all("reciprocity" in d["id3"] for d in s58)
+
+
+def test_the_58_sets_remark_reciprocity_only_when_a_note_says_so():
+    from types import SimpleNamespace
+
+    from podid_rs.io.uff import _reciprocity_remark
+
+    assert _reciprocity_remark(None) == "NONE"
+    dead = "t.uff: FRF record 5 is zero at every line in the file: a dead channel"
+    assert _reciprocity_remark(SimpleNamespace(notes=(dead,))) == "NONE"
+    read = "t.uff: the 9 FRFs ... 2 entries read by reciprocity, H(j, k) = H(k, j)"
+    assert (_reciprocity_remark(SimpleNamespace(notes=(dead, read)))
+            == "entries read by reciprocity: H(j, k) = H(k, j)")

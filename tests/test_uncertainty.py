@@ -232,6 +232,29 @@ def test_the_band_is_radial_and_reaches_zero_where_the_ellipse_holds_the_origin(
     assert np.allclose([lo[3], hi[3]], [np.sqrt(2) - 0.196, np.sqrt(2) + 0.196])
 
 
+def test_a_band_narrower_than_one_standard_deviation_is_the_radial_one():
+    # z = 0.5 (a level of 38 %): the origin at Mahalanobis distance² 0.4 lies outside the
+    # ellipse (0.4 > z² = 0.25), and the band is |H| ∓ 0.5 σ, above 0
+    a = np.sqrt(0.4)
+    lo, hi = _magnitude_band(np.array([a + 0j]), np.ones(1), np.ones(1), np.zeros(1), 0.5)
+    assert np.allclose([lo[0], hi[0]], [a - 0.5, a + 0.5], rtol=1e-14)
+
+
+def test_mode_intervals_are_the_estimate_plus_minus_z_standard_deviations():
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    modes = unc.modes(level=0.9)
+    z = 1.6448536269514722  # the standard normal's 95th percentile: a two-sided 90 %
+    assert modes.z == pytest.approx(z, rel=1e-12)
+    f, sf = modes.frequencies_hz, modes.std_frequency_hz
+    zeta, sz = modes.damping_ratios, modes.std_damping
+    assert np.all(sf > 0) and np.all(sz > 0)
+    assert np.allclose(modes.frequency_intervals_hz, np.stack([f - z * sf, f + z * sf], 1),
+                       rtol=1e-14, atol=0)
+    assert np.allclose(modes.damping_intervals, np.stack([zeta - z * sz, zeta + z * sz], 1),
+                       rtol=1e-14, atol=0)
+
+
 def test_latent_coordinates_have_a_gauge_and_no_matrix_intervals():
     system, omega, H, U, F, var = _frf_data(n=4)
     # the chain's first three coordinates observed, the fourth latent
