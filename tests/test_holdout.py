@@ -450,6 +450,47 @@ def test_each_damping_ratio_at_a_residual_peak_is_tried_on_its_own():
                for f, z in added)
 
 
+@pytest.mark.parametrize("gain", [True, False])
+def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
+        chain_frf, monkeypatch, gain):
+    # a spy makes the first LOG_MAGNITUDE_PROBE steps lower (or raise) the median error over
+    # every line and records the step budget of every log-magnitude call
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    budgets, steps, probe = [], [], []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        if kwargs.get("objective") == "log-magnitude":
+            budgets.append(kwargs["max_iter"])
+            steps.append(fit.iterations)
+            ref = fit.info["refinement"]
+            ref["converged"] = False
+            if len(budgets) == 1:  # the probe, from the complex fit
+                probe.extend((0.5 if gain else 2.0) * v for v in ref["db_before"])
+                ref["db_after"] = tuple(probe)
+            else:  # the rest, lower still
+                ref["db_after"] = tuple(0.9 * v for v in probe)
+        return fit
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=60)
+    kept = model.info["refinement"]["final_refit"]
+    log = kept["passes"][1]
+    assert budgets[0] == order.LOG_MAGNITUDE_PROBE
+    if gain:
+        assert budgets == [order.LOG_MAGNITUDE_PROBE, 60 - steps[0]]
+        assert log["iterations"] == model.iterations == sum(steps)
+        assert kept["kept"] == "log-magnitude refit"
+    else:
+        assert budgets == [order.LOG_MAGNITUDE_PROBE] and log["iterations"] == steps[0]
+        assert f"in its first {steps[0]} steps, and stopped there" in kept["reason"]
+        assert kept["kept"] != "log-magnitude refit"
+
+
 def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_it():
     # one step from the held-out fit of noisy data (2 % on every DOF) barely moves the
     # model: neither pass lowers the median error over every line, and the reason quotes
