@@ -122,6 +122,17 @@ def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line
     np.testing.assert_allclose(fill / (FILL_FACTOR * omega_all[-1]), [1, 2, 3, 4], rtol=1e-9)
 
 
+def test_a_completing_mode_is_seen_slightly_at_a_measured_dof(omega_all):
+    """The completing modes of a driving point on an order-8 basis would not show at the
+    one measured DOF; each is seen there, at FILL_SEEN times the shapes' scale, so every
+    mode of the start has a shape on the measured DOFs."""
+    U, F = frf_data(omega_all, [0], [0])
+    R = observation_matrix(np.ones((1, 1)), 8)
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), R, U, F, omega_all)
+    shapes = pr.mode_shapes(pr.SecondOrderSystem(*start), R)
+    assert shapes.n_modes == 8
+
+
 def test_no_start_without_unit_forces(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
     F[:, 1, 0] = 0.5  # a force spread over two DOFs: not FRF data

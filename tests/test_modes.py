@@ -216,6 +216,20 @@ def test_a_pole_midway_between_two_lines_is_judged_on_the_lower_third_line():
         assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]
 
 
+def test_a_model_symmetric_to_round_off_relative_to_its_size_has_modal_constants():
+    """The symmetry test is relative (SYMMETRY_RTOL = 1e-12 of ‖X‖): a stiffness of norm
+    about 3e4 asymmetric by 1e-13 of it is symmetric (modal constants known), one
+    asymmetric by 1e-9 of it is not."""
+    chain = mass_spring_chain(3)
+    M, C, K = (np.asarray(X, dtype=float) for X in (chain.M, chain.C, chain.K))
+    assert np.linalg.norm(K) > 1e3
+    for skew, symmetric in ((1e-13, True), (1e-9, False)):
+        K2 = K.copy()
+        K2[0, 1] += skew * np.linalg.norm(K)
+        shapes = mode_shapes(SecondOrderSystem(M, C, K2))
+        assert (shapes.modal_a is not None) is symmetric
+
+
 def test_a_pole_where_the_data_have_no_peak_is_weak():
     """The data of one mode (30 Hz) against a model that also has a strong pole at
     100 Hz, where the data fall smoothly as 1/ω²: its own term is as large as the data
