@@ -145,6 +145,15 @@ def test_lines_left_out_of_a_thinned_sweep_do_not_reach_the_fit(chain_frf, monke
         np.testing.assert_array_equal(omega, w[used & ~test])
 
 
+def test_a_sweep_without_thinning_uses_every_line(chain_frf):
+    """sweep_lines=None: every line is used, every HOLDOUT-th held out from mid-group."""
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=None, threads=1)
+    assert sweep.lines.all()
+    np.testing.assert_array_equal(np.flatnonzero(sweep.test_lines),
+                                  np.flatnonzero(np.arange(w.size) % HOLDOUT == HOLDOUT // 2))
+
+
 def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
     U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)

@@ -183,6 +183,52 @@ def test_no_start_for_a_model_that_reproduces_the_data_to_round_off():
     U = model_response(model, omega) * (1 + 1e-11)
     assert latent_starts(model, U, np.ones_like(U), omega, R, np.ones((omega.size, 1))) == []
 
+def spiked_data():
+    """One observed DOF (its mode at 0.5 rad/s, below the band) and data that differ
+    from the model's response x at five lines only, each by a term in phase with a mode
+    on that line: by 1 where |x| = 1 at 20, 40, 60 and 80 rad/s (excess |U − x|² / |x|²
+    = 1), by 2 where |x| = 2.1 at 100 rad/s (excess 4 / 4.41 = 0.91, the smallest of the
+    five; ranked by |U − x|³ it would be the largest, 8 / 4.41). The forces are chosen
+    line by line to give x those magnitudes."""
+    omega = np.arange(1.0, 121.0)
+    w1 = 0.5
+    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
+    H = 1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
+    x = np.ones(omega.size, dtype=complex)
+    x[99] = 2.1
+    F = x / H
+    U = x.copy()
+    for i, size in zip([19, 39, 59, 79, 99], [1.0, 1.0, 1.0, 1.0, 2.0], strict=True):
+        g = F[i] / (2j * 0.01 * omega[i] ** 2)  # a mode on the line, 1 % damping
+        U[i] += size * g / abs(g)
+    return model, U[:, None, None], F[:, None, None], omega
+
+
+def test_the_latent_peaks_are_the_largest_excess_of_the_squared_residual():
+    """Of five local maxima of the excess, the PEAKS = 4 largest become peak starts:
+    the lines at 20, 40, 60 and 80 rad/s, not the one at 100 rad/s."""
+    model, U, F, omega = spiked_data()
+    starts = latent_starts(model, U, F, omega, np.eye(1), np.ones((omega.size, 1)))
+    hz = [float(found.group(1)) for _, _, name in starts
+          if (found := re.search(r"at ([0-9.]+) Hz", name))]
+    assert sorted(int(np.argmin(np.abs(omega - 2 * np.pi * f))) for f in hz) == [19, 39, 59, 79]
+
+
+def test_a_latent_start_reports_its_weighted_squared_output_error():
+    """Each start's cost is Σ w² |U − x|² of the start's own response x at the observed
+    DOF (to round-off: the new mode's response adds to the model's), with weights that
+    vary from line to line."""
+    model, U, F, omega = spiked_data()
+    w = np.linspace(0.5, 2.0, omega.size)[:, None]
+    starts = latent_starts(model, U, F, omega, np.eye(1), w)
+    assert len(starts) >= 4
+    F2 = np.zeros((omega.size, 2, 1), dtype=complex)
+    F2[:, 0, 0] = F[:, 0, 0]
+    for cost, start, _ in starts:
+        X = pr.SecondOrderSystem(*start).response(omega, F2)[:, :1, :]
+        expected = float(np.sum(w[:, :, None] ** 2 * np.abs(U - X) ** 2))
+        assert cost == pytest.approx(expected, rel=1e-8)
+
 
 def model_response(model, omega):
     """The receptance of the model's first DOF driven at itself (uncoupled DOFs), (s, 1, 1)."""

@@ -183,6 +183,8 @@ def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
     assert data.n == 6 and data.p == 1 and data.inputs.tolist() == [fixed]
     assert data.dofs.tolist() == [[k + 1, 3] for k in range(6)]
     assert data.notes and "reciprocity" in data.notes[0]
+    assert "(a roving-hammer test): read by reciprocity, H(j, k) = H(k, j), as the FRFs of " \
+        "the hit DOFs for a force at the response DOF(s)" in data.notes[0]
     # the column of a force at the fixed DOF, in the positive direction whatever the sign code
     assert rel(data.U[:, :, 0], H[1:, :, fixed]) < 1e-10
     # the note survives a round trip through save_data / load_data
@@ -332,6 +334,16 @@ def test_time_history_npz_file(tmp_path):
     np.savez(tmp_path / "half.npz", forces=x, dt=1 / 256)
     with pytest.raises(ValueError, match="responses"):
         load_data(tmp_path / "half.npz")
+
+
+def test_a_time_history_npz_file_keeps_its_dofs(tmp_path):
+    system = mass_spring_chain(4, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    x, Y, _, r = periodic_test(system, [1], r=2**11)
+    dofs = [[k + 1, 3] for k in range(4)]
+    path = tmp_path / "shaker.npz"
+    np.savez(path, forces=x, responses=np.fft.irfft(Y, n=r, axis=0), dt=1 / 256, inputs=[1],
+             nperseg=512, dofs=dofs)
+    assert load_data(path).dofs.tolist() == dofs
 
 
 

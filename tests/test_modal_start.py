@@ -20,7 +20,7 @@ import pytest
 
 import podid_rs as pr
 from podid_rs.identification.latent import observation_matrix
-from podid_rs.identification.modal_start import modal_start
+from podid_rs.identification.modal_start import FILL_FACTOR, modal_start
 from podid_rs.identification.order import _relative_cost
 
 M4 = np.diag([1.0, 2.0, 1.5, 1.0])
@@ -106,6 +106,31 @@ def test_modes_outside_the_band_become_residual_poles():
     assert w_start[0] < omega[0] and w_start[3] > omega[-1]
     # it explains the band far better than the in-band modes alone would: a few %
     assert _relative_cost(start, R, U, F, omega) < 0.05 * omega.size
+
+def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line(omega_all):
+    """A driving point of the 4-DOF chain on an order-8 basis (one observed coordinate,
+    seven latent): the four in-band modes are kept exactly, the residual poles take no
+    shape from these exact data, and the four coordinates left are completed at
+    FILL_FACTOR · ω_hi times 1, 2, 3, 4 (ζ = RESIDUAL_ZETA: |λ| is their natural
+    frequency)."""
+    U, F = frf_data(omega_all, [0], [0])
+    R = observation_matrix(np.ones((1, 1)), 8)
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), R, U, F, omega_all)
+    w_start, _ = natural(*start)
+    np.testing.assert_allclose(w_start[:4], natural(M4, C4, K4)[0], rtol=1e-9)
+    fill = w_start[w_start > 2 * omega_all[-1]]
+    np.testing.assert_allclose(fill / (FILL_FACTOR * omega_all[-1]), [1, 2, 3, 4], rtol=1e-9)
+
+
+def test_a_completing_mode_is_seen_slightly_at_a_measured_dof(omega_all):
+    """The completing modes of a driving point on an order-8 basis would not show at the
+    one measured DOF; each is seen there, at FILL_SEEN times the shapes' scale, so every
+    mode of the start has a shape on the measured DOFs."""
+    U, F = frf_data(omega_all, [0], [0])
+    R = observation_matrix(np.ones((1, 1)), 8)
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), R, U, F, omega_all)
+    shapes = pr.mode_shapes(pr.SecondOrderSystem(*start), R)
+    assert shapes.n_modes == 8
 
 
 def test_no_start_without_unit_forces(omega_all):

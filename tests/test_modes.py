@@ -194,6 +194,41 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
     assert band.mode_numbers.tolist() == [1, 2, 3, 4]
     assert band.select(np.array([False, True, False, True])).mode_numbers.tolist() == [2, 4]
 
+def test_a_pole_midway_between_two_lines_is_judged_on_the_lower_third_line():
+    """Lines at 1, 2, …, 200 rad/s and a lightly damped pole at exactly 10.5 rad/s: its
+    two nearest lines tie (10 and 11), and so do the next two (9 and 12); it is judged on
+    10, 11 and the lower, 9 (a stable sort: ties in line order — NumPy's default sort
+    breaks them otherwise on this machine). The visibility window (2 % of 10.5 rad/s)
+    holds no line, so those three set the level. The data are the pole's own term with
+    a spike 100 times its peak: at 12 rad/s, left out, the pole is structural; at
+    9 rad/s, one of the three, it is weak (not seen at two lines)."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -0.05 + 10.5j
+    a = 2j * lam.imag
+    term = 1 / (a * (1j * w - lam))
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=np.ones((1, 1)),
+                        modal_a=np.array([a]))
+    for spike, kind in ((12.0, "structural"), (9.0, "weak")):
+        U = term.copy()
+        U[w == spike] = 100 * abs(term[w == 10.0])
+        assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]
+
+
+def test_a_model_symmetric_to_round_off_relative_to_its_size_has_modal_constants():
+    """The symmetry test is relative (SYMMETRY_RTOL = 1e-12 of ‖X‖): a stiffness of norm
+    about 3e4 asymmetric by 1e-13 of it is symmetric (modal constants known), one
+    asymmetric by 1e-9 of it is not."""
+    chain = mass_spring_chain(3)
+    M, C, K = (np.asarray(X, dtype=float) for X in (chain.M, chain.C, chain.K))
+    assert np.linalg.norm(K) > 1e3
+    for skew, symmetric in ((1e-13, True), (1e-9, False)):
+        K2 = K.copy()
+        K2[0, 1] += skew * np.linalg.norm(K)
+        shapes = mode_shapes(SecondOrderSystem(M, C, K2))
+        assert (shapes.modal_a is not None) is symmetric
+
 
 def test_a_pole_where_the_data_have_no_peak_is_weak():
     """The data of one mode (30 Hz) against a model that also has a strong pole at

@@ -324,6 +324,15 @@ def test_bad_options_are_refused_by_name(kwargs, match):
         refine((chain.M, chain.C, chain.K), U, F, w, **kwargs)
 
 
+def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
+    """ftol = 0 is outside (0, 1) and refused; a complex basis is refused by its name."""
+    chain, U, F, w = chain_data(n=6, p=1)
+    with pytest.raises(ValueError, match=r"ftol must lie in \(0, 1\), got 0\.0"):
+        refine((chain.M, chain.C, chain.K), U, F, w, ftol=0.0)
+    with pytest.raises(ValueError, match=r"^basis must be real"):
+        refine((chain.M, chain.C, chain.K), U, F, w, basis=np.eye(6) * (1 + 1j))
+
+
 def test_bad_starts_are_refused_by_name():
     chain, U, F, w = chain_data(n=4, p=1)
     with pytest.raises(ValueError, match="M has no positive eigenvalue"):

@@ -371,6 +371,37 @@ def test_the_dead_channel_warning_points_at_the_callers_line(tmp_path):
         read_uff(path)
     assert caught[0].filename == __file__
 
+def test_the_exact_zero_warning_points_at_the_callers_line(tmp_path):
+    def lost(o, r, v):
+        if (o, r) == (1, 1):
+            v = v.copy()
+            v[42] = np.nan  # pyuff writes it as 0
+        return v
+
+    path, _, _ = write_chain(tmp_path / "zero.uff", change=lost)
+    with pytest.warns(DataWarning, match="exactly 0 at 1 line") as caught:
+        read_uff(path)
+    assert [w.filename for w in caught] == [__file__]
+
+
+def test_a_set_pyuff_reads_short_of_its_header_is_refused(tmp_path, monkeypatch):
+    """Behind the check of the file's text: a dataset 58 that pyuff returns with fewer
+    values than its header's number of points is refused by name, not fitted."""
+    path, _, _ = write_chain(tmp_path / "chain.uff")
+    read = pyuff.UFF.read_sets
+
+    def short(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58 and d.get("rsp_node") == 2 and d.get("ref_node") == 3:
+            d = dict(d, data=d["data"][:-1])
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", short)
+    with pytest.raises(ValueError, match=r"record 6 of the file \(dataset 58, response 2:3 / "
+                                         r"reference 3:3, from line \d+\) holds 300 values "
+                                         r"for the 301 points its header announces"):
+        read_uff(path)
+
 
 def test_a_delimiter_is_minus_one_alone_on_its_line_or_followed_by_blanks_to_column_80():
     raw = (b"    -1\n"
