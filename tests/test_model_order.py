@@ -172,24 +172,13 @@ def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
     drops by more than PROGRESS_STEP at some order, and then each unit of patience (up
     to LATENT_PATIENCE past the observed DOFs) fits exactly one more order (the stop on
     flat latent orders switched off)."""
-    import warnings
-
     from podid_rs.identification import order
     from podid_rs.identification.order import PROGRESS_STEP
 
     monkeypatch.setattr(order, "LATENT_FLAT", 100)
-    chain = pr.mass_spring_chain(6)
-    w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
-    F_n = np.zeros((w.size, 6, 1), dtype=complex)
-    F_n[:, 1, 0] = 1.0
-    rng = np.random.default_rng(0)
-    U_n = chain.response(w, F_n) * (1 + 0.03 * rng.standard_normal((w.size, 6, 1)))
-    P = pr.pod_from_frf(U_n, w)
     counts = []
     for patience in (1, 2, 3):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            sweep = sweep_orders(U_n, F_n, w, P, patience=patience, threads=1)
+        sweep = _noisy_chain_sweep(patience=patience)
         test = [f.test_db for f in sweep.fits]
         last = len(test) - patience - 1  # the last order with progress
         assert test[last] < min(test[:last]) * (1 - PROGRESS_STEP)
