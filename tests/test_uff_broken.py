@@ -253,14 +253,16 @@ def test_a_constant_channel_is_dead_too(tmp_path):
     assert not data.measured[2, 1]
 
 
-def test_an_exact_zero_at_one_line_is_warned_about(tmp_path):
-    def lost(o, r, v):
-        if (o, r) == (1, 1):
-            v = v.copy()
-            v[42] = np.nan  # pyuff writes it as 0
-        return v
+def _nan_at_42_hz(o, r, v):
+    """The record of response 1 / reference 1 with a NaN at 42 Hz (pyuff writes it as 0)."""
+    if (o, r) == (1, 1):
+        v = v.copy()
+        v[42] = np.nan
+    return v
 
-    path, _, H = write_chain(tmp_path / "zero.uff", change=lost)
+
+def test_an_exact_zero_at_one_line_is_warned_about(tmp_path):
+    path, _, H = write_chain(tmp_path / "zero.uff", change=_nan_at_42_hz)
     with pytest.warns(DataWarning, match=r"FRF record 5 \(response 2:3 / reference 2:3\) is "
                                          r"exactly 0 at 1 line\(s\), the first at 42 Hz"):
         data = read_uff(path)
@@ -371,14 +373,9 @@ def test_the_dead_channel_warning_points_at_the_callers_line(tmp_path):
         read_uff(path)
     assert caught[0].filename == __file__
 
-def test_the_exact_zero_warning_points_at_the_callers_line(tmp_path):
-    def lost(o, r, v):
-        if (o, r) == (1, 1):
-            v = v.copy()
-            v[42] = np.nan  # pyuff writes it as 0
-        return v
 
-    path, _, _ = write_chain(tmp_path / "zero.uff", change=lost)
+def test_the_exact_zero_warning_points_at_the_callers_line(tmp_path):
+    path, _, _ = write_chain(tmp_path / "zero.uff", change=_nan_at_42_hz)
     with pytest.warns(DataWarning, match="exactly 0 at 1 line") as caught:
         read_uff(path)
     assert [w.filename for w in caught] == [__file__]
