@@ -220,6 +220,7 @@ class RefineOptions:
         solver: str = "auto",
         curvature: bool = False,
         modal_metric: bool = False,
+        acceleration: bool = False,
     ) -> None: ...
     @property
     def max_iter(self) -> int:
@@ -249,6 +250,10 @@ class RefineOptions:
     @property
     def modal_metric(self) -> bool:
         """matrix-free step only: damp and precondition by the modal metric"""
+
+    @property
+    def acceleration(self) -> bool:
+        """dense step only: add the geodesic acceleration to each step"""
 
 @final
 class ColumnWeights:

@@ -38,13 +38,16 @@ pub(super) struct PyRefineOptions {
     curvature: bool,
     /// matrix-free step only: damp and precondition by the modal metric
     modal_metric: bool,
+    /// dense step only: add the geodesic acceleration to each step
+    acceleration: bool,
 }
 
 #[pymethods]
 impl PyRefineOptions {
     #[new]
     #[pyo3(signature = (*, max_iter = 200, ftol = 1e-7, xtol = 1e-12, log_diagonal = true,
-        solver = "auto", curvature = false, modal_metric = false))]
+        solver = "auto", curvature = false, modal_metric = false, acceleration = false))]
+    #[allow(clippy::too_many_arguments)] // one per keyword of the Python constructor
     fn new(
         max_iter: usize,
         ftol: f64,
@@ -53,6 +56,7 @@ impl PyRefineOptions {
         solver: &str,
         curvature: bool,
         modal_metric: bool,
+        acceleration: bool,
     ) -> PyResult<PyRefineOptions> {
         StepKind::from_name(solver).map_err(to_py)?;
         Ok(PyRefineOptions {
@@ -63,6 +67,7 @@ impl PyRefineOptions {
             solver: solver.to_string(),
             curvature,
             modal_metric,
+            acceleration,
         })
     }
 }
@@ -77,6 +82,7 @@ impl PyRefineOptions {
             solver: StepKind::from_name(&self.solver).map_err(to_py)?,
             curvature: self.curvature,
             modal_metric: self.modal_metric,
+            acceleration: self.acceleration,
         })
     }
 }

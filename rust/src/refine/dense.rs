@@ -45,6 +45,8 @@ pub(crate) struct DenseNormal {
     curvature: bool,
     /// whether the next step uses N_θ + H
     use_curv: bool,
+    /// the Cholesky factor of the last damped system (column-major, lower)
+    factor: Vec<f64>,
 }
 
 impl DenseNormal {
@@ -94,7 +96,26 @@ impl StepSolver for DenseNormal {
         par: Par,
         _cancelled: &mut dyn FnMut() -> bool,
     ) -> Option<Vec<f64>> {
-        damped_step(&self.nth, self.used_curvature(), g, mu, par)
+        let (x, factor) = damped_step(&self.nth, self.used_curvature(), g, mu, par)?;
+        self.factor = factor;
+        Some(x)
+    }
+
+    fn solve_again(&mut self, rhs: &[f64], par: Par) -> Option<Vec<f64>> {
+        let n = rhs.len();
+        if self.factor.len() != n * n {
+            return None;
+        }
+        let mut x = rhs.to_vec();
+        let lower = MatRef::from_column_major_slice(&self.factor, n, n);
+        let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, 1, par));
+        llt::solve::solve_in_place(
+            lower,
+            MatMut::from_column_major_slice_mut(&mut x, n, 1),
+            par,
+            MemStack::new(&mut mem),
+        );
+        x.iter().all(|v| v.is_finite()).then_some(x)
     }
 
     fn set_curvature(&mut self, on: bool) {
@@ -404,14 +425,14 @@ pub(crate) fn normal_equations(
 }
 
 /// Solve (A + μ diag(A)) δ = −g by Cholesky, A = N or N + H (the parametrisation's
-/// curvature, when given); None if it is not positive definite.
+/// curvature, when given): δ and the factor; None if it is not positive definite.
 fn damped_step(
     nth: &[f64],
     curvature: Option<&Curvature>,
     g: &[f64],
     mu: f64,
     par: Par,
-) -> Option<Vec<f64>> {
+) -> Option<(Vec<f64>, Vec<f64>)> {
     let n = g.len();
     let mut a = nth.to_vec();
     if let Some(cv) = curvature {
@@ -439,5 +460,5 @@ fn damped_step(
     let rhs = MatMut::from_column_major_slice_mut(&mut x, n, 1);
     let mut mem = MemBuffer::new(llt::solve::solve_in_place_scratch::<f64>(n, 1, par));
     llt::solve::solve_in_place(am.as_ref(), rhs, par, MemStack::new(&mut mem));
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    x.iter().all(|v| v.is_finite()).then_some((x, a))
 }

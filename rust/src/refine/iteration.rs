@@ -8,6 +8,7 @@
 //! gradient vanishes, no damping finds a descent, or `max_iter` steps were taken.
 
 use super::dense::DenseNormal;
+use super::geodesic::{accelerated_step, second_difference, GEODESIC_H};
 use super::input::{OeData, Weights};
 use super::lines;
 use super::matfree::MatrixFree;
@@ -281,8 +282,21 @@ impl<'p, 'a> LevenbergMarquardt<'p, 'a> {
                 }
                 continue;
             };
-            let trial = self.try_step(&step)?;
+            // the Gauss–Newton model's decrease for v; the step taken may be v + a/2
             let predicted = solver.predicted(&self.gradient, &step, self.par);
+            let step = match self.opts.acceleration {
+                true => self.accelerated(solver, step)?,
+                false => Some(step),
+            };
+            // an acceleration too large against the step, or a long accelerated step
+            // in a log-diagonal: damp more
+            let Some(step) = step.filter(|st| !self.too_long(st)) else {
+                if self.reject() {
+                    return Ok(Stop::NoDescent);
+                }
+                continue;
+            };
+            let trial = self.try_step(&step)?;
             let small = self.step_is_small(&step);
             if trial.ev.cost.is_finite() && self.point.ev.cost - trial.ev.cost > 0.0 {
                 self.accept(trial, predicted);
@@ -352,6 +366,39 @@ impl<'p, 'a> LevenbergMarquardt<'p, 'a> {
             return Err(PodidError::Interrupted);
         }
         Ok(step)
+    }
+
+    /// The step `v` with its geodesic acceleration ([`super::geodesic`]): v + a/2, None
+    /// when a is too large against v; v itself where the solver or the objective
+    /// gives no acceleration, or the model has a pole on a line at θ ± hv.
+    fn accelerated(
+        &mut self,
+        solver: &mut dyn StepSolver,
+        v: Vec<f64>,
+    ) -> Result<Option<Vec<f64>>, PodidError> {
+        let h = GEODESIC_H;
+        let theta = &self.point.theta;
+        let plus: Vec<f64> = theta.iter().zip(&v).map(|(a, b)| a + h * b).collect();
+        let minus: Vec<f64> = theta.iter().zip(&v).map(|(a, b)| a - h * b).collect();
+        let ahead = self.evaluate_at(plus)?;
+        self.spare = ahead.ev.lu;
+        let behind = self.evaluate_at(minus)?;
+        self.spare = behind.ev.lu;
+        if !(ahead.ev.cost.is_finite() && behind.ev.cost.is_finite()) {
+            return Ok(Some(v));
+        }
+        let x_vv = second_difference(&ahead.ev.x, &self.point.ev.x, &behind.ev.x, h);
+        let at = &self.point;
+        let Some(jt) =
+            lines::jt_of_responses(self.pb, &self.params, &at.factors, &at.ev, &x_vv, self.par)
+        else {
+            return Ok(Some(v));
+        };
+        let rhs: Vec<f64> = jt.iter().map(|x| -x).collect();
+        match solver.solve_again(&rhs, self.par) {
+            Some(a) => Ok(accelerated_step(&v, &a)),
+            None => Ok(Some(v)),
+        }
     }
 
     /// A step that changes a log-diagonal by more than the parametrisation allows.

@@ -259,3 +259,61 @@ pub(crate) fn theta_gradient(params: &Params, l: &[Mat<f64>; 3], gz: &Mat<f64>) 
     }
     out
 }
+
+/// Jᵀ applied to the weighted change `e` of the responses (layout of `ev.x`) at the
+/// current point: the gradient's formula with e in place of x − u, so that
+/// Jᵀ r(x − u) is the gradient itself. None for the log-magnitude objective, whose
+/// residual is not linear in the responses.
+pub(crate) fn jt_of_responses(
+    pb: &Problem,
+    params: &Params,
+    l: &[Mat<f64>; 3],
+    ev: &Evaluation,
+    e: &[c64],
+    par: Par,
+) -> Option<Vec<f64>> {
+    use rayon::prelude::*;
+    if matches!(pb.data.weights, Weights::LogMagnitude(_)) {
+        return None;
+    }
+    let (s, p, m) = (pb.data.s(), pb.data.p, pb.data.m);
+    let mm = m * m;
+    let zero = c64::new(0.0, 0.0);
+    let mut a_all = vec![zero; s * p * m];
+    a_all.par_chunks_mut(p * m).enumerate().for_each(|(i, a)| {
+        let lu = MatRef::from_column_major_slice(&ev.lu[i * mm..(i + 1) * mm], m, m);
+        let dinv = inverse_of(lu, &ev.perm[i * m..(i + 1) * m], m);
+        let mut weighted = vec![zero; m];
+        for j in 0..p {
+            let col = i * p + j;
+            let ec = &e[col * m..(col + 1) * m];
+            // w² e with scalar weights, Tᵀ T e with matrix weights
+            match pb.data.weights {
+                Weights::Scalar(w) => {
+                    let w2 = w[col] * w[col];
+                    for (out, v) in weighted.iter_mut().zip(ec) {
+                        *out = v * w2;
+                    }
+                }
+                Weights::Matrix(t) => {
+                    let tc = &t[col * mm..(col + 1) * mm];
+                    let te: Vec<c64> = (0..m)
+                        .map(|row| (0..m).map(|q| ec[q] * tc[row * m + q]).sum())
+                        .collect();
+                    for (k, out) in weighted.iter_mut().enumerate() {
+                        *out = (0..m).map(|row| te[row] * tc[row * m + k]).sum();
+                    }
+                }
+                Weights::LogMagnitude(_) => unreachable!("refused above"),
+            }
+            // a = D⁻ᴴ (the weighted change), as in line_pieces
+            for k in 0..m {
+                a[j * m + k] = (0..m)
+                    .map(|row| dinv[k * m + row].conj() * weighted[row])
+                    .sum();
+            }
+        }
+    });
+    let gz = gradient_z(pb, ev, &a_all, par);
+    Some(theta_gradient(params, l, &gz))
+}

@@ -55,10 +55,11 @@
 //! - `step_solver`: what the loop asks of a step solver, `dense` and `matfree`
 //!   the two solvers, with the pieces they share (`lines`: per-line Gram matrices,
 //!   gradient and tangent map; `curvature`: the parametrisation's curvature;
-//!   `modal`: the modal metric).
+//!   `modal`: the modal metric; `geodesic`: the dense step's geodesic acceleration).
 
 mod curvature;
 mod dense;
+mod geodesic;
 mod input;
 mod iteration;
 mod line_solves;
@@ -72,6 +73,7 @@ mod report;
 mod start;
 mod step_solver;
 
+pub use geodesic::{GEODESIC_ALPHA, GEODESIC_H};
 pub use input::{LogTarget, OeData, Weights};
 pub use iteration::{refine, CURVATURE_SWITCH, FTOL_WINDOW};
 pub use options::{OeOptions, StepKind, AUTO_DENSE_MAX_M, MAX_CG_ITER};

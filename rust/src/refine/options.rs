@@ -26,6 +26,8 @@ pub struct OeOptions {
     /// matrix-free step only: damp and precondition by the modal metric and take the
     /// Gauss–Newton step in X ([`super::modal`]) instead of μ·diag N_θ and its 3×3 blocks
     pub modal_metric: bool,
+    /// dense step only: add the geodesic acceleration to each step ([`super::geodesic`])
+    pub acceleration: bool,
 }
 
 impl Default for OeOptions {
@@ -38,6 +40,7 @@ impl Default for OeOptions {
             solver: StepKind::Auto,
             curvature: false,
             modal_metric: false,
+            acceleration: false,
         }
     }
 }

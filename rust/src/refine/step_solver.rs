@@ -29,6 +29,11 @@ pub(crate) trait StepSolver {
         cancelled: &mut dyn FnMut() -> bool,
     ) -> Option<Vec<f64>>;
     fn quad(&mut self, step: &[f64], par: Par) -> f64;
+    /// Solve the damped system of the last `step` again for another right-hand side
+    /// (None where the solver keeps no factor of it: the matrix-free one).
+    fn solve_again(&mut self, _rhs: &[f64], _par: Par) -> Option<Vec<f64>> {
+        None
+    }
     /// The decrease of the cost the Gauss–Newton model predicts for `step`:
     /// −2gᵀδ − δᵀNδ (a solver that retracts its step gives its model's own).
     fn predicted(&mut self, g: &[f64], step: &[f64], par: Par) -> f64 {

@@ -260,6 +260,45 @@ fn normal_matrix_matches_the_explicit_jacobian() {
 }
 
 #[test]
+fn jt_of_the_residual_is_the_gradient() {
+    // Jᵀ applied to e = x − u must be the gradient the dense solver returns, with
+    // scalar and with matrix weights; the log-magnitude objective has none
+    let mut rng = Lcg(17);
+    for (m, p, matrix) in [(3, 2, false), (4, 1, true)] {
+        let (omega, u, f, wscal, wmat) = noisy_data(m, p, 6, &mut rng);
+        let weights = if matrix {
+            Weights::Matrix(&wmat)
+        } else {
+            Weights::Scalar(&wscal)
+        };
+        let data = OeData {
+            omega: &omega,
+            u: &u,
+            f: &f,
+            weights,
+            m,
+            p,
+        };
+        let pb = problem(data);
+        let params = Params {
+            m,
+            log_diagonal: true,
+        };
+        let lf = system(m, &mut rng).map(|x| psd_factor(x.as_ref(), 0.0).unwrap());
+        let mck = lf.clone().map(|x| gram_lower(&x));
+        let ev = pb.evaluate(&mck).unwrap();
+        let (_, g, _) =
+            dense::normal_equations(&pb, &params, &lf, &ev, Par::Seq, &mut Default::default());
+        let e: Vec<c64> = ev.x.iter().zip(&pb.u).map(|(x, u)| x - u).collect();
+        let jt = lines::jt_of_responses(&pb, &params, &lf, &ev, &e, Par::Seq).unwrap();
+        let scale = g.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for (a, b) in jt.iter().zip(&g) {
+            assert!((a - b).abs() <= 1e-12 * scale, "m {m}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
 fn matrix_free_products_and_diagonal_match_the_dense_matrix() {
     let mut rng = Lcg(9);
     for (m, p, log_diagonal, matrix) in [
@@ -811,15 +850,17 @@ fn noise_free_data_give_the_exact_model_back() {
             p,
         };
         let start = perturbed(&truth, 0.05, &mut rng);
-        for (solver, modal_metric) in [
-            (StepKind::Dense, false),
-            (StepKind::MatrixFree, false),
-            (StepKind::MatrixFree, true),
+        for (solver, modal_metric, acceleration) in [
+            (StepKind::Dense, false, false),
+            (StepKind::Dense, false, true),
+            (StepKind::MatrixFree, false, false),
+            (StepKind::MatrixFree, true, false),
         ] {
             let opts = OeOptions {
                 log_diagonal,
                 solver,
                 modal_metric,
+                acceleration,
                 ..Default::default()
             };
             let rep = refine(data, &start, opts, Par::Seq, None).unwrap();
