@@ -359,6 +359,28 @@ def test_beam_band_refined_model_is_physical_and_beats_the_paper_estimator(beam)
     assert after[0] < 0.5 * before[0]
 
 
+def test_the_geodesic_acceleration_goes_further_along_the_beams_valley(beam):
+    """From a fit 100 steps on (the final fit's situation: in the cost's curved valley),
+    60 more steps with the geodesic acceleration lower the cost further than 60 plain
+    ones. Measured: 8.68 against 10.20 (m = 12, 50–300 Hz); with the acceleration's sign
+    flipped 10.48 — the steps leave the valley instead."""
+    data = beam.band((50.0, 300.0))
+    R = data.pod().basis(12)
+    U, F = data.project(R)
+    ls = pr.identify(U, F, data.omega, symmetric=True)
+    F_n = data.forces_on_dofs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        start = refine(ls, data.U, F_n, data.omega, basis=R, max_iter=100, curvature=True)
+        costs = {
+            acc: refine(start, data.U, F_n, data.omega, basis=R, max_iter=60, curvature=True,
+                        acceleration=acc).info["refinement"]["cost"]
+            for acc in (False, True)
+        }  # fmt: skip
+    assert costs[True] < 0.95 * costs[False] < start.info["refinement"]["cost"]
+
+
 @settings(
     max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
 )
