@@ -99,7 +99,8 @@ def run_refined(data) -> dict:
     med, p95 = errors(model_response(model, R, data), data.U)
     fr = model.info["refinement"]["final_refit"]
     passes = "; ".join(
-        f"{p['pass']} {p['db_before'][0]:.2f} → {p['db_after'][0]:.2f} dB ({p['iterations']} steps)"
+        f"{p['pass']} {p['db_before'][0]:.2f} → {p['db_after'][0]:.2f} dB "
+        f"({p['iterations']} steps, {p['stop']})"
         for p in fr["passes"]
     )
     return dict(method="podid_rs refined (default)", m=sweep.chosen, median=med, p95=p95,

@@ -169,6 +169,9 @@ def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
                                                  rel=1e-9)
     for p in kept["passes"]:  # every pass is judged on every line too
         assert len(p["db_before"]) == len(p["db_after"]) == 2
+    # each pass says why it stopped; the kept one's is the model's
+    kept_pass = {"complex refit": 0, "log-magnitude refit": 1}[kept["kept"]]
+    assert kept["passes"][kept_pass]["stop"] == model.info["refinement"]["stop"]
     everything, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, every_line=True)
     assert everything.info["refinement"]["final_refit"]["lines_fitted"] == w.size
     assert "informative" not in everything.info["refinement"]["final_refit"]["reason"]

@@ -785,7 +785,8 @@ def final_fit(
     -------
     model : IdentificationResult
         The refined model; ``info["refinement"]["final_refit"]`` says what was kept
-        and why.
+        and why, and each pass's errors before and after, steps and why it stopped
+        (``passes``).
     R : numpy.ndarray, (n, m)
         Its basis, the first m POD modes.
 
@@ -843,7 +844,7 @@ def final_fit(
     ref = model.info["refinement"]
     if first is not start and not thinned:
         ref["db_before"] = all_lines_db(start)
-    steps = [("complex refit", ref["db_before"], ref["db_after"], model.iterations)]
+    steps = [("complex refit", ref["db_before"], ref["db_after"], model.iterations, ref["stop"])]
     if ref["db_after"][0] <= ref["db_before"][0]:
         best, best_db = model, ref["db_after"]
         why = (
@@ -878,7 +879,8 @@ def final_fit(
             why += f"; the log-magnitude refit could not run ({exc})"
     if logm is not None:
         lref = logm.info["refinement"]
-        steps.append(("log-magnitude refit", tuple(best_db), lref["db_after"], log_steps))
+        steps.append(("log-magnitude refit", tuple(best_db), lref["db_after"], log_steps,
+                      lref["stop"]))
         if lref["db_after"][0] < best_db[0]:
             why = (
                 f"the log-magnitude refit lowered the median error over every line "
@@ -901,8 +903,9 @@ def final_fit(
         "lines_fitted": int(lines.sum()),
         "db_all_lines": tuple(best_db),
         "passes": [
-            {"pass": name, "db_before": tuple(b), "db_after": tuple(a), "iterations": it}
-            for name, b, a, it in steps
+            {"pass": name, "db_before": tuple(b), "db_after": tuple(a), "iterations": it,
+             "stop": stop}
+            for name, b, a, it, stop in steps
         ],
     }
     info = {**best.info, "refinement": {**best.info["refinement"], "final_refit": kept}}
