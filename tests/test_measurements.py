@@ -414,6 +414,7 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     "kwargs,match",
     [
         ({"inputs": [0, 9]}, "index the 3 measured DOFs"),
+        ({"inputs": [-1, 2]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[-1, 2\]$"),
         ({"inputs": [1, 1]}, "not repeat"),
         ({"inputs": [0.5, 1]}, "integer indices"),
         ({"inputs": [0j, 2j]}, "inputs must be real"),

@@ -132,6 +132,29 @@ def test_shape_mac_uses_the_common_dofs_and_names_a_mismatch(full_order):
         mode_shapes(result, R[:, :4])
 
 
+def test_shape_mac_without_labels_compares_the_rows_as_they_are(full_order):
+    _, _, result, R = full_order
+    ident = mode_shapes(result, R)
+    later = ident.select(np.array([False, False, True, False, True, True]))
+    values, used = shape_mac(ident, later)
+    assert used is None and values.shape == (6, 3)
+    assert np.allclose(values[[2, 4, 5], [0, 1, 2]], 1.0, rtol=1e-12)
+    assert np.allclose(values, mac(ident.shapes, later.shapes), rtol=1e-14)
+
+
+def test_selected_modes_keep_their_modal_constants(full_order):
+    """select (and in_band, oscillatory) keeps each kept mode's a, so that the kept
+    shapes remain a residue model."""
+    _, _, result, R = full_order
+    modes = mode_shapes(result, R)
+    keep = np.array([True, False, True, False, False, True])
+    kept = modes.select(keep)
+    assert kept.modal_a is not None
+    np.testing.assert_array_equal(kept.modal_a, modes.modal_a[keep])
+    band = modes.in_band((0.0, modes.frequencies_hz[keep].max()))
+    np.testing.assert_array_equal(band.modal_a, modes.modal_a[band.mode_numbers - 1])
+
+
 def test_plot_mac_against_another_model(full_order, tmp_path):
     chain, data, result, R = full_order
     ident = mode_shapes(result, R, data.dofs)

@@ -239,6 +239,9 @@ def test_log_magnitude_refinement_of_noise_free_magnitudes_gives_the_exact_model
         ({"objective": "log-magnitude", "weights": "loud"}, "'relative', 'uniform'"),
         ({"objective": "log-magnitude", "weights": np.ones((150, 3))}, "per entry"),
         ({"objective": "log-magnitude", "weights": -np.ones(150)}, "non-negative"),
+        ({"objective": "log-magnitude", "weights": np.ones(150) * 1j}, "^weights must be real"),
+        ({"objective": "log-magnitude", "weights": np.full(150, np.nan)},
+         "^weights contains non-finite"),
     ],
 )
 def test_bad_log_magnitude_options_are_refused_by_name(kwargs, match):
@@ -544,6 +547,8 @@ def test_weights_given_as_arrays_are_reported_and_per_entry_ones_may_leave_out_t
     assert a["cost"] == b["cost"] and np.array_equal(runs["s, n"].K, runs["s, n, p"].K)
     timings = runs["user"].info["refinement"]["timings"]
     assert timings and all(t >= 0 for t in timings.values())
+    # and where identify's results hold them, in info itself
+    assert "timings" in start.info and runs["user"].info["timings"] == timings
 
 
 def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():

@@ -133,6 +133,51 @@ def test_a_missing_delimiter_is_refused(beam_bytes):
         read_uff(path)
 
 
+def test_a_missing_delimiter_quotes_the_stray_line_alone(beam_bytes):
+    """A writer that does not pad its lines to 80 columns: the stray record's dataset
+    line is quoted as it stands, not run on into the lines after it."""
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]  # the end of record 10; record 11's opening delimiter removed
+    dataset_line = raw.index(b"\n", closing + 14) + 1
+    path = tmp / "unpadded.uff"
+    path.write_bytes(raw[:closing + 7] + b"    58\n" + raw[dataset_line:])
+    with pytest.raises(ValueError, match=r"delimiter is missing after record 10 .*: line \d+ "
+                                         r"\('58'\) belongs to no record"):
+        read_uff(path)
+
+
+def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
+    """Record 6 of dataset 58 holds the reference node in an I10 field (columns 67–76):
+    a node number of all ten digits is named as it is."""
+    freq = np.arange(1.0, 11.0)
+    path = tmp_path / "ten.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record((k, 3), (1234567890, 3), freq, np.full(10, k + 1j)) for k in (1, 2, 3)],
+        "add")
+    raw = path.read_bytes()
+    tags = delimiters(raw)
+    path.write_bytes(raw[:tags[2]] + raw[tags[2] + 7:])  # record 2's opening delimiter
+    with pytest.raises(ValueError, match=r"delimiter is missing after record 1 of the file "
+                                         r"\(dataset 58, response 1:3 / reference "
+                                         r"1234567890:3, from line 1\)"):
+        read_uff(path)
+
+
+def test_two_frequency_lines_are_data(tmp_path):
+    """The fewest lines an FRF can have: two are read, not refused."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.array([10.0, 20.0])
+    H = chain.frf(2 * np.pi * freq)
+    path = tmp_path / "two.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record(rsp, ref, freq, H[:, o, r], binary=True)
+         for o, rsp in enumerate(DOFS) for r, ref in enumerate(DOFS)], "add")
+    data = read_uff(path)
+    np.testing.assert_array_equal(data.omega, 2 * np.pi * freq)
+    np.testing.assert_array_equal(data.U, H)  # binary: every digit
+
+
 def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
     raw, tmp = beam_bytes
     tags = delimiters(raw)

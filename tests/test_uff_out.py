@@ -159,6 +159,20 @@ def test_bad_input_is_named(written, tmp_path):
         pr.plot_mac(modes, source, tmp_path / "mac.png")
 
 
+def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
+    _, data, result, R, _, _ = written
+    out = tmp_path / "x.uff"
+    for omega in ([10.0], [10.0, 30.0, 20.0], [10.0, 20.0, 20.0]):
+        with pytest.raises(ValueError, match=r"^omega must hold at least 2 strictly increasing "
+                                             r"frequency lines$"):
+            write_uff(out, result, R, dofs=data.dofs, inputs=[1], omega=omega)
+    k = pr.mode_shapes(result, R).n_modes
+    with pytest.raises(ValueError, match=rf"^modes must be a boolean mask over the model's {k} "
+                                         r"modes, got int64 \(2,\)$"):
+        write_uff(out, result, R, data, modes=np.array([1, 0]))
+    assert not out.exists()
+
+
 def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(written, tmp_path):
     _, data, result, R, _, _ = written
     out = tmp_path / "x.uff"
