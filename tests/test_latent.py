@@ -295,7 +295,9 @@ def test_an_order_the_data_cannot_determine_is_refused():
     limit = order_limit(lines, 1, 1, 1)
     assert free_parameters(limit, 1) <= 2 * lines < free_parameters(limit + 1, 1)
     with pytest.raises(ValueError, match=rf"m must be in \[1, {limit}\]: an order-{limit + 1} "
-                       r"model with 1 observed \(POD\) and \d+ latent coordinates"):
+                       rf"model with 1 observed \(POD\) and {limit} latent coordinates has "
+                       rf"{free_parameters(limit + 1, 1)} free parameters, more than the "
+                       rf"{2 * lines} real equations"):
         sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m=limit + 1)
 
 

@@ -167,6 +167,39 @@ def test_the_sweep_stops_after_flat_latent_orders():
                                  "the training error by less than 1 % each")
 
 
+@pytest.mark.parametrize("ratio,stops", [(0.991, True), (0.989, False)])
+def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, ratio, stops):
+    """The stop rule alone, on scripted scores: a 6-DOF chain measured at 2 DOFs, so
+    every order past 2 has latent coordinates, each lowering the training error to
+    ``ratio`` of the order before and the held-out error not at all (fewer orders than
+    the patience). 0.9 % less is flat (below a third of the 3 % step): the sweep stops
+    after LATENT_FLAT such orders; 1.1 % less is progress: it runs on to m_max."""
+    from podid_rs.identification import order
+
+    chain = pr.mass_spring_chain(6)
+    w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
+    F = np.zeros((w.size, 6, 1), dtype=complex)
+    F[:, 1, 0] = 1.0
+    U_n, F_n = chain.response(w, F)[:, [1, 4]], F[:, [1, 4]]
+    calls: dict[int, int] = {}
+
+    def scripted(model, *args, **kwargs):
+        m = model.m
+        calls[m] = calls.get(m, 0) + 1
+        if calls[m] % 2:  # the training lines are scored first
+            return 8.0 / 2 ** min(m, 2) * ratio ** max(m - 2, 0)
+        return 10.0 * 0.9 ** min(m, 2)
+
+    monkeypatch.setattr(order, "_median_db", scripted)
+    m_max = 2 + order.LATENT_FLAT + 1
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m_max=m_max, threads=1,
+                         max_iter=5)
+    assert [f.latent for f in sweep.fits[:3]] == [0, 0, 1]
+    assert [f.m for f in sweep.fits] == list(range(1, (m_max - 1 if stops else m_max) + 1))
+    flat = f"stopped after {order.LATENT_FLAT} latent orders that lowered the training error"
+    assert (flat in sweep.reason) == stops
+
+
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
     """A 6-DOF chain with 3 % noise on every DOF, force at DOF 1: the held-out error last
     drops by more than PROGRESS_STEP at some order, and then each unit of patience (up

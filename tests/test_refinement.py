@@ -528,6 +528,16 @@ def test_a_start_is_kept_only_with_every_eigenvalue_above_start_keep_of_the_larg
     assert report["eigenvalues_raised"] == (0, 0, 0) and K3[1, 1] == 2 * START_KEEP * 1e4
 
 
+def test_only_the_eigenvalues_a_start_changes_are_counted_as_raised():
+    """C's floor is 0: a dashpot missing at one DOF (an eigenvalue exactly 0) is kept as
+    it is and not counted; the negative one beside it is raised to its magnitude."""
+    M, K = np.eye(3), np.diag([1.0, 2.0, 3.0])
+    (M2, C2, K2), report = physical_start(M, np.diag([0.2, 0.0, -0.1]), K)
+    assert report["eigenvalues_raised"] == (0, 1, 0)
+    np.testing.assert_array_equal(C2, np.diag([0.2, 0.0, 0.1]))
+    assert np.array_equal(M2, M) and np.array_equal(K2, K)
+
+
 def test_weights_given_as_arrays_are_reported_and_per_entry_ones_may_leave_out_the_load_case():
     chain, U_n, F_n, w = _entry_data(noise=0.02)
     R = pr.pod_from_frf(U_n, w).basis(5)

@@ -119,6 +119,9 @@ def test_bad_input_is_named(chain_data):
         stabilisation_chart(data, 2, fit="lscf", progress=False)
     with pytest.raises(ValueError, match="data must be a MeasuredData"):
         stabilisation_chart(data.U, 2)
+    for name in ("f_tol", "zeta_tol"):
+        with pytest.raises(ValueError, match=rf"^{name} must be a positive number, got 0$"):
+            stabilisation_chart(data, 2, progress=False, **{name: 0})
 
 
 def test_pod_fit_is_eq_49_on_the_given_basis(chain_data):

@@ -164,6 +164,44 @@ def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
         read_uff(path)
 
 
+def test_unevenly_spaced_records_are_counted_with_their_abscissae(tmp_path):
+    """Abscissa spacing 0: each point holds its frequency beside the value (ASCII: 3
+    fields of a complex point, binary: 3 numbers). Whole records are read (binary to
+    every digit, ASCII to its 12); one data line short is refused with both counts."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.array([10.0, 12.5, 20.0, 31.0, 47.0])
+    H = chain.frf(2 * np.pi * freq)
+    for binary in (0, 1):
+        path = tmp_path / f"uneven{binary}.uff"
+        pyuff.UFF(str(path)).write_sets([pyuff.prepare_58(
+            binary=binary, func_type=4, rsp_node=rsp[0], rsp_dir=rsp[1], ref_node=ref[0],
+            ref_dir=ref[1], data=H[:, o, r].astype(complex), x=freq, abscissa_spacing=0,
+            abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+        ) for o, rsp in enumerate(DOFS) for r, ref in enumerate(DOFS)], "add")
+        data = read_uff(path)
+        np.testing.assert_array_equal(data.omega, 2 * np.pi * freq)
+        assert np.max(np.abs(data.U - H) / np.abs(H)) <= (0 if binary else 1e-11)
+    raw = (tmp_path / "uneven0.uff").read_bytes()
+    line = raw[delimiters(raw)[0]:].split(b"\n")[14] + b"\n"  # record 1's second point
+    assert line.split()[0] == b"1.25000e+01"
+    (tmp_path / "short.uff").write_bytes(raw.replace(line, b"", 1))
+    with pytest.raises(ValueError, match=r"record 1 of the file .* holds 12 values where its "
+                                         r"header announces 5 points \(15 values\)"):
+        read_uff(tmp_path / "short.uff")
+
+
+def test_an_frf_over_time_is_refused_by_its_abscissa(tmp_path):
+    path = tmp_path / "time.uff"
+    pyuff.UFF(str(path)).write_sets([pyuff.prepare_58(
+        func_type=4, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3, data=np.ones(5, complex),
+        x=np.arange(5.0), abscissa_spacing=1, abscissa_spec_data_type=17,
+        ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+    )], "add")
+    with pytest.raises(ValueError, match=r"time\.uff: FRF record 1: the abscissa is not "
+                                         r"frequency \(specific data type 18\)$"):
+        read_uff(path)
+
+
 def test_two_frequency_lines_are_data(tmp_path):
     """The fewest lines an FRF can have: two are read, not refused."""
     chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
