@@ -20,6 +20,8 @@ What is asserted and why the tolerances:
 
 from __future__ import annotations
 
+import os
+import re
 import warnings
 
 import numpy as np
@@ -118,6 +120,35 @@ def test_an_unstable_indefinite_start_is_made_physical_with_a_warning():
         model = refine((M, chain.C, chain.K), U, F, w)
     assert model.info["refinement"]["start"]["eigenvalues_raised"][0] == 1
     assert_physical(model)
+
+
+def _one_negative_mass_start():
+    chain, U, F, w = chain_data(n=4, snr=20)
+    M = chain.M.copy()
+    M[0, 0] = -M[0, 0]
+    return (M, chain.C, chain.K), U, F, w
+
+
+def test_the_start_warning_states_what_changed_in_full():
+    start, U, F, w = _one_negative_mass_start()
+    _, report = physical_start(*start)
+    change = ", ".join(f"{v:.2g}" for v in report["relative_change"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        with pytest.warns(StartWarning, match=r"\(eigenvalues changed in M, C, K: \(1, 0, 0\); "
+                                              rf"relative change {re.escape(change)}\)$"):
+            refine(start, U, F, w, max_iter=3)
+
+
+@pytest.mark.skipif("MUTANT_UNDER_TEST" in os.environ,
+                    reason="mutmut's trampolines add stack frames; scripts/mutate_by_hand.py 79")
+def test_the_start_warning_points_at_the_callers_line():
+    start, U, F, w = _one_negative_mass_start()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        with pytest.warns(StartWarning) as caught:
+            refine(start, U, F, w, max_iter=3)
+    assert [c.filename for c in caught if c.category is StartWarning] == [__file__]
 
 
 def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
@@ -340,6 +371,8 @@ def test_bad_starts_are_refused_by_name():
     chain, U, F, w = chain_data(n=4, p=1)
     with pytest.raises(ValueError, match="M has no positive eigenvalue"):
         refine((-chain.M, chain.C, chain.K), U, F, w)
+    with pytest.raises(ValueError, match="^the start model's K has no positive eigenvalue"):
+        refine((chain.M, chain.C, -chain.K), U, F, w)
     with pytest.raises(ValueError, match="order m = 4"):
         refine((np.eye(3), np.eye(3), np.eye(3)), U, F, w)
     with pytest.raises(ValueError, match="IdentificationResult, a SecondOrderSystem"):

@@ -229,6 +229,7 @@ def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_dat
     assert chart.chosen_m == 2
     with pytest.raises(ValueError, match=r"^chosen_m must be"):
         stabilisation_chart(data, 2, progress=False, chosen_m=0)
+    assert stabilisation_chart(data, 2, progress=False, chosen_m=1).chosen_m == 1  # the least
 
 
 def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
