@@ -133,6 +133,25 @@ def test_a_completing_mode_is_seen_slightly_at_a_measured_dof(omega_all):
     assert shapes.n_modes == 8
 
 
+def test_the_rank_one_shape_with_holes_does_not_depend_on_the_units():
+    """φ φ[inputs]ᵀ ≈ residue on the known entries, by alternating least squares round a
+    hole: scaling the residue by c scales φ by √c, so residues of FRFs in m/N (1e-8)
+    converge as far as those of mm/N do."""
+    from podid_rs.identification.modal_start import _shape
+
+    rng = np.random.default_rng(2)
+    phi = rng.uniform(0.5, 1.5, 6)
+    inputs = np.array([0, 2, 4])
+    residue = np.outer(phi, phi[inputs]) + 0.1 * rng.standard_normal((6, 3))
+    known = np.ones((6, 3), dtype=bool)
+    known[1, 0] = known[5, 2] = False
+    shape = _shape(residue, inputs, known)
+    assert np.all(shape != 0)
+    for c in (1e-8, 1e4):
+        np.testing.assert_allclose(_shape(c * residue, inputs, known), np.sqrt(c) * shape,
+                                   rtol=1e-9)
+
+
 def test_no_start_without_unit_forces(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
     F[:, 1, 0] = 0.5  # a force spread over two DOFs: not FRF data

@@ -334,6 +334,15 @@ def test_a_mode_the_sensors_do_not_see_is_refused():
         mode_shapes(model, np.array([[1.0, 0.0]]))
 
 
+def test_oscillatory_keeps_a_mode_below_one_radian_per_second():
+    """A slow suspension mode (0.1 Hz: Im λ = 0.63 rad/s) is oscillatory as any other;
+    only the real (overdamped) roots are left out."""
+    lam = np.array([2 * np.pi * 0.1 * complex(-0.01, 1.0), -3.0 + 0j,
+                    2 * np.pi * 10.0 * complex(-0.01, 1.0)])
+    modes = ModeShapes(lam, np.eye(3, dtype=complex))
+    assert modes.oscillatory().mode_numbers.tolist() == [1, 3]
+
+
 def test_in_band_keeps_a_mode_at_either_end_of_the_band():
     lam = 2 * np.pi * np.array([10.0, 20.0, 30.0]) * complex(-0.01, np.sqrt(1 - 1e-4))
     modes = ModeShapes(lam, np.eye(3, dtype=complex))

@@ -561,6 +561,19 @@ def test_a_start_is_kept_only_with_every_eigenvalue_above_start_keep_of_the_larg
     assert report["eigenvalues_raised"] == (0, 0, 0) and K3[1, 1] == 2 * START_KEEP * 1e4
 
 
+def test_a_positive_definite_damping_below_one_is_kept_bit_for_bit():
+    """C ≻ 0 (eigenvalues 0.05 … here, the smallest below 1) is kept as it is: no
+    eigendecomposition's round-off is added to a physical start."""
+    A = np.random.default_rng(5).standard_normal((4, 4))
+    C = 0.1 * (A @ A.T) + 0.05 * np.eye(4)
+    C = 0.5 * (C + C.T)
+    assert 0 < np.linalg.eigvalsh(C).min() < 1
+    M, K = np.eye(4), np.diag([1.0, 2.0, 3.0, 4.0])
+    (_, C2, _), report = physical_start(M, C, K)
+    assert np.array_equal(C2, C)
+    assert report["eigenvalues_raised"][1] == 0 and report["relative_change"][1] == 0.0
+
+
 def test_only_the_eigenvalues_a_start_changes_are_counted_as_raised():
     """C's floor is 0: a dashpot missing at one DOF (an eigenvalue exactly 0) is kept as
     it is and not counted; the negative one beside it is raised to its magnitude."""

@@ -159,6 +159,14 @@ def test_bad_input_is_named(written, tmp_path):
         pr.plot_mac(modes, source, tmp_path / "mac.png")
 
 
+def test_two_frequency_lines_are_written(written, tmp_path):
+    _, data, result, R, _, _ = written
+    path = write_uff(tmp_path / "two.uff", result, R, dofs=data.dofs, inputs=[1],
+                     omega=data.omega[:2])
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    assert len(s58) == 6 and all(d["x"].size == 2 for d in s58)
+
+
 def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
     _, data, result, R, _, _ = written
     out = tmp_path / "x.uff"
