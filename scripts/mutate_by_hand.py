@@ -228,6 +228,9 @@ AUDIT = [
     # (the same) refine's warning of a start made physical, mutmut's refine__mutmut_394
     ("identification/refinement", "            StartWarning,\n            stacklevel=2,\n",
      "            StartWarning,\n            stacklevel=3,\n"),
+    # (the same) the dead-channel warning's stacklevel dropped, mutmut's read_uff__mutmut_244
+    ("io/uff", 'warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=2)',
+     'warnings.warn(f"{path}: {dead}", DataWarning)'),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

@@ -201,7 +201,8 @@ def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
         ("duplicate_disagrees", "differ by a median"),
         ("frequencies_differ", "frequency lines differ"),
         ("time_data", "no FRF records"),
-        ("unknown_numerator", "pass quantity"),
+        ("unknown_numerator", r"the numerator type 1 is not displacement \(8\), velocity "
+                              r"\(11\) or acceleration \(12\); pass quantity="),
         ("no_dataset_58", "no dataset 58"),
         ("garbage", "could not read dataset 58"),
     ],

@@ -107,6 +107,25 @@ def test_modes_outside_the_band_become_residual_poles():
     # it explains the band far better than the in-band modes alone would: a few %
     assert _relative_cost(start, R, U, F, omega) < 0.05 * omega.size
 
+def test_a_band_below_one_radian_per_second_keeps_its_residual_pole_below():
+    """The same structure 1000 times slower (C / 10³, K / 10⁶: the same damping ratios),
+    its band of modes 2 and 3 below 1 rad/s: still the two in-band poles exactly, one
+    pole below the band and one above it."""
+    Cs, Ks = 1e-3 * C4, 1e-6 * K4
+    wn, zeta = natural(M4, Cs, Ks)
+    omega = np.linspace(0.5 * (wn[0] + wn[1]), 0.5 * (wn[2] + wn[3]), 400)
+    assert omega[-1] < 1.0
+    U = pr.SecondOrderSystem(M4, Cs, Ks).frf(omega)[:, :, [0]]
+    F = np.zeros_like(U)
+    F[:, 0, 0] = 1.0
+    start = modal_start(pr.SecondOrderSystem(M4, Cs, Ks), np.eye(4), U, F, omega)
+    assert_physical(start)
+    w_start, z_start = natural(*start)
+    np.testing.assert_allclose(w_start[1:3], wn[1:3], rtol=1e-12)
+    np.testing.assert_allclose(z_start[1:3], zeta[1:3], rtol=1e-9)
+    assert w_start[0] < omega[0] and w_start[3] > omega[-1]
+
+
 def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line(omega_all):
     """A driving point of the 4-DOF chain on an order-8 basis (one observed coordinate,
     seven latent): the four in-band modes are kept exactly, the residual poles take no

@@ -60,6 +60,15 @@ def test_sweep_fits_every_order_and_chooses_by_its_rule(chain_frf):
     assert is_physical(model) and pr.modal_parameters(model).stable
 
 
+@pytest.mark.parametrize("holdout", [4, 2])
+def test_two_lines_are_too_few_to_hold_one_out_and_fit_two(chain_frf, holdout):
+    """Every holdout-th line from mid-group: of two lines, holdout 4 holds none out (no
+    held-out score) and holdout 2 holds out one (one training line): both refused."""
+    _, U_n, F_n, w, P = chain_frf
+    with pytest.raises(ValueError, match=rf"^2 lines are too few to hold every {holdout}-th out$"):
+        sweep_orders(U_n[:2], F_n[:2], w[:2], P, holdout=holdout)
+
+
 def test_a_given_order_is_reached_by_continuation(chain_frf):
     chain, U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=8)

@@ -181,6 +181,13 @@ def test_a_rank_deficient_start_is_warned_about():
         warnings.simplefilter("ignore", ConvergenceWarning)
         warnings.filterwarnings("ignore", "the start model was not physical", StartWarning)
         refine(plain, H, F, w, max_iter=5)
+    with pytest.warns(StartWarning, match=rf"^the start model comes from a rank-deficient "
+                      rf"identification \(rank {plain.rank} of {plain.n_unknowns} unknowns\): "
+                      r"its undetermined part is arbitrary, and the refinement keeps what the "
+                      r"data do not fix$"):
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        warnings.filterwarnings("ignore", "the start model was not physical", StartWarning)
+        refine(plain, H, F, w, max_iter=5)
 
 
 def test_per_entry_weights_with_a_basis_are_the_reduced_problem():
@@ -369,6 +376,8 @@ def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
 
 def test_bad_starts_are_refused_by_name():
     chain, U, F, w = chain_data(n=4, p=1)
+    with pytest.raises(ValueError, match="^M must be real"):
+        refine((chain.M * (1 + 1e-3j), chain.C, chain.K), U, F, w)
     with pytest.raises(ValueError, match="M has no positive eigenvalue"):
         refine((-chain.M, chain.C, chain.K), U, F, w)
     with pytest.raises(ValueError, match="^the start model's K has no positive eigenvalue"):

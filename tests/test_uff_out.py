@@ -159,6 +159,19 @@ def test_bad_input_is_named(written, tmp_path):
         pr.plot_mac(modes, source, tmp_path / "mac.png")
 
 
+def test_a_nonsymmetric_model_writes_no_modal_constants(written, tmp_path):
+    """Without a symmetric model there is no modal A (ModeShapes.modal_a is None): the
+    55 sets hold 0 for the modal constants, not a made-up value."""
+    from dataclasses import replace
+
+    _, data, result, R, _, _ = written
+    skewed = replace(result, C=result.C + 1e-3 * np.triu(result.C, 1))
+    assert pr.mode_shapes(skewed, R).modal_a is None
+    path = write_uff(tmp_path / "skewed.uff", skewed, R, dofs=data.dofs)
+    s55 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 55]
+    assert s55 and all(d["modal_a"] == 0 and d["modal_b"] == 0 for d in s55)
+
+
 def test_two_frequency_lines_are_written(written, tmp_path):
     _, data, result, R, _, _ = written
     path = write_uff(tmp_path / "two.uff", result, R, dofs=data.dofs, inputs=[1],
