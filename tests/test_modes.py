@@ -334,6 +334,22 @@ def test_a_mode_the_sensors_do_not_see_is_refused():
         mode_shapes(model, np.array([[1.0, 0.0]]))
 
 
+def test_shape_mac_names_an_empty_set():
+    modes = ModeShapes(np.array([-1.0 + 60.0j]), np.ones((3, 1), dtype=complex))
+    empty = modes.select(np.array([False]))
+    with pytest.raises(ValueError, match=r"^nothing to compare: 1 and 0 modes$"):
+        shape_mac(modes, empty)
+
+
+def test_companion_modes_return_vectors_only_when_asked():
+    from podid_rs.physical import companion_modes
+
+    chain = mass_spring_chain(3)
+    lam, vectors, infinite = companion_modes(chain)
+    assert vectors is None and lam.size == 3 and infinite == 0
+    assert companion_modes(chain, vectors=True)[1].shape == (3, 3)
+
+
 def test_oscillatory_keeps_a_mode_below_one_radian_per_second():
     """A slow suspension mode (0.1 Hz: Im λ = 0.63 rad/s) is oscillatory as any other;
     only the real (overdamped) roots are left out."""

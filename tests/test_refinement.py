@@ -622,3 +622,6 @@ def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():
     start = (np.eye(5), np.eye(5), np.eye(5) * 1e4)
     with pytest.raises(ValueError, match=r"basis must be \(n, m\) with n = the measured DOFs"):
         refine(start, U_n, F_n, w, basis=R[:-1])
+    with pytest.raises(ValueError, match=r"^basis must have orthonormal columns \(RᵀR = I\), "
+                                         r"as POD modes do$"):
+        refine(start, U_n, F_n, w, basis=2 * R)

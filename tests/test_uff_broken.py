@@ -133,6 +133,20 @@ def test_a_missing_delimiter_is_refused(beam_bytes):
         read_uff(path)
 
 
+def test_a_file_opening_with_a_blank_line_is_counted_from_it(beam_bytes):
+    """Line numbers count every line of the file, a leading blank one too."""
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]  # record 11's opening delimiter removed
+    damaged = b"\n" + raw[:closing + 7] + raw[closing + 14:]
+    line = damaged[:closing + 8].count(b"\n") + 1
+    path = tmp / "blank_first.uff"
+    path.write_bytes(damaged)
+    with pytest.raises(ValueError, match=rf"from line \d+\): line {line} \('58 +'\) belongs "
+                                         r"to no record"):
+        read_uff(path)
+
+
 def test_a_missing_delimiter_quotes_the_stray_line_alone(beam_bytes):
     """A writer that does not pad its lines to 80 columns: the stray record's dataset
     line is quoted as it stands, not run on into the lines after it."""
@@ -188,6 +202,20 @@ def test_unevenly_spaced_records_are_counted_with_their_abscissae(tmp_path):
     with pytest.raises(ValueError, match=r"record 1 of the file .* holds 12 values where its "
                                          r"header announces 5 points \(15 values\)"):
         read_uff(tmp_path / "short.uff")
+
+
+def test_an_ordinate_type_pyuff_cannot_read_is_left_to_pyuff_and_named(tmp_path):
+    """Record 7's ordinate data type 3 (no UFF type): the value count is not checked
+    against a layout there is none of; pyuff's refusal names the record."""
+    path, _, _ = write_chain(tmp_path / "ordinate.uff")
+    lines = path.read_bytes().split(b"\n")
+    assert lines[8].startswith(b"         6")  # record 1's ordinate type: complex double
+    lines[8] = b"         3" + lines[8][10:]
+    path.write_bytes(b"\n".join(lines))
+    with pytest.raises(ValueError, match=r"ordinate\.uff: could not read dataset 58: record 1 "
+                                         r"of the file \(dataset 58, response 1:3 / reference "
+                                         r"1:3, from line 1\)"):
+        read_uff(path)
 
 
 def test_an_frf_over_time_is_refused_by_its_abscissa(tmp_path):

@@ -172,6 +172,12 @@ def test_a_nonsymmetric_model_writes_no_modal_constants(written, tmp_path):
     assert s55 and all(d["modal_a"] == 0 and d["modal_b"] == 0 for d in s55)
 
 
+def test_the_58_sets_label_their_abscissa_in_hertz(written):
+    _, _, _, _, _, sets = written
+    s58 = [d for d in sets if d["type"] == 58]
+    assert s58 and all(d["abscissa_axis_units_lab"].strip() == "Hz" for d in s58)
+
+
 def test_two_frequency_lines_are_written(written, tmp_path):
     _, data, result, R, _, _ = written
     path = write_uff(tmp_path / "two.uff", result, R, dofs=data.dofs, inputs=[1],
