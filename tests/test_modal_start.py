@@ -141,6 +141,18 @@ def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line
     np.testing.assert_allclose(fill / (FILL_FACTOR * omega_all[-1]), [1, 2, 3, 4], rtol=1e-9)
 
 
+def test_data_that_give_no_mode_a_shape_get_completing_modes_alone(omega_all):
+    """−H: every residue has the wrong sign at the driving point (φ[inputs]² < 0), so no
+    mode gets a shape; the start is still made, of completing modes only, at
+    FILL_FACTOR · ω_hi times 1 … m."""
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), -U, F, omega_all)
+    assert start is not None
+    w_start, _ = natural(*start)
+    np.testing.assert_allclose(w_start, FILL_FACTOR * omega_all[-1] * np.arange(1, 5),
+                               rtol=1e-9)
+
+
 def test_a_completing_mode_is_seen_slightly_at_a_measured_dof(omega_all):
     """The completing modes of a driving point on an order-8 basis would not show at the
     one measured DOF; each is seen there, at FILL_SEEN times the shapes' scale, so every

@@ -60,6 +60,13 @@ def test_sweep_fits_every_order_and_chooses_by_its_rule(chain_frf):
     assert is_physical(model) and pr.modal_parameters(model).stable
 
 
+def test_the_order_limit_stops_at_ten_times_the_default_largest_order():
+    from podid_rs.identification.order import DEFAULT_M_MAX, order_limit
+
+    assert order_limit(10**6, 100, 10, 100) == 10 * DEFAULT_M_MAX
+    assert order_limit(10, 2, 1, 2) < 10 * DEFAULT_M_MAX
+
+
 @pytest.mark.parametrize("holdout", [4, 2])
 def test_two_lines_are_too_few_to_hold_one_out_and_fit_two(chain_frf, holdout):
     """Every holdout-th line from mid-group: of two lines, holdout 4 holds none out (no

@@ -620,6 +620,8 @@ def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():
     chain, U_n, F_n, w = _entry_data()
     R = pr.pod_from_frf(U_n, w).basis(5)
     start = (np.eye(5), np.eye(5), np.eye(5) * 1e4)
+    with pytest.raises(ValueError, match=r"^weights must be real"):
+        refine(start, U_n, F_n, w, basis=R, weights=np.ones(U_n.shape[:2]) * 1j)
     with pytest.raises(ValueError, match=r"basis must be \(n, m\) with n = the measured DOFs"):
         refine(start, U_n, F_n, w, basis=R[:-1])
     with pytest.raises(ValueError, match=r"^basis must have orthonormal columns \(RᵀR = I\), "

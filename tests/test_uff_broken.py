@@ -318,6 +318,15 @@ def test_a_non_finite_binary_value_is_refused(tmp_path):
     with pytest.raises(ValueError, match=r"FRF record 2 \(response 1:3 / reference 2:3\): its "
                                          r"value at 150 Hz"):
         read_uff(path)
+    # one bad value alone: no "more line(s)"; a second one counted
+    with pytest.raises(ValueError, match=r"\(line 151 of 301\) is \S+: non-finite values"):
+        read_uff(path)
+    second = at + 16 * 10  # the imaginary part at 160 Hz too
+    path.write_bytes(path.read_bytes()[:second] + struct.pack("<d", np.nan)
+                     + path.read_bytes()[second + 8:])
+    with pytest.raises(ValueError, match=r"\(line 151 of 301\) is \S+ and at 1 more line\(s\): "
+                                         r"non-finite values"):
+        read_uff(path)
 
 
 def test_a_dead_channel_is_a_hole_with_a_warning(tmp_path):
