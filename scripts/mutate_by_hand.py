@@ -225,6 +225,12 @@ AUDIT = [
     # _dead_channel__mutmut_24: its stacklevel dropped
     ("io/uff", '            DataWarning,\n            stacklevel=3,\n        )\n    return None',
      '            DataWarning,\n        )\n    return None'),
+    # (the same) refine's warning of a start made physical, mutmut's refine__mutmut_394
+    ("identification/refinement", "            StartWarning,\n            stacklevel=2,\n",
+     "            StartWarning,\n            stacklevel=3,\n"),
+    # (the same) the dead-channel warning's stacklevel dropped, mutmut's read_uff__mutmut_244
+    ("io/uff", 'warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=2)',
+     'warnings.warn(f"{path}: {dead}", DataWarning)'),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

@@ -154,6 +154,17 @@ def test_a_sweep_without_thinning_uses_every_line(chain_frf):
                                   np.flatnonzero(np.arange(w.size) % HOLDOUT == HOLDOUT // 2))
 
 
+def test_the_sweep_names_its_informative_lines_only_when_it_thinned(chain_frf):
+    U_n, F_n, w, P = chain_frf
+    thinned = sweep_orders(U_n, F_n, w, P, m_max=2, sweep_lines=40, threads=1)
+    picked = int(thinned.lines.sum())
+    assert picked < w.size
+    assert (f"line held out of the {picked} of {w.size} lines that carry the data's "
+            "information") in thinned.reason
+    every = sweep_orders(U_n, F_n, w, P, m_max=2, sweep_lines=None, threads=1)
+    assert "line held out" in every.reason and "carry the data's information" not in every.reason
+
+
 def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
     U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)

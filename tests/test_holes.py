@@ -32,7 +32,7 @@ import podid_rs as pr
 from podid_rs.identification import ConvergenceWarning
 from podid_rs.identification.holes import check_measured, measured_metric, measured_targets
 from podid_rs.identification.latent import observation_matrix
-from podid_rs.identification.refinement import StartWarning, db_errors, refine
+from podid_rs.identification.refinement import StartWarning, db_errors, physical_start, refine
 from podid_rs.io.npz import load_data, save_data
 from podid_rs.measured import MeasuredData, from_frf
 from podid_rs.modes import mode_kinds, mode_shapes
@@ -220,6 +220,35 @@ def test_holes_never_enter_and_the_model_predicts_them(objective):
             wrong = refine(start, zeros, F_n, w, basis=R, max_iter=200)
         off = model_frf(wrong, R, w, inputs)
         assert max(np.median(db_errors(off[:, j, k], H[:, j, k])) for j, k in HOLES) > 1.0
+
+
+def test_a_refinement_with_holes_reports_on_the_measured_entries():
+    """A reduced basis (4 POD modes of the 8 DOFs: the measured entries' constant part
+    of the cost is not 0) and garbage in the holes: the start's dB errors are those of
+    the measured entries, and the history runs from cost_start to cost, the constant
+    in each."""
+    chain, H, w, mask = two_force_chain()
+    F_n = np.zeros_like(H)
+    F_n[:, [2, 5], [0, 1]] = 1.0
+    zeros = H.copy()
+    zeros[:, ~mask] = 0.0
+    R = pr.pod_from_frf(zeros, w).basis(4)
+    U, F = np.einsum("nm,snp->smp", R, zeros), np.einsum("nm,snp->smp", R, F_n)
+    start = pr.identify(U, F, w, symmetric=True)
+    garbage = H.copy()
+    garbage[:, ~mask] = 1e3 * (1 + 1j)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        fit = refine(start, garbage, F_n, w, basis=R, measured=mask, max_iter=5, threads=1)
+    rep = fit.info["refinement"]
+    physical, _ = physical_start(start.M, start.C, start.K)  # what refine starts from
+    X0 = np.einsum("nm,smp->snp", R, pr.SecondOrderSystem(*physical).response(w, F))
+    e = db_errors(X0, garbage, mask)
+    assert rep["db_before"] == pytest.approx((np.median(e), np.percentile(e, 95)), rel=1e-9)
+    assert rep["history"][0] == (0, pytest.approx(rep["cost_start"], rel=1e-12))
+    assert rep["history"][-1][1] == pytest.approx(rep["cost"], rel=1e-12)
+    assert fit.backend == "rust"
 
 
 def test_a_mask_needs_a_basis_and_the_data_shape():

@@ -172,6 +172,76 @@ def test_a_latent_mode_on_a_candidate_is_found_exactly(f1_hz, mu):
     assert [n for _, _, n in starts] == [name, "latent DOF: residual term above the band"]
 
 
+def test_the_residual_term_above_the_band_is_a_mode_at_its_factor_of_the_highest_line():
+    """The start "residual term above the band" adds one mode at RESIDUAL_FACTOR × the
+    band's highest line and keeps the model's: the start's undamped frequencies are
+    those two to round-off (the latent coordinate is a congruence of diag(model, mode))."""
+    from podid_rs.identification.latent import RESIDUAL_FACTOR
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    w1, wc = 2 * np.pi * 10.0, 2 * np.pi * 50.0
+    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
+    U = (1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
+         + 1 / (0.25 * (wc**2 - omega**2 + 2j * 0.01 * wc * omega)))[:, None, None]
+    starts = latent_starts(model, U, np.ones_like(U), omega, np.eye(1),
+                           np.ones((omega.size, 1)))
+    M, _, K = next(s for _, s, n in starts if n == "latent DOF: residual term above the band")
+    undamped = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real))
+    np.testing.assert_allclose(undamped, [w1, RESIDUAL_FACTOR * omega[-1]], rtol=1e-10)
+
+
+def test_a_peak_fitted_only_by_its_widest_damping_still_gets_a_start():
+    """The residual at 50 Hz: a 3 %-damped mode of unit modal mass less a 0.2 %-damped one
+    of 0.3. At every candidate frequency the dampings below the widest fit it only with a
+    negative modal mass and are skipped; the widest (PEAK_ZETAS[-1], 3 %) fits it with a
+    positive one, so the peak still gets its start, at that damping."""
+    from podid_rs.identification.latent import PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.25)
+    w1, wc = 2 * np.pi * 10.0, 2 * np.pi * 50.0
+
+    def mode(w0, zeta):
+        return 1 / (w0**2 - omega**2 + 2j * zeta * w0 * omega)
+
+    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
+    U = (mode(w1, 0.02) + mode(wc, PEAK_ZETAS[-1]) - 0.3 * mode(wc, 0.002))[:, None, None]
+    starts = latent_starts(model, U, np.ones_like(U), omega, np.eye(1),
+                           np.ones((omega.size, 1)))
+    peaks = [s for _, s, n in starts if n.startswith("latent DOF at")]
+    assert len(peaks) == 1
+    zetas = pr.modal_parameters(pr.SecondOrderSystem(*peaks[0])).damping_ratios
+    np.testing.assert_allclose(np.sort(zetas), [0.02, PEAK_ZETAS[-1]], rtol=1e-8)
+
+
+def test_the_latent_starts_of_a_sweep_leave_out_the_holes(monkeypatch):
+    """A 6-DOF chain measured at 2 DOFs under two load cases, one response of the second
+    not measured (zeros in U_n, as sweep_orders takes holes): every latent order's
+    starts are built on the measured entries, as its fits and scores are."""
+    from podid_rs.identification import order
+
+    seen = []
+    real = order.latent_starts
+
+    def spy(*args):
+        seen.append(args[-1])  # measured, the last argument
+        return real(*args)
+
+    monkeypatch.setattr(order, "latent_starts", spy)
+    chain = pr.mass_spring_chain(6)
+    w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
+    F = np.zeros((w.size, 6, 2), dtype=complex)
+    F[:, 1, 0] = F[:, 4, 1] = 1.0
+    U_n, F_n = chain.response(w, F)[:, [1, 4]], F[:, [1, 4]]
+    measured = np.array([[True, False], [True, True]])
+    U_n[:, ~measured] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m_max=4, threads=1,
+                             max_iter=5, measured=measured)
+    assert [f.latent for f in sweep.fits] == [0, 0, 1, 2]
+    assert len(seen) == 2 and all(np.array_equal(m, measured) for m in seen)
+
+
 def test_no_start_for_a_model_that_reproduces_the_data_to_round_off():
     """Data 1e-11 off the model (a cost 1e-22 of the data's): nothing is left to add,
     although the model's heavy latent DOF (10⁶ kg) makes a mode of mass 10¹¹ — enough to
@@ -295,7 +365,9 @@ def test_an_order_the_data_cannot_determine_is_refused():
     limit = order_limit(lines, 1, 1, 1)
     assert free_parameters(limit, 1) <= 2 * lines < free_parameters(limit + 1, 1)
     with pytest.raises(ValueError, match=rf"m must be in \[1, {limit}\]: an order-{limit + 1} "
-                       r"model with 1 observed \(POD\) and \d+ latent coordinates"):
+                       rf"model with 1 observed \(POD\) and {limit} latent coordinates has "
+                       rf"{free_parameters(limit + 1, 1)} free parameters, more than the "
+                       rf"{2 * lines} real equations"):
         sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m=limit + 1)
 
 

@@ -179,6 +179,27 @@ def test_a_band_from_zero_is_a_band_and_an_empty_one_is_refused():
             measured.band_lines(freq, band)
 
 
+def test_a_band_of_too_few_lines_names_the_lines_there_are():
+    freq = np.arange(10.0, 31.0)
+    with pytest.raises(ValueError, match=r"^band_hz \(40.0, 50.0\) keeps 0 of the 21 lines "
+                                         r"\(10–30 Hz\); at least 2 are needed$"):
+        measured.band_lines(freq, (40.0, 50.0))
+    with pytest.raises(ValueError, match=r"^band_hz must be real"):
+        measured.band_lines(freq, (10.0, 20.0 + 1j))
+
+
+def test_one_load_case_may_be_given_as_two_dimensional_arrays():
+    """U (s, n) and F (s, n_in) are one load case, (s, n, 1) and (s, n_in, 1)."""
+    chain = mass_spring_chain(3)
+    omega = 2 * np.pi * np.linspace(5.0, 100.0, 20)
+    H = chain.frf(omega)[:, :, 0]
+    F = np.ones((20, 1), dtype=complex)
+    flat = measured.MeasuredData(omega, H, F, None, [0])
+    assert flat.U.shape == (20, 3, 1)
+    np.testing.assert_array_equal(flat.U[:, :, 0], H)
+    np.testing.assert_array_equal(flat.F[:, :, 0], F)
+
+
 def test_projection_names_a_basis_that_is_not_real():
     chain = mass_spring_chain(3)
     omega = 2 * np.pi * np.linspace(5.0, 100.0, 20)

@@ -201,7 +201,8 @@ def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
         ("duplicate_disagrees", "differ by a median"),
         ("frequencies_differ", "frequency lines differ"),
         ("time_data", "no FRF records"),
-        ("unknown_numerator", "pass quantity"),
+        ("unknown_numerator", r"the numerator type 1 is not displacement \(8\), velocity "
+                              r"\(11\) or acceleration \(12\); pass quantity="),
         ("no_dataset_58", "no dataset 58"),
         ("garbage", "could not read dataset 58"),
     ],
@@ -414,6 +415,7 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     "kwargs,match",
     [
         ({"inputs": [0, 9]}, "index the 3 measured DOFs"),
+        ({"inputs": [-1, 2]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[-1, 2\]$"),
         ({"inputs": [1, 1]}, "not repeat"),
         ({"inputs": [0.5, 1]}, "integer indices"),
         ({"inputs": [0j, 2j]}, "inputs must be real"),

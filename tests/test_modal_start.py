@@ -107,6 +107,25 @@ def test_modes_outside_the_band_become_residual_poles():
     # it explains the band far better than the in-band modes alone would: a few %
     assert _relative_cost(start, R, U, F, omega) < 0.05 * omega.size
 
+def test_a_band_below_one_radian_per_second_keeps_its_residual_pole_below():
+    """The same structure 1000 times slower (C / 10³, K / 10⁶: the same damping ratios),
+    its band of modes 2 and 3 below 1 rad/s: still the two in-band poles exactly, one
+    pole below the band and one above it."""
+    Cs, Ks = 1e-3 * C4, 1e-6 * K4
+    wn, zeta = natural(M4, Cs, Ks)
+    omega = np.linspace(0.5 * (wn[0] + wn[1]), 0.5 * (wn[2] + wn[3]), 400)
+    assert omega[-1] < 1.0
+    U = pr.SecondOrderSystem(M4, Cs, Ks).frf(omega)[:, :, [0]]
+    F = np.zeros_like(U)
+    F[:, 0, 0] = 1.0
+    start = modal_start(pr.SecondOrderSystem(M4, Cs, Ks), np.eye(4), U, F, omega)
+    assert_physical(start)
+    w_start, z_start = natural(*start)
+    np.testing.assert_allclose(w_start[1:3], wn[1:3], rtol=1e-12)
+    np.testing.assert_allclose(z_start[1:3], zeta[1:3], rtol=1e-9)
+    assert w_start[0] < omega[0] and w_start[3] > omega[-1]
+
+
 def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line(omega_all):
     """A driving point of the 4-DOF chain on an order-8 basis (one observed coordinate,
     seven latent): the four in-band modes are kept exactly, the residual poles take no
@@ -122,6 +141,18 @@ def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line
     np.testing.assert_allclose(fill / (FILL_FACTOR * omega_all[-1]), [1, 2, 3, 4], rtol=1e-9)
 
 
+def test_data_that_give_no_mode_a_shape_get_completing_modes_alone(omega_all):
+    """−H: every residue has the wrong sign at the driving point (φ[inputs]² < 0), so no
+    mode gets a shape; the start is still made, of completing modes only, at
+    FILL_FACTOR · ω_hi times 1 … m."""
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), -U, F, omega_all)
+    assert start is not None
+    w_start, _ = natural(*start)
+    np.testing.assert_allclose(w_start, FILL_FACTOR * omega_all[-1] * np.arange(1, 5),
+                               rtol=1e-9)
+
+
 def test_a_completing_mode_is_seen_slightly_at_a_measured_dof(omega_all):
     """The completing modes of a driving point on an order-8 basis would not show at the
     one measured DOF; each is seen there, at FILL_SEEN times the shapes' scale, so every
@@ -131,6 +162,25 @@ def test_a_completing_mode_is_seen_slightly_at_a_measured_dof(omega_all):
     start = modal_start(pr.SecondOrderSystem(M4, C4, K4), R, U, F, omega_all)
     shapes = pr.mode_shapes(pr.SecondOrderSystem(*start), R)
     assert shapes.n_modes == 8
+
+
+def test_the_rank_one_shape_with_holes_does_not_depend_on_the_units():
+    """φ φ[inputs]ᵀ ≈ residue on the known entries, by alternating least squares round a
+    hole: scaling the residue by c scales φ by √c, so residues of FRFs in m/N (1e-8)
+    converge as far as those of mm/N do."""
+    from podid_rs.identification.modal_start import _shape
+
+    rng = np.random.default_rng(2)
+    phi = rng.uniform(0.5, 1.5, 6)
+    inputs = np.array([0, 2, 4])
+    residue = np.outer(phi, phi[inputs]) + 0.1 * rng.standard_normal((6, 3))
+    known = np.ones((6, 3), dtype=bool)
+    known[1, 0] = known[5, 2] = False
+    shape = _shape(residue, inputs, known)
+    assert np.all(shape != 0)
+    for c in (1e-8, 1e4):
+        np.testing.assert_allclose(_shape(c * residue, inputs, known), np.sqrt(c) * shape,
+                                   rtol=1e-9)
 
 
 def test_no_start_without_unit_forces(omega_all):

@@ -60,6 +60,22 @@ def test_sweep_fits_every_order_and_chooses_by_its_rule(chain_frf):
     assert is_physical(model) and pr.modal_parameters(model).stable
 
 
+def test_the_order_limit_stops_at_ten_times_the_default_largest_order():
+    from podid_rs.identification.order import DEFAULT_M_MAX, order_limit
+
+    assert order_limit(10**6, 100, 10, 100) == 10 * DEFAULT_M_MAX
+    assert order_limit(10, 2, 1, 2) < 10 * DEFAULT_M_MAX
+
+
+@pytest.mark.parametrize("holdout", [4, 2])
+def test_two_lines_are_too_few_to_hold_one_out_and_fit_two(chain_frf, holdout):
+    """Every holdout-th line from mid-group: of two lines, holdout 4 holds none out (no
+    held-out score) and holdout 2 holds out one (one training line): both refused."""
+    _, U_n, F_n, w, P = chain_frf
+    with pytest.raises(ValueError, match=rf"^2 lines are too few to hold every {holdout}-th out$"):
+        sweep_orders(U_n[:2], F_n[:2], w[:2], P, holdout=holdout)
+
+
 def test_a_given_order_is_reached_by_continuation(chain_frf):
     chain, U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=8)
@@ -165,6 +181,39 @@ def test_the_sweep_stops_after_flat_latent_orders():
     assert sweep.chosen == 6
     assert sweep.reason.endswith(f"stopped after {order.LATENT_FLAT} latent orders that lowered "
                                  "the training error by less than 1 % each")
+
+
+@pytest.mark.parametrize("ratio,stops", [(0.991, True), (0.989, False)])
+def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, ratio, stops):
+    """The stop rule alone, on scripted scores: a 6-DOF chain measured at 2 DOFs, so
+    every order past 2 has latent coordinates, each lowering the training error to
+    ``ratio`` of the order before and the held-out error not at all (fewer orders than
+    the patience). 0.9 % less is flat (below a third of the 3 % step): the sweep stops
+    after LATENT_FLAT such orders; 1.1 % less is progress: it runs on to m_max."""
+    from podid_rs.identification import order
+
+    chain = pr.mass_spring_chain(6)
+    w = 2 * np.pi * np.linspace(5.0, 200.0, 150)
+    F = np.zeros((w.size, 6, 1), dtype=complex)
+    F[:, 1, 0] = 1.0
+    U_n, F_n = chain.response(w, F)[:, [1, 4]], F[:, [1, 4]]
+    calls: dict[int, int] = {}
+
+    def scripted(model, *args, **kwargs):
+        m = model.m
+        calls[m] = calls.get(m, 0) + 1
+        if calls[m] % 2:  # the training lines are scored first
+            return 8.0 / 2 ** min(m, 2) * ratio ** max(m - 2, 0)
+        return 10.0 * 0.9 ** min(m, 2)
+
+    monkeypatch.setattr(order, "_median_db", scripted)
+    m_max = 2 + order.LATENT_FLAT + 1
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m_max=m_max, threads=1,
+                         max_iter=5)
+    assert [f.latent for f in sweep.fits[:3]] == [0, 0, 1]
+    assert [f.m for f in sweep.fits] == list(range(1, (m_max - 1 if stops else m_max) + 1))
+    flat = f"stopped after {order.LATENT_FLAT} latent orders that lowered the training error"
+    assert (flat in sweep.reason) == stops
 
 
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):

@@ -132,6 +132,29 @@ def test_shape_mac_uses_the_common_dofs_and_names_a_mismatch(full_order):
         mode_shapes(result, R[:, :4])
 
 
+def test_shape_mac_without_labels_compares_the_rows_as_they_are(full_order):
+    _, _, result, R = full_order
+    ident = mode_shapes(result, R)
+    later = ident.select(np.array([False, False, True, False, True, True]))
+    values, used = shape_mac(ident, later)
+    assert used is None and values.shape == (6, 3)
+    assert np.allclose(values[[2, 4, 5], [0, 1, 2]], 1.0, rtol=1e-12)
+    assert np.allclose(values, mac(ident.shapes, later.shapes), rtol=1e-14)
+
+
+def test_selected_modes_keep_their_modal_constants(full_order):
+    """select (and in_band, oscillatory) keeps each kept mode's a, so that the kept
+    shapes remain a residue model."""
+    _, _, result, R = full_order
+    modes = mode_shapes(result, R)
+    keep = np.array([True, False, True, False, False, True])
+    kept = modes.select(keep)
+    assert kept.modal_a is not None
+    np.testing.assert_array_equal(kept.modal_a, modes.modal_a[keep])
+    band = modes.in_band((0.0, modes.frequencies_hz[keep].max()))
+    np.testing.assert_array_equal(band.modal_a, modes.modal_a[band.mode_numbers - 1])
+
+
 def test_plot_mac_against_another_model(full_order, tmp_path):
     chain, data, result, R = full_order
     ident = mode_shapes(result, R, data.dofs)
@@ -309,6 +332,31 @@ def test_a_mode_the_sensors_do_not_see_is_refused():
     with pytest.raises(ValueError, match=r"^a mode has no component on the measured DOFs "
                        r"\(R ψ = 0\)$"):
         mode_shapes(model, np.array([[1.0, 0.0]]))
+
+
+def test_shape_mac_names_an_empty_set():
+    modes = ModeShapes(np.array([-1.0 + 60.0j]), np.ones((3, 1), dtype=complex))
+    empty = modes.select(np.array([False]))
+    with pytest.raises(ValueError, match=r"^nothing to compare: 1 and 0 modes$"):
+        shape_mac(modes, empty)
+
+
+def test_companion_modes_return_vectors_only_when_asked():
+    from podid_rs.physical import companion_modes
+
+    chain = mass_spring_chain(3)
+    lam, vectors, infinite = companion_modes(chain)
+    assert vectors is None and lam.size == 3 and infinite == 0
+    assert companion_modes(chain, vectors=True)[1].shape == (3, 3)
+
+
+def test_oscillatory_keeps_a_mode_below_one_radian_per_second():
+    """A slow suspension mode (0.1 Hz: Im λ = 0.63 rad/s) is oscillatory as any other;
+    only the real (overdamped) roots are left out."""
+    lam = np.array([2 * np.pi * 0.1 * complex(-0.01, 1.0), -3.0 + 0j,
+                    2 * np.pi * 10.0 * complex(-0.01, 1.0)])
+    modes = ModeShapes(lam, np.eye(3, dtype=complex))
+    assert modes.oscillatory().mode_numbers.tolist() == [1, 3]
 
 
 def test_in_band_keeps_a_mode_at_either_end_of_the_band():

@@ -190,6 +190,16 @@ def test_bad_snapshots_and_frf_raise():
         correlation_from_frf(H, [0.0, 1.0, 2.0])
 
 
+@pytest.mark.parametrize("omega", [[1.0], [1.0, 3.0, 2.0], [1.0, 2.0, 2.0]])
+def test_frequency_lines_that_cannot_be_integrated_over_are_named(omega):
+    """One line, or lines not strictly increasing: the trapezoid rule has no band."""
+    H = np.ones((len(omega), 2, 2))
+    for f in (correlation_from_frf, pod_from_frf):
+        with pytest.raises(ValueError, match=r"^omega must hold at least 2 strictly "
+                                             r"increasing lines to integrate over$"):
+            f(H, omega)
+
+
 # --- noise-corrected POD (Ruu − diag(noise_variance)) --------------------------------
 
 

@@ -20,6 +20,8 @@ What is asserted and why the tolerances:
 
 from __future__ import annotations
 
+import os
+import re
 import warnings
 
 import numpy as np
@@ -120,6 +122,35 @@ def test_an_unstable_indefinite_start_is_made_physical_with_a_warning():
     assert_physical(model)
 
 
+def _one_negative_mass_start():
+    chain, U, F, w = chain_data(n=4, snr=20)
+    M = chain.M.copy()
+    M[0, 0] = -M[0, 0]
+    return (M, chain.C, chain.K), U, F, w
+
+
+def test_the_start_warning_states_what_changed_in_full():
+    start, U, F, w = _one_negative_mass_start()
+    _, report = physical_start(*start)
+    change = ", ".join(f"{v:.2g}" for v in report["relative_change"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        with pytest.warns(StartWarning, match=r"\(eigenvalues changed in M, C, K: \(1, 0, 0\); "
+                                              rf"relative change {re.escape(change)}\)$"):
+            refine(start, U, F, w, max_iter=3)
+
+
+@pytest.mark.skipif("MUTANT_UNDER_TEST" in os.environ,
+                    reason="mutmut's trampolines add stack frames; scripts/mutate_by_hand.py 79")
+def test_the_start_warning_points_at_the_callers_line():
+    start, U, F, w = _one_negative_mass_start()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        with pytest.warns(StartWarning) as caught:
+            refine(start, U, F, w, max_iter=3)
+    assert [c.filename for c in caught if c.category is StartWarning] == [__file__]
+
+
 def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
     # |d| for a negative eigenvalue (the estimator's sign error keeps its size), the
     # rtol floor for a zero one in M, K; C keeps its zero; eigenvectors unchanged
@@ -147,6 +178,13 @@ def test_a_rank_deficient_start_is_warned_about():
     with pytest.warns(pr.RankDeficientWarning):
         plain = pr.identify(H, F, w)
     with pytest.warns(StartWarning, match="rank-deficient"):
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        warnings.filterwarnings("ignore", "the start model was not physical", StartWarning)
+        refine(plain, H, F, w, max_iter=5)
+    with pytest.warns(StartWarning, match=rf"^the start model comes from a rank-deficient "
+                      rf"identification \(rank {plain.rank} of {plain.n_unknowns} unknowns\): "
+                      r"its undetermined part is arbitrary, and the refinement keeps what the "
+                      r"data do not fix$"):
         warnings.simplefilter("ignore", ConvergenceWarning)
         warnings.filterwarnings("ignore", "the start model was not physical", StartWarning)
         refine(plain, H, F, w, max_iter=5)
@@ -239,6 +277,9 @@ def test_log_magnitude_refinement_of_noise_free_magnitudes_gives_the_exact_model
         ({"objective": "log-magnitude", "weights": "loud"}, "'relative', 'uniform'"),
         ({"objective": "log-magnitude", "weights": np.ones((150, 3))}, "per entry"),
         ({"objective": "log-magnitude", "weights": -np.ones(150)}, "non-negative"),
+        ({"objective": "log-magnitude", "weights": np.ones(150) * 1j}, "^weights must be real"),
+        ({"objective": "log-magnitude", "weights": np.full(150, np.nan)},
+         "^weights contains non-finite"),
     ],
 )
 def test_bad_log_magnitude_options_are_refused_by_name(kwargs, match):
@@ -335,8 +376,12 @@ def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
 
 def test_bad_starts_are_refused_by_name():
     chain, U, F, w = chain_data(n=4, p=1)
+    with pytest.raises(ValueError, match="^M must be real"):
+        refine((chain.M * (1 + 1e-3j), chain.C, chain.K), U, F, w)
     with pytest.raises(ValueError, match="M has no positive eigenvalue"):
         refine((-chain.M, chain.C, chain.K), U, F, w)
+    with pytest.raises(ValueError, match="^the start model's K has no positive eigenvalue"):
+        refine((chain.M, chain.C, -chain.K), U, F, w)
     with pytest.raises(ValueError, match="order m = 4"):
         refine((np.eye(3), np.eye(3), np.eye(3)), U, F, w)
     with pytest.raises(ValueError, match="IdentificationResult, a SecondOrderSystem"):
@@ -547,6 +592,29 @@ def test_a_start_is_kept_only_with_every_eigenvalue_above_start_keep_of_the_larg
     assert report["eigenvalues_raised"] == (0, 0, 0) and K3[1, 1] == 2 * START_KEEP * 1e4
 
 
+def test_a_positive_definite_damping_below_one_is_kept_bit_for_bit():
+    """C ≻ 0 (eigenvalues 0.05 … here, the smallest below 1) is kept as it is: no
+    eigendecomposition's round-off is added to a physical start."""
+    A = np.random.default_rng(5).standard_normal((4, 4))
+    C = 0.1 * (A @ A.T) + 0.05 * np.eye(4)
+    C = 0.5 * (C + C.T)
+    assert 0 < np.linalg.eigvalsh(C).min() < 1
+    M, K = np.eye(4), np.diag([1.0, 2.0, 3.0, 4.0])
+    (_, C2, _), report = physical_start(M, C, K)
+    assert np.array_equal(C2, C)
+    assert report["eigenvalues_raised"][1] == 0 and report["relative_change"][1] == 0.0
+
+
+def test_only_the_eigenvalues_a_start_changes_are_counted_as_raised():
+    """C's floor is 0: a dashpot missing at one DOF (an eigenvalue exactly 0) is kept as
+    it is and not counted; the negative one beside it is raised to its magnitude."""
+    M, K = np.eye(3), np.diag([1.0, 2.0, 3.0])
+    (M2, C2, K2), report = physical_start(M, np.diag([0.2, 0.0, -0.1]), K)
+    assert report["eigenvalues_raised"] == (0, 1, 0)
+    np.testing.assert_array_equal(C2, np.diag([0.2, 0.0, 0.1]))
+    assert np.array_equal(M2, M) and np.array_equal(K2, K)
+
+
 def test_weights_given_as_arrays_are_reported_and_per_entry_ones_may_leave_out_the_load_case():
     chain, U_n, F_n, w = _entry_data(noise=0.02)
     R = pr.pod_from_frf(U_n, w).basis(5)
@@ -566,11 +634,18 @@ def test_weights_given_as_arrays_are_reported_and_per_entry_ones_may_leave_out_t
     assert a["cost"] == b["cost"] and np.array_equal(runs["s, n"].K, runs["s, n, p"].K)
     timings = runs["user"].info["refinement"]["timings"]
     assert timings and all(t >= 0 for t in timings.values())
+    # and where identify's results hold them, in info itself
+    assert "timings" in start.info and runs["user"].info["timings"] == timings
 
 
 def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():
     chain, U_n, F_n, w = _entry_data()
     R = pr.pod_from_frf(U_n, w).basis(5)
     start = (np.eye(5), np.eye(5), np.eye(5) * 1e4)
+    with pytest.raises(ValueError, match=r"^weights must be real"):
+        refine(start, U_n, F_n, w, basis=R, weights=np.ones(U_n.shape[:2]) * 1j)
     with pytest.raises(ValueError, match=r"basis must be \(n, m\) with n = the measured DOFs"):
         refine(start, U_n, F_n, w, basis=R[:-1])
+    with pytest.raises(ValueError, match=r"^basis must have orthonormal columns \(RᵀR = I\), "
+                                         r"as POD modes do$"):
+        refine(start, U_n, F_n, w, basis=2 * R)

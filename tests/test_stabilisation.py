@@ -8,6 +8,7 @@ must recover the chain (frequencies to 1e-7, as in test_cli_identify).
 from __future__ import annotations
 
 import csv
+import warnings
 
 import numpy as np
 import pytest
@@ -119,6 +120,9 @@ def test_bad_input_is_named(chain_data):
         stabilisation_chart(data, 2, fit="lscf", progress=False)
     with pytest.raises(ValueError, match="data must be a MeasuredData"):
         stabilisation_chart(data.U, 2)
+    for name in ("f_tol", "zeta_tol"):
+        with pytest.raises(ValueError, match=rf"^{name} must be a positive number, got 0$"):
+            stabilisation_chart(data, 2, progress=False, **{name: 0})
 
 
 def test_pod_fit_is_eq_49_on_the_given_basis(chain_data):
@@ -226,6 +230,7 @@ def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_dat
     assert chart.chosen_m == 2
     with pytest.raises(ValueError, match=r"^chosen_m must be"):
         stabilisation_chart(data, 2, progress=False, chosen_m=0)
+    assert stabilisation_chart(data, 2, progress=False, chosen_m=1).chosen_m == 1  # the least
 
 
 def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
@@ -241,6 +246,31 @@ def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
     stabilisation_chart(chain_data[1], 3, progress=True)
     last = screen.getvalue()[:-1].split("\r")[-1]
     assert last.startswith("stabilisation: 100%") and "| 3/3 [" in last
+
+
+def test_symmetry_is_judged_relative_to_each_matrix_size():
+    """‖X − Xᵀ‖ ≤ rtol ‖X‖: a stiffness of 10⁸ N/m asymmetric by 10⁻¹² of itself (the
+    round-off of its assembly) is symmetric; a mass of 10⁻⁶ kg asymmetric by 10⁻⁶ of
+    itself is not."""
+    from dataclasses import replace
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    skew = np.array([[0.0, 1.0], [0.0, 0.0]])
+    K = 1e8 * np.array([[2.0, -1.0], [-1.0, 2.0]])
+    assert is_physical(replace(good, K=K + 1e-12 * np.linalg.norm(K) * skew))
+    assert not is_physical(replace(good, M=1e-6 * np.eye(2) + 1e-12 * skew))
+
+
+def test_a_fits_warnings_are_the_orders_notes(chain_data):
+    _, data = chain_data
+
+    def warning_fit(m: int) -> IdentificationResult:
+        warnings.warn(f"order {m} is only a test", UserWarning, stacklevel=2)
+        return model_with_modes([10.0 * (k + 1) for k in range(m)], 0.02)
+
+    chart = stabilisation_chart(data, 2, fit=warning_fit, progress=False)
+    assert [o.notes for o in chart.orders] == [("order 1 is only a test",),
+                                               ("order 2 is only a test",)]
 
 
 def test_a_mass_with_a_zero_eigenvalue_is_not_physical():

@@ -133,6 +133,117 @@ def test_a_missing_delimiter_is_refused(beam_bytes):
         read_uff(path)
 
 
+def test_a_file_opening_with_a_blank_line_is_counted_from_it(beam_bytes):
+    """Line numbers count every line of the file, a leading blank one too."""
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]  # record 11's opening delimiter removed
+    damaged = b"\n" + raw[:closing + 7] + raw[closing + 14:]
+    line = damaged[:closing + 8].count(b"\n") + 1
+    path = tmp / "blank_first.uff"
+    path.write_bytes(damaged)
+    with pytest.raises(ValueError, match=rf"from line \d+\): line {line} \('58 +'\) belongs "
+                                         r"to no record"):
+        read_uff(path)
+
+
+def test_a_missing_delimiter_quotes_the_stray_line_alone(beam_bytes):
+    """A writer that does not pad its lines to 80 columns: the stray record's dataset
+    line is quoted as it stands, not run on into the lines after it."""
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]  # the end of record 10; record 11's opening delimiter removed
+    dataset_line = raw.index(b"\n", closing + 14) + 1
+    path = tmp / "unpadded.uff"
+    path.write_bytes(raw[:closing + 7] + b"    58\n" + raw[dataset_line:])
+    with pytest.raises(ValueError, match=r"delimiter is missing after record 10 .*: line \d+ "
+                                         r"\('58'\) belongs to no record"):
+        read_uff(path)
+
+
+def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
+    """Record 6 of dataset 58 holds the reference node in an I10 field (columns 67–76):
+    a node number of all ten digits is named as it is."""
+    freq = np.arange(1.0, 11.0)
+    path = tmp_path / "ten.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record((k, 3), (1234567890, 3), freq, np.full(10, k + 1j)) for k in (1, 2, 3)],
+        "add")
+    raw = path.read_bytes()
+    tags = delimiters(raw)
+    path.write_bytes(raw[:tags[2]] + raw[tags[2] + 7:])  # record 2's opening delimiter
+    with pytest.raises(ValueError, match=r"delimiter is missing after record 1 of the file "
+                                         r"\(dataset 58, response 1:3 / reference "
+                                         r"1234567890:3, from line 1\)"):
+        read_uff(path)
+
+
+def test_unevenly_spaced_records_are_counted_with_their_abscissae(tmp_path):
+    """Abscissa spacing 0: each point holds its frequency beside the value (ASCII: 3
+    fields of a complex point, binary: 3 numbers). Whole records are read (binary to
+    every digit, ASCII to its 12); one data line short is refused with both counts."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.array([10.0, 12.5, 20.0, 31.0, 47.0])
+    H = chain.frf(2 * np.pi * freq)
+    for binary in (0, 1):
+        path = tmp_path / f"uneven{binary}.uff"
+        pyuff.UFF(str(path)).write_sets([pyuff.prepare_58(
+            binary=binary, func_type=4, rsp_node=rsp[0], rsp_dir=rsp[1], ref_node=ref[0],
+            ref_dir=ref[1], data=H[:, o, r].astype(complex), x=freq, abscissa_spacing=0,
+            abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+        ) for o, rsp in enumerate(DOFS) for r, ref in enumerate(DOFS)], "add")
+        data = read_uff(path)
+        np.testing.assert_array_equal(data.omega, 2 * np.pi * freq)
+        assert np.max(np.abs(data.U - H) / np.abs(H)) <= (0 if binary else 1e-11)
+    raw = (tmp_path / "uneven0.uff").read_bytes()
+    line = raw[delimiters(raw)[0]:].split(b"\n")[14] + b"\n"  # record 1's second point
+    assert line.split()[0] == b"1.25000e+01"
+    (tmp_path / "short.uff").write_bytes(raw.replace(line, b"", 1))
+    with pytest.raises(ValueError, match=r"record 1 of the file .* holds 12 values where its "
+                                         r"header announces 5 points \(15 values\)"):
+        read_uff(tmp_path / "short.uff")
+
+
+def test_an_ordinate_type_pyuff_cannot_read_is_left_to_pyuff_and_named(tmp_path):
+    """Record 7's ordinate data type 3 (no UFF type): the value count is not checked
+    against a layout there is none of; pyuff's refusal names the record."""
+    path, _, _ = write_chain(tmp_path / "ordinate.uff")
+    lines = path.read_bytes().split(b"\n")
+    assert lines[8].startswith(b"         6")  # record 1's ordinate type: complex double
+    lines[8] = b"         3" + lines[8][10:]
+    path.write_bytes(b"\n".join(lines))
+    with pytest.raises(ValueError, match=r"ordinate\.uff: could not read dataset 58: record 1 "
+                                         r"of the file \(dataset 58, response 1:3 / reference "
+                                         r"1:3, from line 1\)"):
+        read_uff(path)
+
+
+def test_an_frf_over_time_is_refused_by_its_abscissa(tmp_path):
+    path = tmp_path / "time.uff"
+    pyuff.UFF(str(path)).write_sets([pyuff.prepare_58(
+        func_type=4, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3, data=np.ones(5, complex),
+        x=np.arange(5.0), abscissa_spacing=1, abscissa_spec_data_type=17,
+        ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+    )], "add")
+    with pytest.raises(ValueError, match=r"time\.uff: FRF record 1: the abscissa is not "
+                                         r"frequency \(specific data type 18\)$"):
+        read_uff(path)
+
+
+def test_two_frequency_lines_are_data(tmp_path):
+    """The fewest lines an FRF can have: two are read, not refused."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.array([10.0, 20.0])
+    H = chain.frf(2 * np.pi * freq)
+    path = tmp_path / "two.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record(rsp, ref, freq, H[:, o, r], binary=True)
+         for o, rsp in enumerate(DOFS) for r, ref in enumerate(DOFS)], "add")
+    data = read_uff(path)
+    np.testing.assert_array_equal(data.omega, 2 * np.pi * freq)
+    np.testing.assert_array_equal(data.U, H)  # binary: every digit
+
+
 def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
     raw, tmp = beam_bytes
     tags = delimiters(raw)
@@ -206,6 +317,15 @@ def test_a_non_finite_binary_value_is_refused(tmp_path):
     path.write_bytes(raw[:at] + struct.pack("<d", np.nan) + raw[at + 8:])
     with pytest.raises(ValueError, match=r"FRF record 2 \(response 1:3 / reference 2:3\): its "
                                          r"value at 150 Hz"):
+        read_uff(path)
+    # one bad value alone: no "more line(s)"; a second one counted
+    with pytest.raises(ValueError, match=r"\(line 151 of 301\) is \S+: non-finite values"):
+        read_uff(path)
+    second = at + 16 * 10  # the imaginary part at 160 Hz too
+    path.write_bytes(path.read_bytes()[:second] + struct.pack("<d", np.nan)
+                     + path.read_bytes()[second + 8:])
+    with pytest.raises(ValueError, match=r"\(line 151 of 301\) is \S+ and at 1 more line\(s\): "
+                                         r"non-finite values"):
         read_uff(path)
 
 

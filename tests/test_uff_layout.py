@@ -86,6 +86,15 @@ def test_one_way_pairs_fill_by_reciprocity_and_the_rest_are_holes(tmp_path):
                in note for note in data.notes)
 
 
+def test_two_entries_read_by_reciprocity_are_counted_in_words(tmp_path):
+    # three shakers (1, 2, 3) without H(2, 1) and H(3, 1): both from their mirrors
+    pairs = [(o, r) for o in range(1, 5) for r in (1, 2, 3) if (o, r) not in ((2, 1), (3, 1))]
+    data = read_uff(write(tmp_path / "three.uff", pairs))
+    assert columns(data) == [1, 2, 3] and data.complete
+    assert any(note.endswith("; 2 entries read by reciprocity, H(j, k) = H(k, j)")
+               for note in data.notes)
+
+
 def test_a_shaker_column_and_a_hammer_row_are_two_columns(tmp_path):
     """Campaign 1: a shaker at DOF 2, all four accelerometers. Campaign 2: one
     accelerometer at DOF 3, the hammer at every DOF. Both measured H(3, 2)."""

@@ -159,6 +159,47 @@ def test_bad_input_is_named(written, tmp_path):
         pr.plot_mac(modes, source, tmp_path / "mac.png")
 
 
+def test_a_nonsymmetric_model_writes_no_modal_constants(written, tmp_path):
+    """Without a symmetric model there is no modal A (ModeShapes.modal_a is None): the
+    55 sets hold 0 for the modal constants, not a made-up value."""
+    from dataclasses import replace
+
+    _, data, result, R, _, _ = written
+    skewed = replace(result, C=result.C + 1e-3 * np.triu(result.C, 1))
+    assert pr.mode_shapes(skewed, R).modal_a is None
+    path = write_uff(tmp_path / "skewed.uff", skewed, R, dofs=data.dofs)
+    s55 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 55]
+    assert s55 and all(d["modal_a"] == 0 and d["modal_b"] == 0 for d in s55)
+
+
+def test_the_58_sets_label_their_abscissa_in_hertz(written):
+    _, _, _, _, _, sets = written
+    s58 = [d for d in sets if d["type"] == 58]
+    assert s58 and all(d["abscissa_axis_units_lab"].strip() == "Hz" for d in s58)
+
+
+def test_two_frequency_lines_are_written(written, tmp_path):
+    _, data, result, R, _, _ = written
+    path = write_uff(tmp_path / "two.uff", result, R, dofs=data.dofs, inputs=[1],
+                     omega=data.omega[:2])
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    assert len(s58) == 6 and all(d["x"].size == 2 for d in s58)
+
+
+def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
+    _, data, result, R, _, _ = written
+    out = tmp_path / "x.uff"
+    for omega in ([10.0], [10.0, 30.0, 20.0], [10.0, 20.0, 20.0]):
+        with pytest.raises(ValueError, match=r"^omega must hold at least 2 strictly increasing "
+                                             r"frequency lines$"):
+            write_uff(out, result, R, dofs=data.dofs, inputs=[1], omega=omega)
+    k = pr.mode_shapes(result, R).n_modes
+    with pytest.raises(ValueError, match=rf"^modes must be a boolean mask over the model's {k} "
+                                         r"modes, got int64 \(2,\)$"):
+        write_uff(out, result, R, data, modes=np.array([1, 0]))
+    assert not out.exists()
+
+
 def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(written, tmp_path):
     _, data, result, R, _, _ = written
     out = tmp_path / "x.uff"

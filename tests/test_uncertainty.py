@@ -451,6 +451,28 @@ def test_h1_coherence_of_hann_segments():
         pr.h1_coherence(np.stack([x[:, 0], x[:, 0]], 1), y, dt, nperseg=512)
 
 
+def test_h1_coherence_of_independent_records_adds_their_averages():
+    """Two records of the same length, each cut into the same segments, are twice the
+    averages of one (the records are independent: no overlap correlates them)."""
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((2, 4096, 1))
+    y = 2 * x + rng.standard_normal((2, 4096, 1))
+    one = pr.h1_coherence(x[0], y[0], 1e-2, nperseg=512)
+    both = pr.h1_coherence(x, y, 1e-2, nperseg=512)
+    assert both.averages == pytest.approx(2 * one.averages, rel=1e-12)
+
+
+def test_h1_coherence_of_a_noise_free_channel_is_at_most_one():
+    """γ² ≤ 1 (Cauchy–Schwarz) at every line, also where round-off of |Syx|² / (Sxx Syy)
+    gives 1 + 1e-15 for a response proportional to the force (seeds 0–2 all do at some
+    line): fit_uncertainty refuses a coherence above 1."""
+    for seed in range(3):
+        x = np.random.default_rng(seed).standard_normal((8192, 1))
+        stats = pr.h1_coherence(x, np.concatenate([2 * x, 0.3 * x], axis=1), 1e-2, nperseg=512)
+        assert np.all(stats.coherence <= 1.0)
+        assert np.allclose(stats.coherence, 1.0, rtol=0, atol=1e-12)
+
+
 def test_holes_weigh_nothing_in_the_covariance():
     """Entries a test did not measure enter neither N nor S nor the noise's degrees of
     freedom: whatever the holes hold, the intervals are the same."""
