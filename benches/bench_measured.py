@@ -185,7 +185,8 @@ def run_high_resolution() -> tuple[list[list[str]], list[str]]:
                           f_true, z_true)
     peer_found = res.recovered(peer["f"], peer["z"], f_true, z_true)
     fr = run.result.info["refinement"]["final_refit"]
-    passes = "; ".join(f"{p['pass']} {p['iterations']} steps" for p in fr["passes"])
+    passes = "; ".join(f"{p['pass']} {p['iterations']} steps ({p['stop']})"
+                       for p in fr["passes"])
     rows = [
         ["podid-rs identify (every output)", f"{ours['seconds']:.1f}", f"{ours['median']:.3f}",
          f"{ours_truth[0]:.3f}", f"{ours['p95']:.2f}", f"{found} / {f_true.size}",
