@@ -299,7 +299,7 @@ fn block_pair(
     b: usize,
     bp: usize,
     par: Par,
-) -> Mat<f64> {
+) -> Vec<f64> {
     let m = params.m;
     let (m2, m3) = (m * m, m * m * m);
     let nb = n_per_block(m);
@@ -316,6 +316,17 @@ fn block_pair(
             }
         }
     });
+    // the floor: Y[r,c] = Σ_c' N[(r,c),(c',c')], Y'[r',c'] = Σ_c N[(c,c),(r',c')], e = Σ Y[c,c]
+    let y = Mat::from_fn(m, m, |r, c| {
+        let row = &nz[(r * m + c) * m2..(r * m + c + 1) * m2];
+        (0..m).map(|c2| row[c2 * m + c2]).sum::<f64>()
+    });
+    let y2 = Mat::from_fn(m, m, |r2, c2| {
+        (0..m)
+            .map(|c| nz[(c * m + c) * m2 + r2 * m + c2])
+            .sum::<f64>()
+    });
+    let e: f64 = (0..m).map(|c| y[(c, c)]).sum();
     // A[(j, j', c), c'] = Ñ[(j,c),(j',c')], Ñ = (I+Π) N (I+Π); row-major m³ × m
     let mut a = vec![0.0; m3 * m];
     a.par_chunks_mut(m3).enumerate().for_each(|(j, aj)| {
@@ -343,21 +354,19 @@ fn block_pair(
         par,
     );
     drop(a);
-    // read B as row-major m³ × m with row (j m + j') + m² k', column c; D = B L
-    let mut dm = Mat::<f64>::zeros(m3, m);
+    // read B as row-major m³ × m with row (j m + j') + m² k', column c; D = B L, formed
+    // transposed (Dᵀ = Lᵀ Bᵀ, Bᵀ the same buffer column-major m × m³) so that the scatter
+    // below reads each (j, j', k')'s m values of k contiguously
+    let mut dt = Mat::<f64>::zeros(m, m3);
     matmul(
-        dm.as_mut(),
+        dt.as_mut(),
         Accum::Replace,
-        MatRef::from_row_major_slice(&bcol, m3, m),
-        lb.as_ref(),
+        lb.transpose(),
+        MatRef::from_column_major_slice(&bcol, m, m3),
         1.0,
         par,
     );
     drop(bcol);
-    // the floor: Y[r,c] = Σ_c' N[(r,c),(c',c')], Y'[r',c'] = Σ_c N[(c,c),(r',c')], e = Σ Y[c,c]
-    let y = Mat::from_fn(m, m, |r, c| (0..m).map(|c2| n(r, c, c2, c2)).sum::<f64>());
-    let y2 = Mat::from_fn(m, m, |r2, c2| (0..m).map(|c| n(c, c, r2, c2)).sum::<f64>());
-    let e: f64 = (0..m).map(|c| y[(c, c)]).sum();
     // u = P₀ᵀ Y, u' = P₀'ᵀ Y' (without the log scale, applied below)
     let p0t = |yy: &Mat<f64>, lx: &Mat<f64>| -> Vec<f64> {
         let mut out = vec![0.0; nb];
@@ -370,25 +379,29 @@ fn block_pair(
     };
     let (u, u2) = (p0t(&y, lb), p0t(&y2, lbp));
     let eps = CONDITION_FLOOR;
-    let mut out = Mat::<f64>::zeros(nb, nb);
-    for j2 in 0..m {
-        for k2 in 0..=j2 {
-            let col = tri(j2, k2);
-            let s2 = lines::theta_scale(params, lbp, j2, k2);
-            let l2 = lbp[(j2, k2)];
-            for j in 0..m {
-                for k in 0..=j {
-                    let row = tri(j, k);
-                    let s1 = lines::theta_scale(params, lb, j, k);
-                    let l1 = lb[(j, k)];
-                    let v = dm[((j * m + j2) + m2 * k2, k)]
-                        + 2.0 * eps * (l2 * u[row] + l1 * u2[col])
-                        + 4.0 * eps * eps * l1 * l2 * e;
-                    out[(row, col)] = s1 * s2 * v;
-                }
+    // (j, k) of every lower-triangle index, and its θ scale in L_b
+    let jk: Vec<(usize, usize)> = (0..m).flat_map(|j| (0..=j).map(move |k| (j, k))).collect();
+    let s1: Vec<f64> = jk
+        .iter()
+        .map(|&(j, k)| lines::theta_scale(params, lb, j, k))
+        .collect();
+    let dt = dt.as_ref();
+    let mut out = vec![0.0; nb * nb];
+    out.par_chunks_mut(nb).enumerate().for_each(|(col, oc)| {
+        let (j2, k2) = jk[col];
+        let s2 = lines::theta_scale(params, lbp, j2, k2);
+        let l2 = lbp[(j2, k2)];
+        for j in 0..m {
+            let d = dt.col((j * m + j2) + m2 * k2);
+            for k in 0..=j {
+                let row = tri(j, k);
+                let l1 = lb[(j, k)];
+                let v =
+                    d[k] + 2.0 * eps * (l2 * u[row] + l1 * u2[col]) + 4.0 * eps * eps * l1 * l2 * e;
+                oc[row] = s1[row] * s2 * v;
             }
         }
-    }
+    });
     out
 }
 
@@ -410,18 +423,36 @@ pub(crate) fn normal_equations(
     for b in 0..3 {
         for bp in b..3 {
             let out = block_pair(&mo, params, l, b, bp, par);
-            for jc in 0..nb {
-                for ir in 0..nb {
-                    let (gi, gj) = (b * nb + ir, bp * nb + jc);
-                    nth[gj * n + gi] = out[(ir, jc)];
-                    nth[gi * n + gj] = out[(ir, jc)];
-                }
-            }
+            place_block(&mut nth, n, &out, nb, b * nb, bp * nb);
         }
     }
     let g = lines::theta_gradient(params, l, &gz);
     clock.congruence += t0.elapsed().as_secs_f64();
     (nth, g, gz)
+}
+
+/// Block `out` (nb × nb, column-major) of N_θ at rows `r0`, columns `c0` of `nth`
+/// (n × n, column-major) and its transpose at (c0, r0); a diagonal block (r0 = c0) is
+/// made exactly symmetric from its upper triangle. Tiles keep the transposed writes in
+/// cache.
+fn place_block(nth: &mut [f64], n: usize, out: &[f64], nb: usize, r0: usize, c0: usize) {
+    const TILE: usize = 32;
+    let diagonal = r0 == c0;
+    for jt in (0..nb).step_by(TILE) {
+        for it in (0..nb).step_by(TILE) {
+            for jc in jt..(jt + TILE).min(nb) {
+                for ir in it..(it + TILE).min(nb) {
+                    // on the diagonal the entry (i, j) and (j, i) both come from i ≤ j
+                    let v = match diagonal && ir > jc {
+                        true => out[ir * nb + jc],
+                        false => out[jc * nb + ir],
+                    };
+                    nth[(c0 + jc) * n + r0 + ir] = v;
+                    nth[(r0 + ir) * n + c0 + jc] = v;
+                }
+            }
+        }
+    }
 }
 
 /// Solve (A + μ diag(A)) δ = −g by Cholesky, A = N or N + H (the parametrisation's
