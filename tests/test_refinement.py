@@ -426,6 +426,23 @@ def test_the_geodesic_acceleration_goes_further_along_the_beams_valley(beam):
     assert costs[True] < 0.95 * costs[False] < start.info["refinement"]["cost"]
 
 
+@pytest.mark.parametrize("kwargs", [{"objective": "log-magnitude", "basis": "R"},
+                                    {"solver": "matrix-free"}])
+def test_the_acceleration_leaves_the_log_magnitude_and_matrix_free_fits_as_they_are(kwargs):
+    # documented: no effect there (it needs the dense factor and a residual linear in x)
+    chain, U, F, w = chain_data(n=4, p=1, lines=60, snr=30, seed=2)
+    if kwargs.get("basis") == "R":
+        kwargs = {**kwargs, "basis": np.eye(4)}
+    start = tuple(X * 1.05 for X in (chain.M, chain.C, chain.K))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        plain, accelerated = (refine(start, U, F, w, max_iter=15, acceleration=acc, **kwargs)
+                              for acc in (False, True))
+    for k in "MCK":
+        assert np.array_equal(getattr(plain, k), getattr(accelerated, k))
+    assert plain.iterations == accelerated.iterations
+
+
 @settings(
     max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
 )

@@ -82,6 +82,14 @@ pub fn refine(
         Weights::LogMagnitude(_) => 1.0,
         _ => scaling.su * scaling.su,
     };
+    // the acceleration needs the dense step's factor and a residual linear in the
+    // responses: elsewhere it is not attempted (not two evaluations per step for nothing)
+    let opts = OeOptions {
+        acceleration: opts.acceleration
+            && kind == StepKind::Dense
+            && !matches!(data.weights, Weights::LogMagnitude(_)),
+        ..opts
+    };
     let mut lm = LevenbergMarquardt::new(&pb, params, &factors, opts, par, su2)?;
     let mut solver = step_solver(kind, &opts);
     let stop = lm.run(solver.as_mut(), &mut progress)?;
