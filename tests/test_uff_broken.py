@@ -178,6 +178,32 @@ def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
         read_uff(path)
 
 
+@pytest.mark.parametrize("lines_kept", [0, 1, 6, 7])
+def test_a_file_cut_in_a_records_header_names_what_it_holds(tmp_path, lines_kept):
+    """The message names what the cut record's header holds, and no more: cut right
+    after its opening delimiter, the dataset is '?'; after the dataset line, 58 alone;
+    cut inside record 6 of the header (the DOFs' line), still no DOFs; with that line
+    whole (no line end after it), both DOFs — the response node of all ten digits of
+    its I10 field (columns 42–51)."""
+    freq = np.arange(1.0, 11.0)
+    path = tmp_path / "cut.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record((1234567890, 3), (k, -2), freq, np.full(10, k + 1j)) for k in (1, 2)],
+        "add")
+    raw = path.read_bytes()
+    opened = delimiters(raw)[2]  # record 2's opening delimiter
+    end = opened + len(b"    -1")
+    for _ in range(lines_kept):
+        end = raw.index(b"\n", end + 1)
+    path.write_bytes(raw[:end])  # no line end after the last line kept
+    line = raw[:opened].count(b"\n") + 1
+    held = {0: "dataset \\?", 1: "dataset 58", 6: "dataset 58",
+            7: "dataset 58, response 1234567890:3 / reference 2:-2"}[lines_kept]
+    with pytest.raises(ValueError, match=rf"cut\.uff: record 2 of the file \({held}, from "
+                                         rf"line {line}\) has no closing '    -1'"):
+        read_uff(path)
+
+
 def test_unevenly_spaced_records_are_counted_with_their_abscissae(tmp_path):
     """Abscissa spacing 0: each point holds its frequency beside the value (ASCII: 3
     fields of a complex point, binary: 3 numbers). Whole records are read (binary to
@@ -518,6 +544,46 @@ def test_a_set_pyuff_reads_short_of_its_header_is_refused(tmp_path, monkeypatch)
                                          r"reference 3:3, from line \d+\) holds 300 values "
                                          r"for the 301 points its header announces"):
         read_uff(path)
+
+
+@pytest.mark.parametrize("field", ["rsp_node", "rsp_dir", "ref_node", "ref_dir", "x"])
+def test_a_field_of_the_wrong_type_is_refused_naming_the_file_and_record(
+        tmp_path, monkeypatch, field):
+    """A set pyuff returns with a DOF label that is not an integer, or a complex
+    abscissa, is refused naming the file, the FRF record and the field."""
+    path, _, _ = write_chain(tmp_path / "chain.uff")
+    read = pyuff.UFF.read_sets
+
+    def changed(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58 and d.get("rsp_node") == 1 and d.get("ref_node") == 2:
+            d = dict(d, **{field: d[field] * (1 + 0j) if field == "x" else float(d[field])})
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
+    match = (r"FRF record 2 abscissa must be real, got complex dtype" if field == "x" else
+             rf"FRF record 2: field '{field}' must be an integer, got \d\.0$")
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: {match}"):
+        read_uff(path)
+
+
+def test_records_of_no_frf_name_the_function_types_found(tmp_path):
+    """Dataset 58 records that are no FRF (func_type 1, a time response; 2, an
+    auto-spectrum): the message lists the types found, and a bad ``quantity`` is named."""
+    path = tmp_path / "other.uff"
+    pyuff.UFF(str(path)).write_sets([pyuff.prepare_58(
+        func_type=func_type, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3,
+        data=np.arange(5.0), x=np.arange(5.0), abscissa_spacing=1,
+        abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+    ) for func_type in (2, 1, 2)], "add")
+    with pytest.raises(ValueError, match=r"other\.uff: no FRF records \(dataset 58 with "
+                                         r"func_type 4\); found func_type 1, 2$"):
+        read_uff(path)
+    good, _, _ = write_chain(tmp_path / "chain.uff")
+    with pytest.raises(ValueError, match=r"^quantity must be one of \('displacement', "
+                                         r"'velocity', 'acceleration'\) or None, got "
+                                         r"'accelerance'$"):
+        read_uff(good, quantity="accelerance")
 
 
 def test_a_delimiter_is_minus_one_alone_on_its_line_or_followed_by_blanks_to_column_80():
