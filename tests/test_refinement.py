@@ -365,6 +365,53 @@ def test_bad_options_are_refused_by_name(kwargs, match):
         refine((chain.M, chain.C, chain.K), U, F, w, **kwargs)
 
 
+def test_every_bad_option_is_refused_with_its_whole_message():
+    """Each message of refine's checks, word for word (what a user reads to fix the
+    call), and the edges of what is accepted: max_iter = 1 and ftol just inside (0, 1)
+    run; max_iter = 0, True or 2.0 and ftol = 1 do not."""
+    chain, U, F, w = chain_data(n=6, p=1, lines=40)
+    start = (chain.M, chain.C, chain.K)
+    R = np.eye(6)[:, :5]
+    cases = [
+        ({"basis": np.eye(5)}, r"basis must be (n, m) with n = the measured DOFs of U "
+                               r"(s, n[, p]); got basis (5, 5) and U (40, 6, 1)"),
+        ({"measured": np.ones((6, 1), bool)},
+         "measured (a mask over the measured DOFs) needs basis="),
+        ({"max_iter": 0}, "max_iter must be a positive integer, got 0"),
+        ({"max_iter": True}, "max_iter must be a positive integer, got True"),
+        ({"max_iter": 2.0}, "max_iter must be a positive integer, got 2.0"),
+        ({"ftol": 1.0}, "ftol must lie in (0, 1), got 1.0"),
+        ({"progress": "yes"},
+         "progress must be a bool or a callable(iteration, cost), got 'yes'"),
+        ({"solver": "qr"}, "solver must be 'auto', 'dense' or 'matrix-free', got 'qr'"),
+        ({"metric": "euclid"}, "metric must be 'auto', 'diagonal' or 'modal', got 'euclid'"),
+        ({"metric": "modal", "solver": "dense"},
+         "metric='modal' is the matrix-free step's: give solver='auto' or 'matrix-free'"),
+        ({"objective": "phase"},
+         "objective must be 'complex' or 'log-magnitude', got 'phase'"),
+        ({"basis": R, "weights": np.where(np.arange(6) == 3, -1.0, 1.0)[:, None]
+          * np.ones((40, 6, 1))}, "weights must be non-negative and not all zero"),
+        ({"basis": R, "weights": np.zeros((40, 6))},
+         "weights must be non-negative and not all zero"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            refine(start, U, F, w, **kwargs)
+    with pytest.raises(ValueError, match=re.escape("F must have the shape of U (40, 6, 1), "
+                                                   "got (40, 6)")):
+        refine(start, U, F[:, :, 0], w, basis=np.eye(6))
+    with pytest.raises(ValueError, match=re.escape("the start model's C is (5, 5), the data "
+                                                   "have order m = 6")):
+        refine((chain.M, chain.C[:5, :5], chain.K), U, F, w)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        for kwargs in ({"max_iter": 1}, {"max_iter": np.int64(1)}, {"ftol": 1 - 1e-12},
+                       {"ftol": 1e-300, "max_iter": 1},
+                       {"basis": R, "max_iter": 1,  # an entry of weight 0 is left out
+                        "weights": (np.arange(6) != 3)[:, None] * np.ones((40, 6, 1))}):
+            refine(start, U, F, w, **kwargs)
+
+
 def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
     """ftol = 0 is outside (0, 1) and refused; a complex basis is refused by its name."""
     chain, U, F, w = chain_data(n=6, p=1)
