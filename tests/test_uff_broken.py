@@ -567,6 +567,36 @@ def test_a_field_of_the_wrong_type_is_refused_naming_the_file_and_record(
         read_uff(path)
 
 
+@pytest.mark.parametrize("change", ["x one line short", "both 2-D", "no abscissa type"])
+def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
+        tmp_path, monkeypatch, change):
+    """Behind the check of the file's text: record 2 returned with an abscissa one line
+    short, or with abscissa and ordinate as columns, is refused by name; a set without
+    an abscissa type (unknown, as 0) is read as frequency."""
+    path, _, _ = write_chain(tmp_path / "chain.uff")
+    expected = read_uff(path)
+    read = pyuff.UFF.read_sets
+
+    def changed(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58 and d.get("rsp_node") == 1 and d.get("ref_node") == 2:
+            if change == "x one line short":
+                d = dict(d, x=d["x"][:-1])
+            elif change == "both 2-D":
+                d = dict(d, x=d["x"][:, None], data=d["data"][:, None])
+            else:
+                d = {k: v for k, v in d.items() if k != "abscissa_spec_data_type"}
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
+    if change == "no abscissa type":
+        assert np.array_equal(read_uff(path).U, expected.U)
+        return
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: abscissa "
+                                         r"and ordinate must be 1-D of equal length >= 2$"):
+        read_uff(path)
+
+
 def test_records_of_no_frf_name_the_function_types_found(tmp_path):
     """Dataset 58 records that are no FRF (func_type 1, a time response; 2, an
     auto-spectrum): the message lists the types found, and a bad ``quantity`` is named."""
