@@ -9,6 +9,8 @@ binary 58 ordinates are exact doubles.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -122,6 +124,55 @@ def test_binary_58_is_exact_and_receptance_is_the_default(written, tmp_path):
     # every digit: the two products differ by round-off (7.6e-16); ASCII keeps 12 digits
     rel = np.abs(got[(4, 5)] - H[:, 3, 1]) / np.abs(H[:, 3, 1])
     assert rel.max() < 1e-14
+
+
+def test_every_bad_input_is_refused_with_its_whole_message(written, tmp_path):
+    """write_uff's messages word for word, and the edges of what it accepts: the first
+    and last measured DOF as inputs, two frequency lines, directions ±1 … ±3."""
+    _, data, result, R, _, _ = written
+    out = tmp_path / "x.uff"
+    w, dofs = data.omega, data.dofs
+    rot = np.c_[np.arange(1, 7), [3, 4, -4, 0, 5, 6]]
+    cases = [
+        ((result.M, R, data), {}, "model must be an IdentificationResult, got ndarray"),
+        ((result, R, {"U": data.U}), {}, "data must be a MeasuredData, got dict"),
+        ((result, R, data), {"dofs": dofs}, "give data, or dofs / inputs / omega, not both"),
+        ((result, R, data), {"inputs": [0]}, "give data, or dofs / inputs / omega, not both"),
+        ((result, R, data), {"omega": w}, "give data, or dofs / inputs / omega, not both"),
+        ((result, R), {}, "the model has no measured-DOF labelling: UFF output needs the "
+                          "(node, direction) label of each of the 6 basis rows (dofs=, or "
+                          "data=)"),
+        ((result, R), {"dofs": rot}, "DOF(s) [(2, 4), (3, -4), (4, 0)] are not translations "
+                                     "(direction 1-3): dataset 55 with complex shapes holds "
+                                     "X, Y, Z only"),
+        ((result, R), {"dofs": dofs, "inputs": [0]},
+         "the FRFs (dataset 58) need both inputs= and omega="),
+        ((result, R), {"dofs": dofs, "inputs": [0], "omega": w[:1]},
+         "omega must hold at least 2 strictly increasing frequency lines"),
+        ((result, R), {"dofs": dofs, "inputs": [0], "omega": w[[0, 2, 1]]},
+         "omega must hold at least 2 strictly increasing frequency lines"),
+        ((result, R), {"dofs": dofs, "inputs": [0], "omega": w[[0, 0, 1]]},
+         "omega must hold at least 2 strictly increasing frequency lines"),
+        ((result, R), {"dofs": dofs, "inputs": [6], "omega": w},
+         "inputs must index the 6 measured DOFs, got [6]"),
+        ((result, R), {"dofs": dofs, "inputs": [-1], "omega": w},
+         "inputs must index the 6 measured DOFs, got [-1]"),
+        ((result, R), {"dofs": dofs, "inputs": [0.5], "omega": w},
+         "inputs must index the 6 measured DOFs, got [0.5]"),
+        ((result, R), {"dofs": dofs, "inputs": [], "omega": w},
+         "inputs must index the 6 measured DOFs, got []"),
+        ((result, R, data), {"quantity": "accelerance"},
+         "quantity must be one of ('displacement', 'velocity', 'acceleration'), got "
+         "'accelerance'"),
+    ]
+    for args, kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            write_uff(out, *args, **kwargs)
+    assert not out.exists()
+    signed = np.c_[np.arange(1, 7), [1, -1, 2, -2, 3, -3]]
+    write_uff(out, result, R, dofs=signed, inputs=[0, 5], omega=w[:2])
+    kinds = pyuff.UFF(str(out)).get_set_types().tolist()
+    assert kinds.count(58) == 12 and 55 in kinds
 
 
 def test_modes_only_without_frequency_lines(written, tmp_path):
