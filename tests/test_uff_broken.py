@@ -567,12 +567,14 @@ def test_a_field_of_the_wrong_type_is_refused_naming_the_file_and_record(
         read_uff(path)
 
 
-@pytest.mark.parametrize("change", ["x one line short", "both 2-D", "no abscissa type"])
+@pytest.mark.parametrize("change", ["x one line short", "both 2-D", "no abscissa type",
+                                    "no denominator type", "a displacement denominator"])
 def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         tmp_path, monkeypatch, change):
     """Behind the check of the file's text: record 2 returned with an abscissa one line
-    short, or with abscissa and ordinate as columns, is refused by name; a set without
-    an abscissa type (unknown, as 0) is read as frequency."""
+    short, with abscissa and ordinate as columns, or over a displacement, is refused by
+    name; a set without an abscissa or denominator type (unknown, as 0) is read as
+    frequency over force."""
     path, _, _ = write_chain(tmp_path / "chain.uff")
     expected = read_uff(path)
     read = pyuff.UFF.read_sets
@@ -584,13 +586,24 @@ def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
                 d = dict(d, x=d["x"][:-1])
             elif change == "both 2-D":
                 d = dict(d, x=d["x"][:, None], data=d["data"][:, None])
+            elif change == "a displacement denominator":
+                d = dict(d, orddenom_spec_data_type=8)
             else:
-                d = {k: v for k, v in d.items() if k != "abscissa_spec_data_type"}
+                key = change.split()[1]  # "abscissa" or "denominator"
+                d = {k: v for k, v in d.items()
+                     if k != {"abscissa": "abscissa_spec_data_type",
+                              "denominator": "orddenom_spec_data_type"}[key]}
         return d
 
     monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
-    if change == "no abscissa type":
+    if change.startswith("no "):
         assert np.array_equal(read_uff(path).U, expected.U)
+        return
+    if change == "a displacement denominator":
+        with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: the "
+                                             r"denominator is not a force \(specific data "
+                                             r"type 13\)$"):
+            read_uff(path)
         return
     with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: abscissa "
                                          r"and ordinate must be 1-D of equal length >= 2$"):
