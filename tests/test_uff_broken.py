@@ -161,6 +161,20 @@ def test_a_missing_delimiter_quotes_the_stray_line_alone(beam_bytes):
         read_uff(path)
 
 
+def test_a_stray_line_that_is_not_ascii_is_quoted_with_replacement_characters(beam_bytes):
+    """A stray line in another encoding (Latin-1 'é') is quoted with U+FFFD for the
+    byte ASCII cannot read, not refused with a UnicodeDecodeError."""
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]
+    dataset_line = raw.index(b"\n", closing + 14) + 1
+    path = tmp / "latin1.uff"
+    path.write_bytes(raw[:closing + 7] + b"    58 caf\xe9\n" + raw[dataset_line:])
+    with pytest.raises(ValueError, match="after record 10 .*: line \\d+ \\('58 caf\ufffd'\\) "
+                                         "belongs to no record"):
+        read_uff(path)
+
+
 def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
     """Record 6 of dataset 58 holds the reference node in an I10 field (columns 67–76):
     a node number of all ten digits is named as it is."""
