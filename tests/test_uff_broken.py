@@ -24,6 +24,7 @@ of zeros, a constant channel, one exact zero). Asserted:
 
 from __future__ import annotations
 
+import re
 import struct
 import warnings
 
@@ -163,15 +164,18 @@ def test_a_missing_delimiter_quotes_the_stray_line_alone(beam_bytes):
 
 def test_a_stray_line_that_is_not_ascii_is_quoted_with_replacement_characters(beam_bytes):
     """A stray line in another encoding (Latin-1 'é') is quoted with U+FFFD for the
-    byte ASCII cannot read, not refused with a UnicodeDecodeError."""
+    byte ASCII cannot read, not refused with a UnicodeDecodeError; a long one is quoted
+    to its first 40 characters."""
     raw, tmp = beam_bytes
     tags = delimiters(raw)
     closing = tags[2 * 9 + 1]
     dataset_line = raw.index(b"\n", closing + 14) + 1
     path = tmp / "latin1.uff"
-    path.write_bytes(raw[:closing + 7] + b"    58 caf\xe9\n" + raw[dataset_line:])
-    with pytest.raises(ValueError, match="after record 10 .*: line \\d+ \\('58 caf\ufffd'\\) "
-                                         "belongs to no record"):
+    stray = b"    58 caf\xe9 " + b"0123456789" * 6
+    path.write_bytes(raw[:closing + 7] + stray + b"\n" + raw[dataset_line:])
+    quoted = ("58 caf\ufffd " + "0123456789" * 6)[:40]
+    with pytest.raises(ValueError, match=rf"after record 10 .*: line \d+ "
+                                         rf"\({re.escape(repr(quoted))}\) belongs to no record"):
         read_uff(path)
 
 
