@@ -297,7 +297,9 @@ def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
     path.write_bytes(raw.replace(line, b"", 1))
     with pytest.raises(ValueError, match=r"record 5 of the file \(dataset 58, response "
                                          r"3:-3 / reference 5:-3, from line \d+\) holds 2046 "
-                                         r"values where its header announces 1025 points"):
+                                         r"values where its header announces 1025 points "
+                                         r"\(2050 values\): the record is truncated or "
+                                         r"damaged$"):
         read_uff(path)
     # its header says 1024 points, its data hold 1025
     header = lines[8]
@@ -316,7 +318,19 @@ def test_a_binary_record_short_of_bytes_is_refused(tmp_path):
     path.write_bytes(raw[:closing - 16] + raw[closing:])
     with pytest.raises(ValueError, match=r"record 4 of the file \(dataset 58, response 2:3 / "
                                          r"reference 1:3, from line \d+\) holds 600 values "
-                                         r"where its header announces 301 points \(602"):
+                                         r"where its header announces 301 points \(602 "
+                                         r"values\): the record is truncated or damaged$"):
+        read_uff(path)
+
+
+def test_a_record_without_its_dataset_number_is_refused_by_name(tmp_path):
+    """The line after an opening delimiter must be the dataset number."""
+    path = tmp_path / "nameless.uff"
+    path.write_bytes(b"    -1\n  abc\n    -1\n")
+    with pytest.raises(ValueError, match=r"nameless\.uff: record 1 of the file \(dataset \?, "
+                                         r"from line 1\) has no dataset number after its "
+                                         r"opening '    -1': a delimiter is missing, or the "
+                                         r"record is damaged$"):
         read_uff(path)
 
 
