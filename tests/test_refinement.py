@@ -412,6 +412,43 @@ def test_every_bad_option_is_refused_with_its_whole_message():
             refine(start, U, F, w, **kwargs)
 
 
+def test_every_bad_weighting_is_refused_with_its_whole_message():
+    """The weights' messages word for word, for the complex objective on reduced data
+    and for the log-magnitude one, and the weights they accept: a single positive
+    line among zeros, (s, p), and per entry (s, n) for the log-magnitude objective."""
+    chain, U, F, w = chain_data(n=6, p=2, lines=40)
+    start = (chain.M, chain.C, chain.K)
+    one = np.zeros(40)
+    one[7] = 1.0
+    cases = [
+        ({"weights": "loud"}, "weights must be 'relative', 'uniform' or an array, got 'loud'"),
+        ({"weights": np.ones(7)}, "weights must have shape (s,) = (40,) or (s, p) = (40, 2) "
+                                  "for reduced data (per-entry weights need basis=), got (7,)"),
+        ({"weights": np.r_[-0.5, np.ones(39)]}, "weights must be non-negative (found -0.5)"),
+        ({"weights": np.zeros((40, 2))}, "weights are all zero: there is nothing to fit"),
+        ({"objective": "log-magnitude", "weights": "loud"},
+         "weights must be 'relative', 'uniform' or an array, got 'loud'"),
+        ({"objective": "log-magnitude", "weights": np.ones((40, 3))},
+         "weights for the log-magnitude objective must be (s,), (s, p) or per entry (s, n) / "
+         "(s, n, p) with n = 6 entries, got (40, 3)"),
+        ({"objective": "log-magnitude", "weights": np.r_[-2.0, np.ones(39)]},
+         "weights must be non-negative (found -2)"),
+        ({"objective": "log-magnitude", "weights": np.zeros((40, 6))},
+         "no weighted entry with a non-zero response: there is nothing to fit"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            refine(start, U, F, w, **kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        for kwargs in ({"weights": one}, {"weights": np.ones((40, 2))},
+                       {"objective": "log-magnitude", "weights": one},
+                       {"objective": "log-magnitude", "weights": np.ones((40, 2))},
+                       {"objective": "log-magnitude", "weights": np.ones((40, 6))},
+                       {"objective": "log-magnitude", "weights": np.ones((40, 6, 2))}):
+            refine(start, U, F, w, max_iter=1, **kwargs)
+
+
 def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
     """ftol = 0 is outside (0, 1) and refused; a complex basis is refused by its name."""
     chain, U, F, w = chain_data(n=6, p=1)
