@@ -445,7 +445,9 @@ def test_every_bad_weighting_is_refused_with_its_whole_message():
                        {"objective": "log-magnitude", "weights": one},
                        {"objective": "log-magnitude", "weights": np.ones((40, 2))},
                        {"objective": "log-magnitude", "weights": np.ones((40, 6))},
-                       {"objective": "log-magnitude", "weights": np.ones((40, 6, 2))}):
+                       {"objective": "log-magnitude", "weights": np.ones((40, 6, 2))},
+                       {"objective": "log-magnitude", "weights": "uniform"},
+                       {"objective": "log-magnitude", "weights": "relative"}):
             refine(start, U, F, w, max_iter=1, **kwargs)
 
 
