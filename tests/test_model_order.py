@@ -9,6 +9,7 @@ the held-out lines; the final fit on every line is no worse than the held-out fi
 
 from __future__ import annotations
 
+import re
 import types
 
 import numpy as np
@@ -159,6 +160,31 @@ def test_bad_options_are_refused(chain_frf, kwargs, match):
     _, U_n, F_n, w, P = chain_frf
     with pytest.raises(ValueError, match=match):
         sweep_orders(U_n, F_n, w, P, **kwargs)
+
+
+def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_frf):
+    """m = 0 and m one past the limit of the data's equations, word for word: the limit,
+    the observed and latent coordinates, the free parameters against the real
+    equations of the fitted lines; holdout = 1 named with its rule."""
+    from podid_rs.identification.latent import free_parameters
+    from podid_rs.identification.order import HOLDOUT, order_limit
+
+    _, U_n, F_n, w, P = chain_frf
+    s = w.size
+    fitted = s - len(range(HOLDOUT // 2, s, HOLDOUT))
+    limit = order_limit(fitted, 8, 1, 8)
+    with pytest.raises(ValueError, match=rf"^m must be in \[1, {limit}\], got 0$"):
+        sweep_orders(U_n, F_n, w, P, m=0)
+    m = limit + 1
+    with pytest.raises(ValueError, match=re.escape(
+            f"m must be in [1, {limit}]: an order-{m} model with 8 observed (POD) and "
+            f"{m - 8} latent coordinates has {free_parameters(m, 8)} free parameters, more "
+            f"than the {2 * fitted * 8} real equations of the {fitted} fitted lines × 8 "
+            f"measured DOF(s) × 1 load case(s), got m = {m}")):
+        sweep_orders(U_n, F_n, w, P, m=m)
+    with pytest.raises(ValueError, match=r"^holdout must be at least 2 \(every holdout-th "
+                                         r"line is left out\), got 1$"):
+        sweep_orders(U_n, F_n, w, P, holdout=1)
 
 
 def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):
