@@ -185,6 +185,12 @@ def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_
     with pytest.raises(ValueError, match=r"^holdout must be at least 2 \(every holdout-th "
                                          r"line is left out\), got 1$"):
         sweep_orders(U_n, F_n, w, P, holdout=1)
+    # both edges are accepted: on four lines (three fitted) the limit is a small order
+    few = slice(0, 4 * 26, 26)
+    limit = order_limit(3, 8, 1, 8)
+    for m in (1, limit):
+        sweep = sweep_orders(U_n[few], F_n[few], w[few], P, m=m, max_iter=5)
+        assert sweep.chosen == m and sweep.reason == f"m = {m} as asked"
 
 
 def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):
