@@ -492,6 +492,20 @@ def test_a_record_in_other_units_is_left_out_and_named(tmp_path):
     assert any("other units" in note for note in data.notes)
 
 
+def test_two_records_in_two_other_units_are_named_in_one_whole_message(tmp_path):
+    """Records 2 and 6 in mm and in: one warning names both, in file order, and says
+    what to do; the note is the same text after the file's name."""
+    labels = ["m"] * 9
+    labels[1], labels[5] = "in", "mm"  # 1:3 / 2:3 and 2:3 / 3:3 (each measured twice)
+    path = write_labelled(tmp_path / "units2.uff", labels)
+    text = ("FRF record(s) 2 (response 1:3 / reference 2:3, 'in/n'), 6 (response 2:3 / "
+            "reference 3:3, 'mm/n') are in other units than the 7 other displacement "
+            "records ('m/n'): left out as not measured (convert them to include them)")
+    with pytest.warns(DataWarning, match=f"^{re.escape(f'{path}: {text}')}$"):
+        data = read_uff(path)
+    assert f"units2.uff: {text}" in data.notes
+
+
 def test_labels_that_differ_in_spelling_only_agree(tmp_path):
     labels = ["m"] * 4 + ["M"] * 3 + [" m "] * 2
     path = write_labelled(tmp_path / "spelling.uff", labels)
