@@ -218,7 +218,9 @@ def test_a_file_cut_in_a_records_header_names_what_it_holds(tmp_path, lines_kept
     held = {0: "dataset \\?", 1: "dataset 58", 6: "dataset 58",
             7: "dataset 58, response 1234567890:3 / reference 2:-2"}[lines_kept]
     with pytest.raises(ValueError, match=rf"cut\.uff: record 2 of the file \({held}, from "
-                                         rf"line {line}\) has no closing '    -1'"):
+                                         rf"line {line}\) has no closing '    -1': the file "
+                                         r"ends inside it \(cut off\?\) or its closing "
+                                         r"delimiter is missing$"):
         read_uff(path)
 
 
@@ -331,6 +333,16 @@ def test_a_record_without_its_dataset_number_is_refused_by_name(tmp_path):
                                          r"from line 1\) has no dataset number after its "
                                          r"opening '    -1': a delimiter is missing, or the "
                                          r"record is damaged$"):
+        read_uff(path)
+    # a record of one line, its delimiter padded to column 80 and closed on the same line
+    path.write_bytes(b"    -1" + b" " * 74 + b"    -1\n")
+    with pytest.raises(ValueError, match=r"nameless\.uff: record 1 of the file \(dataset \?, "
+                                         r"from line 1\) has no dataset number after"):
+        read_uff(path)
+    # a record of its dataset number alone is left to pyuff, which cannot read it either
+    path.write_bytes(b"    -1\n    58    -1\n")
+    with pytest.raises(ValueError, match=r"nameless\.uff: could not read dataset 58: record 1 "
+                                         r"of the file \(dataset 58, from line 1\)"):
         read_uff(path)
 
 
