@@ -90,6 +90,36 @@ def test_dataset_55_matches_the_modal_table_and_the_shapes(written):
     assert np.allclose(back.eigenvalues, modes.eigenvalues, rtol=1e-5)
 
 
+def test_the_written_records_say_what_they_hold_in_their_text_fields(written, tmp_path):
+    """The lines another program shows: each mode's name, number, frequency and damping
+    and what its numbers are (dataset 55); each FRF's entry and origin (dataset 58),
+    its abscissa in Hz and evenly spaced; a name cut to the 80 columns of a line."""
+    _, data, result, R, _, sets = written
+    rows = modal_table(result)
+    s55 = [d for d in sets if d["type"] == 55]
+    for d, row in zip(s55, rows, strict=True):
+        assert d["id1"] == f"podid_rs: identified mode {row['mode']}"
+        f, zeta = abs(d["eig"]) / (2 * np.pi), -d["eig"].real / abs(d["eig"])
+        assert d["id2"].startswith("f = ") and ", zeta = " in d["id2"]
+        f_text, z_text = d["id2"][len("f = "):].split(" Hz, zeta = ")
+        assert abs(float(f_text) / f - 1) < 1e-5 and abs(float(z_text) / zeta - 1) < 1e-4
+        assert (d["id3"], d["id5"]) == ("NONE", "NONE")
+        assert d["id4"] == "complex eigenvalue in rad/s; shape scaled to largest entry 1"
+        assert (d["model_type"], d["data_type"], d["n_data_per_node"], d["load_case"]) == \
+            (1, 5, 3, 1)
+    s58 = [d for d in sets if d["type"] == 58]
+    for d in s58:
+        assert d["id2"] == f"H({d['rsp_node']}:3, {d['ref_node']}:3) podid_rs, identified"
+        assert (d["id4"], d["id5"]) == ("NONE", "NONE")
+        assert d["abscissa_spacing"] == 1 and d["abscissa_spec_data_type"] == 18
+    long = write_uff(tmp_path / "long.uff", result, R, data, name="x" * 100)
+    assert max(len(line) for line in long.read_bytes().split(b"\n")) == 80
+    back = pyuff.UFF(str(long)).read_sets()
+    assert {d["id1"] for d in back if d["type"] == 55} == {"x" * 80}
+    assert {d["id2"] for d in back if d["type"] == 58} == {
+        (f"H({n}:3, {r}:3) " + "x" * 100)[:80] for n in range(1, 7) for r in (2, 5)}
+
+
 def test_dataset_58_holds_the_identified_accelerances(written):
     _, data, result, R, path, sets = written
     H = identified_frf(result, R, data) * -(data.omega**2)[:, None, None]
