@@ -312,6 +312,35 @@ def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
         read_uff(path)
 
 
+def test_a_complex_single_precision_record_is_counted_two_values_a_point(tmp_path):
+    """Ordinate type 5 (complex, single precision; pyuff writes only double): six fields
+    of 13 columns a line, two values a point. Record 1 rewritten so is read, to the six
+    digits of E13.5; one value short, it is refused with both counts."""
+    path, _, H = write_chain(tmp_path / "chain.uff")
+    raw = path.read_bytes()
+    start, end = delimiters(raw)[:2]
+    lines = raw[start:end].split(b"\n")
+    values = [float(v) for line in lines[13:] for v in line.split()]
+    assert lines[8][:20] == b"         6       301"
+    header = [*lines[:8], b"         5" + lines[8][10:], *lines[9:13]]
+
+    def single(values):
+        fields = [b"%13.5e" % v for v in values]
+        return [b"".join(fields[i:i + 6]) for i in range(0, len(fields), 6)]
+
+    for kept, ok in ((values, True), (values[:-1], False)):
+        record = b"\n".join([*header, *single(kept)]) + b"\n"
+        path.write_bytes(raw[:start] + record + raw[end:])
+        if ok:
+            data = read_uff(path)
+            assert np.max(np.abs(data.U - H[1:]) / np.abs(H[1:]).max()) < 1e-5
+        else:
+            with pytest.raises(ValueError, match=r"record 1 of the file .* holds 601 values "
+                                                 r"where its header announces 301 points "
+                                                 r"\(602 values\)"):
+                read_uff(path)
+
+
 def test_a_binary_record_short_of_bytes_is_refused(tmp_path):
     path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
     raw = path.read_bytes()
