@@ -341,6 +341,33 @@ def test_a_complex_single_precision_record_is_counted_two_values_a_point(tmp_pat
                 read_uff(path)
 
 
+@pytest.mark.parametrize("ordinate", [5, 2])
+def test_a_binary_single_precision_record_is_counted_four_bytes_a_value(tmp_path, ordinate):
+    """Binary ordinate type 5 (complex, single precision) or 2 (real, single: the real
+    part kept): 4 bytes a value. Record 1 rewritten so is read to single precision;
+    4 bytes short, it is refused."""
+    path, _, H = write_chain(tmp_path / "bin.uff", binary=True)
+    raw = path.read_bytes()
+    start, end = delimiters(raw)[:2]
+    lines = raw[start:end].split(b"\n", 13)
+    assert lines[8][:20] == b"         6       301"
+    header = [*lines[:8], b"%10d" % ordinate + lines[8][10:], *lines[9:13]]
+    values = np.frombuffer(lines[13], dtype="<f8").astype("<f4")
+    values = (values if ordinate == 5 else values[::2]).tobytes()
+    count = 602 if ordinate == 5 else 301
+    for body, ok in ((values, True), (values[:-4], False)):
+        path.write_bytes(raw[:start] + b"\n".join([*header, body]) + raw[end:])
+        if ok:
+            data = read_uff(path)
+            want = H[1:, 0, 0] if ordinate == 5 else H[1:, 0, 0].real
+            assert np.max(np.abs(data.U[:, 0, 0] - want)) < 1e-6 * np.abs(want).max()
+        else:
+            with pytest.raises(ValueError, match=rf"record 1 of the file .* holds {count - 1} "
+                                                 rf"values where its header announces 301 "
+                                                 rf"points \({count} values\)"):
+                read_uff(path)
+
+
 def test_a_binary_record_short_of_bytes_is_refused(tmp_path):
     path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
     raw = path.read_bytes()
