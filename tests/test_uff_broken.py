@@ -403,17 +403,18 @@ def test_a_record_without_its_dataset_number_is_refused_by_name(tmp_path):
 
 
 def test_bytes_after_a_binary_records_values_are_counted_unless_line_ends(tmp_path):
-    """Binary record 4 with 16 bytes of zeros after its values: two values more than its
-    header announces, refused by the count; with line ends there instead, the count
+    """Binary record 4 with 16 bytes (zeros, letters, blanks) after its values: two values
+    more than its header announces, refused by the count; with line ends there, the count
     lets it pass (a line end may close the values) and what pyuff returns is refused."""
     path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
     raw = path.read_bytes()
     closing = delimiters(raw)[2 * 3 + 1]
-    path.write_bytes(raw[:closing] + b"\0" * 16 + raw[closing:])
-    with pytest.raises(ValueError, match=r"record 4 of the file \(dataset 58, response 2:3 / "
-                                         r"reference 1:3, from line \d+\) holds 604 values "
-                                         r"where its header announces 301 points"):
-        read_uff(path)
+    for extra in (b"\0" * 16, b"X" * 16, b" " * 16):  # not line ends: counted
+        path.write_bytes(raw[:closing] + extra + raw[closing:])
+        with pytest.raises(ValueError, match=r"record 4 of the file \(dataset 58, response "
+                                             r"2:3 / reference 1:3, from line \d+\) holds 604 "
+                                             r"values where its header announces 301 points"):
+            read_uff(path)
     path.write_bytes(raw[:closing] + b"\n" * 8 + raw[closing:])
     with pytest.raises(ValueError, match=r"FRF record 4: abscissa and ordinate must be 1-D"):
         read_uff(path)
