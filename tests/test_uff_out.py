@@ -203,6 +203,11 @@ def test_every_bad_input_is_refused_with_its_whole_message(written, tmp_path):
     write_uff(out, result, R, dofs=signed, inputs=[0, 5], omega=w[:2])
     kinds = pyuff.UFF(str(out)).get_set_types().tolist()
     assert kinds.count(58) == 12 and 55 in kinds
+    # every direction's component is written, with its sign: X, Y and Z read back
+    back = read_uff_modes(out)
+    modes = pr.mode_shapes(result, R, signed)
+    assert back.dofs.tolist() == np.abs(signed).tolist()
+    assert np.max(np.abs(back.shapes - np.sign(signed[:, 1:]) * modes.shapes)) < 1e-5
 
 
 def test_modes_only_without_frequency_lines(written, tmp_path):
