@@ -547,6 +547,34 @@ def test_any_start_on_any_data_gives_a_physical_stable_model_or_a_named_error(
         assert np.array_equal(a, b)
 
 
+def test_per_entry_weights_with_holes_weigh_nothing_there():
+    """Per-entry weights and a mask of measured entries: the holes weigh nothing,
+    whatever the weights and the data say there — the same fit as weights of 0 at the
+    holes on data that are 0 there."""
+    chain = pr.mass_spring_chain(8)
+    w = 2 * np.pi * np.linspace(5.0, 120.0, 150)
+    rng = np.random.default_rng(3)
+    F_n = np.zeros((w.size, 8, 2), dtype=complex)
+    F_n[:, 2, 0] = F_n[:, 5, 1] = 1.0
+    U_n = chain.response(w, F_n) * (1 + 0.01 * rng.standard_normal((w.size, 8, 2)))
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    start = pr.identify(*(np.einsum("nm,snp->smp", R, X) for X in (U_n, F_n)), w,
+                        symmetric=True)
+    mask = np.ones((8, 2), dtype=bool)
+    mask[1, 0] = mask[6, 1] = False
+    W = 1 + rng.random(U_n.shape)
+    W[:, 6, 1] = 0.0  # a hole whose weight is 0 already
+    garbage = np.where(mask, U_n, 1e3)  # what the holes hold never enters
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        holes = refine(start, garbage, F_n, w, basis=R, weights=W, measured=mask, max_iter=20)
+        zero = refine(start, np.where(mask, U_n, 0), F_n, w, basis=R, weights=W * mask,
+                      max_iter=20)
+    for k in "MCK":
+        assert rel(getattr(holes, k), getattr(zero, k)) < 1e-12
+
+
 def test_per_entry_weights_of_any_size_give_the_weighted_output_error():
     # weights over six orders of magnitude, and lines where fewer entries than the order
     # carry weight (their reduced metric RᵀW²R is singular): the reported cost is still
