@@ -38,10 +38,12 @@ ln -sfn "$repo/tests" "$stage/tests"
 ln -sfn "$repo/pyproject.toml" "$stage/pyproject.toml"
 cd "$stage"
 # mutmut copies each file of src/ into mutants/src/ once and refreshes only the Python
-# ones: bring the compiled core along every time (maturin develop rebuilds it)
+# ones: bring the compiled core and its stub along every time (maturin develop rebuilds
+# the core; a stale stub fails test_core_stub.py in the mapping run, which then stops)
 if [[ -d mutants/src/podid_rs ]]; then
     rm -f mutants/src/podid_rs/_core*.so
-    cp -p "$repo"/python/podid_rs/_core*.so mutants/src/podid_rs/
+    cp -p "$repo"/python/podid_rs/_core*.so "$repo"/python/podid_rs/_core.pyi \
+        mutants/src/podid_rs/
 fi
 # one BLAS thread per mutant worker; the machine is shared, so run at the lowest priority
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 RAYON_NUM_THREADS=1

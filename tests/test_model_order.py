@@ -9,6 +9,7 @@ the held-out lines; the final fit on every line is no worse than the held-out fi
 
 from __future__ import annotations
 
+import re
 import types
 
 import numpy as np
@@ -76,6 +77,50 @@ def test_two_lines_are_too_few_to_hold_one_out_and_fit_two(chain_frf, holdout):
         sweep_orders(U_n[:2], F_n[:2], w[:2], P, holdout=holdout)
 
 
+def test_an_order_no_start_of_which_can_be_fitted_ends_the_sweep_and_is_named(
+        chain_frf, monkeypatch):
+    """Every start of order 3 refused (as one with a pole on a line is): the sweep ends
+    at order 2 and says why — asked for m = 4 and left free alike; no order at all is
+    refused with its own message."""
+    from podid_rs.identification import order
+
+    _, U_n, F_n, w, P = chain_frf
+    refine_quietly = order._refine_quietly
+
+    def refused_from(limit):
+        def refine(start, *args, **kwargs):
+            if np.shape(start[0] if isinstance(start, tuple) else start.M)[0] >= limit:
+                raise ValueError("a pole on a measured line")
+            return refine_quietly(start, *args, **kwargs)
+        return refine
+
+    monkeypatch.setattr(order, "_refine_quietly", refused_from(3))
+    asked = sweep_orders(U_n, F_n, w, P, m=4, max_iter=30)
+    assert [f.m for f in asked.fits] == [1, 2] and asked.chosen == 2
+    assert asked.reason == ("m = 2: order 3 could not be started (m = 4 was asked; the model "
+                            "of order 2 leaves no residual a new degree of freedom can fit)")
+    free = sweep_orders(U_n, F_n, w, P, max_iter=30)
+    assert [f.m for f in free.fits] == [1, 2]
+    assert free.reason.endswith("; order 3 could not be started (no start of it could be "
+                                "fitted)")
+    monkeypatch.setattr(order, "_refine_quietly", refused_from(1))
+    with pytest.raises(ValueError, match=r"^no order could be fitted: the data give no "
+                                         r"physical start$"):
+        sweep_orders(U_n, F_n, w, P, max_iter=30)
+    # a refused start is passed over, not the end of its order's trials
+    tried = []
+
+    def first_refused(start, *args, **kwargs):
+        size = np.shape(start[0] if isinstance(start, tuple) else start.M)[0]
+        tried.append(size)
+        if size >= 2 and tried.count(size) == 1:
+            raise ValueError("a pole on a measured line")
+        return refine_quietly(start, *args, **kwargs)
+
+    monkeypatch.setattr(order, "_refine_quietly", first_refused)
+    assert [f.m for f in sweep_orders(U_n, F_n, w, P, m=3, max_iter=30).fits] == [1, 2, 3]
+
+
 def test_a_given_order_is_reached_by_continuation(chain_frf):
     chain, U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=8)
@@ -115,6 +160,37 @@ def test_bad_options_are_refused(chain_frf, kwargs, match):
     _, U_n, F_n, w, P = chain_frf
     with pytest.raises(ValueError, match=match):
         sweep_orders(U_n, F_n, w, P, **kwargs)
+
+
+def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_frf):
+    """m = 0 and m one past the limit of the data's equations, word for word: the limit,
+    the observed and latent coordinates, the free parameters against the real
+    equations of the fitted lines; holdout = 1 named with its rule."""
+    from podid_rs.identification.latent import free_parameters
+    from podid_rs.identification.order import HOLDOUT, order_limit
+
+    _, U_n, F_n, w, P = chain_frf
+    s = w.size
+    fitted = s - len(range(HOLDOUT // 2, s, HOLDOUT))
+    limit = order_limit(fitted, 8, 1, 8)
+    with pytest.raises(ValueError, match=rf"^m must be in \[1, {limit}\], got 0$"):
+        sweep_orders(U_n, F_n, w, P, m=0)
+    m = limit + 1
+    with pytest.raises(ValueError, match=re.escape(
+            f"m must be in [1, {limit}]: an order-{m} model with 8 observed (POD) and "
+            f"{m - 8} latent coordinates has {free_parameters(m, 8)} free parameters, more "
+            f"than the {2 * fitted * 8} real equations of the {fitted} fitted lines × 8 "
+            f"measured DOF(s) × 1 load case(s), got m = {m}")):
+        sweep_orders(U_n, F_n, w, P, m=m)
+    with pytest.raises(ValueError, match=r"^holdout must be at least 2 \(every holdout-th "
+                                         r"line is left out\), got 1$"):
+        sweep_orders(U_n, F_n, w, P, holdout=1)
+    # both edges are accepted: on four lines (three fitted) the limit is a small order
+    few = slice(0, 4 * 26, 26)
+    limit = order_limit(3, 8, 1, 8)
+    for m in (1, limit):
+        sweep = sweep_orders(U_n[few], F_n[few], w[few], P, m=m, max_iter=5)
+        assert sweep.chosen == m and sweep.reason == f"m = {m} as asked"
 
 
 def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):

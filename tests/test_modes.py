@@ -217,6 +217,18 @@ def test_mode_kinds_tell_resonances_from_the_fits_other_poles():
     assert band.mode_numbers.tolist() == [1, 2, 3, 4]
     assert band.select(np.array([False, True, False, True])).mode_numbers.tolist() == [2, 4]
 
+def test_a_half_power_band_that_ends_exactly_at_the_bands_edge_is_in_the_band():
+    """Lines at 10 … 200 rad/s. Poles whose half-power band Im λ ± |Re λ| ends exactly at
+    10 or at 200 rad/s (both flanks within the lines) are structural; a tenth of a rad/s
+    further out they show one flank only and are residual."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(10.0, 201.0)
+    lam = np.array([-0.5 + 10.5j, -0.5 + 199.5j, -0.5 + 10.4j, -0.5 + 199.6j])
+    shapes = ModeShapes(eigenvalues=lam, shapes=np.ones((1, 4)), modal_a=None)
+    assert list(mode_kinds(shapes, w)) == ["structural", "structural", "residual", "residual"]
+
+
 def test_a_pole_midway_between_two_lines_is_judged_on_the_lower_third_line():
     """Lines at 1, 2, …, 200 rad/s and a lightly damped pole at exactly 10.5 rad/s: its
     two nearest lines tie (10 and 11), and so do the next two (9 and 12); it is judged on

@@ -365,6 +365,92 @@ def test_bad_options_are_refused_by_name(kwargs, match):
         refine((chain.M, chain.C, chain.K), U, F, w, **kwargs)
 
 
+def test_every_bad_option_is_refused_with_its_whole_message():
+    """Each message of refine's checks, word for word (what a user reads to fix the
+    call), and the edges of what is accepted: max_iter = 1 and ftol just inside (0, 1)
+    run; max_iter = 0, True or 2.0 and ftol = 1 do not."""
+    chain, U, F, w = chain_data(n=6, p=1, lines=40)
+    start = (chain.M, chain.C, chain.K)
+    R = np.eye(6)[:, :5]
+    cases = [
+        ({"basis": np.eye(5)}, r"basis must be (n, m) with n = the measured DOFs of U "
+                               r"(s, n[, p]); got basis (5, 5) and U (40, 6, 1)"),
+        ({"measured": np.ones((6, 1), bool)},
+         "measured (a mask over the measured DOFs) needs basis="),
+        ({"max_iter": 0}, "max_iter must be a positive integer, got 0"),
+        ({"max_iter": True}, "max_iter must be a positive integer, got True"),
+        ({"max_iter": 2.0}, "max_iter must be a positive integer, got 2.0"),
+        ({"ftol": 1.0}, "ftol must lie in (0, 1), got 1.0"),
+        ({"progress": "yes"},
+         "progress must be a bool or a callable(iteration, cost), got 'yes'"),
+        ({"solver": "qr"}, "solver must be 'auto', 'dense' or 'matrix-free', got 'qr'"),
+        ({"metric": "euclid"}, "metric must be 'auto', 'diagonal' or 'modal', got 'euclid'"),
+        ({"metric": "modal", "solver": "dense"},
+         "metric='modal' is the matrix-free step's: give solver='auto' or 'matrix-free'"),
+        ({"objective": "phase"},
+         "objective must be 'complex' or 'log-magnitude', got 'phase'"),
+        ({"basis": R, "weights": np.where(np.arange(6) == 3, -1.0, 1.0)[:, None]
+          * np.ones((40, 6, 1))}, "weights must be non-negative and not all zero"),
+        ({"basis": R, "weights": np.zeros((40, 6))},
+         "weights must be non-negative and not all zero"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            refine(start, U, F, w, **kwargs)
+    with pytest.raises(ValueError, match=re.escape("F must have the shape of U (40, 6, 1), "
+                                                   "got (40, 6)")):
+        refine(start, U, F[:, :, 0], w, basis=np.eye(6))
+    with pytest.raises(ValueError, match=re.escape("the start model's C is (5, 5), the data "
+                                                   "have order m = 6")):
+        refine((chain.M, chain.C[:5, :5], chain.K), U, F, w)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        for kwargs in ({"max_iter": 1}, {"max_iter": np.int64(1)}, {"ftol": 1 - 1e-12},
+                       {"ftol": 1e-300, "max_iter": 1},
+                       {"basis": R, "max_iter": 1,  # an entry of weight 0 is left out
+                        "weights": (np.arange(6) != 3)[:, None] * np.ones((40, 6, 1))}):
+            refine(start, U, F, w, **kwargs)
+
+
+def test_every_bad_weighting_is_refused_with_its_whole_message():
+    """The weights' messages word for word, for the complex objective on reduced data
+    and for the log-magnitude one, and the weights they accept: a single positive
+    line among zeros, (s, p), and per entry (s, n) for the log-magnitude objective."""
+    chain, U, F, w = chain_data(n=6, p=2, lines=40)
+    start = (chain.M, chain.C, chain.K)
+    one = np.zeros(40)
+    one[7] = 1.0
+    cases = [
+        ({"weights": "loud"}, "weights must be 'relative', 'uniform' or an array, got 'loud'"),
+        ({"weights": np.ones(7)}, "weights must have shape (s,) = (40,) or (s, p) = (40, 2) "
+                                  "for reduced data (per-entry weights need basis=), got (7,)"),
+        ({"weights": np.r_[-0.5, np.ones(39)]}, "weights must be non-negative (found -0.5)"),
+        ({"weights": np.zeros((40, 2))}, "weights are all zero: there is nothing to fit"),
+        ({"objective": "log-magnitude", "weights": "loud"},
+         "weights must be 'relative', 'uniform' or an array, got 'loud'"),
+        ({"objective": "log-magnitude", "weights": np.ones((40, 3))},
+         "weights for the log-magnitude objective must be (s,), (s, p) or per entry (s, n) / "
+         "(s, n, p) with n = 6 entries, got (40, 3)"),
+        ({"objective": "log-magnitude", "weights": np.r_[-2.0, np.ones(39)]},
+         "weights must be non-negative (found -2)"),
+        ({"objective": "log-magnitude", "weights": np.zeros((40, 6))},
+         "no weighted entry with a non-zero response: there is nothing to fit"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            refine(start, U, F, w, **kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        for kwargs in ({"weights": one}, {"weights": np.ones((40, 2))},
+                       {"objective": "log-magnitude", "weights": one},
+                       {"objective": "log-magnitude", "weights": np.ones((40, 2))},
+                       {"objective": "log-magnitude", "weights": np.ones((40, 6))},
+                       {"objective": "log-magnitude", "weights": np.ones((40, 6, 2))},
+                       {"objective": "log-magnitude", "weights": "uniform"},
+                       {"objective": "log-magnitude", "weights": "relative"}):
+            refine(start, U, F, w, max_iter=1, **kwargs)
+
+
 def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
     """ftol = 0 is outside (0, 1) and refused; a complex basis is refused by its name."""
     chain, U, F, w = chain_data(n=6, p=1)
@@ -478,6 +564,34 @@ def test_any_start_on_any_data_gives_a_physical_stable_model_or_a_named_error(
         assert_physical(model)
     for a, b in zip((U, F, w, *start), copies, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_per_entry_weights_with_holes_weigh_nothing_there():
+    """Per-entry weights and a mask of measured entries: the holes weigh nothing,
+    whatever the weights and the data say there — the same fit as weights of 0 at the
+    holes on data that are 0 there."""
+    chain = pr.mass_spring_chain(8)
+    w = 2 * np.pi * np.linspace(5.0, 120.0, 150)
+    rng = np.random.default_rng(3)
+    F_n = np.zeros((w.size, 8, 2), dtype=complex)
+    F_n[:, 2, 0] = F_n[:, 5, 1] = 1.0
+    U_n = chain.response(w, F_n) * (1 + 0.01 * rng.standard_normal((w.size, 8, 2)))
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    start = pr.identify(*(np.einsum("nm,snp->smp", R, X) for X in (U_n, F_n)), w,
+                        symmetric=True)
+    mask = np.ones((8, 2), dtype=bool)
+    mask[1, 0] = mask[6, 1] = False
+    W = 1 + rng.random(U_n.shape)
+    W[:, 6, 1] = 0.0  # a hole whose weight is 0 already
+    garbage = np.where(mask, U_n, 1e3)  # what the holes hold never enters
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        holes = refine(start, garbage, F_n, w, basis=R, weights=W, measured=mask, max_iter=20)
+        zero = refine(start, np.where(mask, U_n, 0), F_n, w, basis=R, weights=W * mask,
+                      max_iter=20)
+    for k in "MCK":
+        assert rel(getattr(holes, k), getattr(zero, k)) < 1e-12
 
 
 def test_per_entry_weights_of_any_size_give_the_weighted_output_error():

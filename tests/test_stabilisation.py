@@ -8,6 +8,7 @@ must recover the chain (frequencies to 1e-7, as in test_cli_identify).
 from __future__ import annotations
 
 import csv
+import re
 import warnings
 
 import numpy as np
@@ -123,6 +124,44 @@ def test_bad_input_is_named(chain_data):
     for name in ("f_tol", "zeta_tol"):
         with pytest.raises(ValueError, match=rf"^{name} must be a positive number, got 0$"):
             stabilisation_chart(data, 2, progress=False, **{name: 0})
+
+
+def test_every_bad_input_is_refused_with_its_whole_message(chain_data):
+    """Each of stabilisation_chart's messages word for word, and the edges: m_max up to
+    the data's DOFs without a fit and beyond them with one; m_min = m_max and
+    chosen_m = 1 accepted; a fit's MemoryError keeps its type and gains the order."""
+    _, data = chain_data
+    diagonal = lambda m: model_with_modes(10.0 * np.arange(1, m + 1), 0.01)  # noqa: E731
+    cases = [
+        ((data.U, 2), {}, "data must be a MeasuredData, got ndarray"),
+        ((data, 2), {"m_min": 0}, "m_min must be >= 1, got 0"),
+        ((data, 2), {"m_min": 1.0}, "m_min must be an integer, got 1.0"),
+        ((data, 7), {}, "m_max must be in [1, 6], got 7"),
+        ((data, 2), {"m_min": 3}, "m_max must be in [3, 6], got 2"),
+        ((data, 2), {"f_tol": -0.1}, "f_tol must be a positive number, got -0.1"),
+        ((data, 2), {"zeta_tol": "x"}, "zeta_tol must be a numeric array"),
+        ((data, 2), {"chosen_m": 0}, "chosen_m must be >= 1, got 0"),
+        ((data, 2), {"chosen_m": True}, "chosen_m must be an integer, got True"),
+        ((data, 2), {"fit": "lscf"},
+         "fit must be a callable fit(m) -> IdentificationResult, got 'lscf'"),
+        ((data, 2), {"fit": lambda m: diagonal(m + 1)},
+         "fit(1) must return an IdentificationResult of order 1, got IdentificationResult"),
+        ((data, 2), {"fit": lambda m: "a model"},
+         "fit(1) must return an IdentificationResult of order 1, got 'a model'"),
+    ]
+    for args, kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}"):
+            stabilisation_chart(*args, progress=False, **kwargs)
+
+    def out_of_memory(m: int) -> IdentificationResult:
+        raise MemoryError("the normal matrix needs 9 GB")
+
+    with pytest.raises(MemoryError, match=r"^stabilisation chart, order m = 2: the normal "
+                                          r"matrix needs 9 GB$"):
+        stabilisation_chart(data, 3, m_min=2, fit=out_of_memory, progress=False)
+    assert [o.m for o in stabilisation_chart(data, 6, m_min=6, progress=False).orders] == [6]
+    chart = stabilisation_chart(data, 8, m_min=7, fit=diagonal, progress=False, chosen_m=1)
+    assert [o.m for o in chart.orders] == [7, 8] and chart.chosen_m == 1
 
 
 def test_pod_fit_is_eq_49_on_the_given_basis(chain_data):

@@ -24,6 +24,7 @@ of zeros, a constant channel, one exact zero). Asserted:
 
 from __future__ import annotations
 
+import re
 import struct
 import warnings
 
@@ -161,6 +162,23 @@ def test_a_missing_delimiter_quotes_the_stray_line_alone(beam_bytes):
         read_uff(path)
 
 
+def test_a_stray_line_that_is_not_ascii_is_quoted_with_replacement_characters(beam_bytes):
+    """A stray line in another encoding (Latin-1 'é') is quoted with U+FFFD for the
+    byte ASCII cannot read, not refused with a UnicodeDecodeError; a long one is quoted
+    to its first 40 characters."""
+    raw, tmp = beam_bytes
+    tags = delimiters(raw)
+    closing = tags[2 * 9 + 1]
+    dataset_line = raw.index(b"\n", closing + 14) + 1
+    path = tmp / "latin1.uff"
+    stray = b"    58 caf\xe9 " + b"0123456789" * 6
+    path.write_bytes(raw[:closing + 7] + stray + b"\n" + raw[dataset_line:])
+    quoted = ("58 caf\ufffd " + "0123456789" * 6)[:40]
+    with pytest.raises(ValueError, match=rf"after record 10 .*: line \d+ "
+                                         rf"\({re.escape(repr(quoted))}\) belongs to no record"):
+        read_uff(path)
+
+
 def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
     """Record 6 of dataset 58 holds the reference node in an I10 field (columns 67–76):
     a node number of all ten digits is named as it is."""
@@ -175,6 +193,34 @@ def test_a_reference_node_of_ten_digits_is_named_whole(tmp_path):
     with pytest.raises(ValueError, match=r"delimiter is missing after record 1 of the file "
                                          r"\(dataset 58, response 1:3 / reference "
                                          r"1234567890:3, from line 1\)"):
+        read_uff(path)
+
+
+@pytest.mark.parametrize("lines_kept", [0, 1, 6, 7])
+def test_a_file_cut_in_a_records_header_names_what_it_holds(tmp_path, lines_kept):
+    """The message names what the cut record's header holds, and no more: cut right
+    after its opening delimiter, the dataset is '?'; after the dataset line, 58 alone;
+    cut inside record 6 of the header (the DOFs' line), still no DOFs; with that line
+    whole (no line end after it), both DOFs — the response node of all ten digits of
+    its I10 field (columns 42–51)."""
+    freq = np.arange(1.0, 11.0)
+    path = tmp_path / "cut.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record((1234567890, 3), (k, -2), freq, np.full(10, k + 1j)) for k in (1, 2)],
+        "add")
+    raw = path.read_bytes()
+    opened = delimiters(raw)[2]  # record 2's opening delimiter
+    end = opened + len(b"    -1")
+    for _ in range(lines_kept):
+        end = raw.index(b"\n", end + 1)
+    path.write_bytes(raw[:end])  # no line end after the last line kept
+    line = raw[:opened].count(b"\n") + 1
+    held = {0: "dataset \\?", 1: "dataset 58", 6: "dataset 58",
+            7: "dataset 58, response 1234567890:3 / reference 2:-2"}[lines_kept]
+    with pytest.raises(ValueError, match=rf"cut\.uff: record 2 of the file \({held}, from "
+                                         rf"line {line}\) has no closing '    -1': the file "
+                                         r"ends inside it \(cut off\?\) or its closing "
+                                         r"delimiter is missing$"):
         read_uff(path)
 
 
@@ -253,7 +299,9 @@ def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
     path.write_bytes(raw.replace(line, b"", 1))
     with pytest.raises(ValueError, match=r"record 5 of the file \(dataset 58, response "
                                          r"3:-3 / reference 5:-3, from line \d+\) holds 2046 "
-                                         r"values where its header announces 1025 points"):
+                                         r"values where its header announces 1025 points "
+                                         r"\(2050 values\): the record is truncated or "
+                                         r"damaged$"):
         read_uff(path)
     # its header says 1024 points, its data hold 1025
     header = lines[8]
@@ -264,6 +312,62 @@ def test_a_record_whose_values_do_not_match_its_header_is_refused(beam_bytes):
         read_uff(path)
 
 
+def test_a_complex_single_precision_record_is_counted_two_values_a_point(tmp_path):
+    """Ordinate type 5 (complex, single precision; pyuff writes only double): six fields
+    of 13 columns a line, two values a point. Record 1 rewritten so is read, to the six
+    digits of E13.5; one value short, it is refused with both counts."""
+    path, _, H = write_chain(tmp_path / "chain.uff")
+    raw = path.read_bytes()
+    start, end = delimiters(raw)[:2]
+    lines = raw[start:end].split(b"\n")
+    values = [float(v) for line in lines[13:] for v in line.split()]
+    assert lines[8][:20] == b"         6       301"
+    header = [*lines[:8], b"         5" + lines[8][10:], *lines[9:13]]
+
+    def single(values):
+        fields = [b"%13.5e" % v for v in values]
+        return [b"".join(fields[i:i + 6]) for i in range(0, len(fields), 6)]
+
+    for kept, ok in ((values, True), (values[:-1], False)):
+        record = b"\n".join([*header, *single(kept)]) + b"\n"
+        path.write_bytes(raw[:start] + record + raw[end:])
+        if ok:
+            data = read_uff(path)
+            assert np.max(np.abs(data.U - H[1:]) / np.abs(H[1:]).max()) < 1e-5
+        else:
+            with pytest.raises(ValueError, match=r"record 1 of the file .* holds 601 values "
+                                                 r"where its header announces 301 points "
+                                                 r"\(602 values\)"):
+                read_uff(path)
+
+
+@pytest.mark.parametrize("ordinate", [5, 2])
+def test_a_binary_single_precision_record_is_counted_four_bytes_a_value(tmp_path, ordinate):
+    """Binary ordinate type 5 (complex, single precision) or 2 (real, single: the real
+    part kept): 4 bytes a value. Record 1 rewritten so is read to single precision;
+    4 bytes short, it is refused."""
+    path, _, H = write_chain(tmp_path / "bin.uff", binary=True)
+    raw = path.read_bytes()
+    start, end = delimiters(raw)[:2]
+    lines = raw[start:end].split(b"\n", 13)
+    assert lines[8][:20] == b"         6       301"
+    header = [*lines[:8], b"%10d" % ordinate + lines[8][10:], *lines[9:13]]
+    values = np.frombuffer(lines[13], dtype="<f8").astype("<f4")
+    values = (values if ordinate == 5 else values[::2]).tobytes()
+    count = 602 if ordinate == 5 else 301
+    for body, ok in ((values, True), (values[:-4], False)):
+        path.write_bytes(raw[:start] + b"\n".join([*header, body]) + raw[end:])
+        if ok:
+            data = read_uff(path)
+            want = H[1:, 0, 0] if ordinate == 5 else H[1:, 0, 0].real
+            assert np.max(np.abs(data.U[:, 0, 0] - want)) < 1e-6 * np.abs(want).max()
+        else:
+            with pytest.raises(ValueError, match=rf"record 1 of the file .* holds {count - 1} "
+                                                 rf"values where its header announces 301 "
+                                                 rf"points \({count} values\)"):
+                read_uff(path)
+
+
 def test_a_binary_record_short_of_bytes_is_refused(tmp_path):
     path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
     raw = path.read_bytes()
@@ -272,7 +376,47 @@ def test_a_binary_record_short_of_bytes_is_refused(tmp_path):
     path.write_bytes(raw[:closing - 16] + raw[closing:])
     with pytest.raises(ValueError, match=r"record 4 of the file \(dataset 58, response 2:3 / "
                                          r"reference 1:3, from line \d+\) holds 600 values "
-                                         r"where its header announces 301 points \(602"):
+                                         r"where its header announces 301 points \(602 "
+                                         r"values\): the record is truncated or damaged$"):
+        read_uff(path)
+
+
+def test_a_record_without_its_dataset_number_is_refused_by_name(tmp_path):
+    """The line after an opening delimiter must be the dataset number."""
+    path = tmp_path / "nameless.uff"
+    path.write_bytes(b"    -1\n  abc\n    -1\n")
+    with pytest.raises(ValueError, match=r"nameless\.uff: record 1 of the file \(dataset \?, "
+                                         r"from line 1\) has no dataset number after its "
+                                         r"opening '    -1': a delimiter is missing, or the "
+                                         r"record is damaged$"):
+        read_uff(path)
+    # a record of one line, its delimiter padded to column 80 and closed on the same line
+    path.write_bytes(b"    -1" + b" " * 74 + b"    -1\n")
+    with pytest.raises(ValueError, match=r"nameless\.uff: record 1 of the file \(dataset \?, "
+                                         r"from line 1\) has no dataset number after"):
+        read_uff(path)
+    # a record of its dataset number alone is left to pyuff, which cannot read it either
+    path.write_bytes(b"    -1\n    58    -1\n")
+    with pytest.raises(ValueError, match=r"nameless\.uff: could not read dataset 58: record 1 "
+                                         r"of the file \(dataset 58, from line 1\)"):
+        read_uff(path)
+
+
+def test_bytes_after_a_binary_records_values_are_counted_unless_line_ends(tmp_path):
+    """Binary record 4 with 16 bytes (zeros, letters, blanks) after its values: two values
+    more than its header announces, refused by the count; with line ends there, the count
+    lets it pass (a line end may close the values) and what pyuff returns is refused."""
+    path, _, _ = write_chain(tmp_path / "bin.uff", binary=True)
+    raw = path.read_bytes()
+    closing = delimiters(raw)[2 * 3 + 1]
+    for extra in (b"\0" * 16, b"X" * 16, b" " * 16):  # not line ends: counted
+        path.write_bytes(raw[:closing] + extra + raw[closing:])
+        with pytest.raises(ValueError, match=r"record 4 of the file \(dataset 58, response "
+                                             r"2:3 / reference 1:3, from line \d+\) holds 604 "
+                                             r"values where its header announces 301 points"):
+            read_uff(path)
+    path.write_bytes(raw[:closing] + b"\n" * 8 + raw[closing:])
+    with pytest.raises(ValueError, match=r"FRF record 4: abscissa and ordinate must be 1-D"):
         read_uff(path)
 
 
@@ -434,6 +578,20 @@ def test_a_record_in_other_units_is_left_out_and_named(tmp_path):
     assert any("other units" in note for note in data.notes)
 
 
+def test_two_records_in_two_other_units_are_named_in_one_whole_message(tmp_path):
+    """Records 2 and 6 in mm and in: one warning names both, in file order, and says
+    what to do; the note is the same text after the file's name."""
+    labels = ["m"] * 9
+    labels[1], labels[5] = "in", "mm"  # 1:3 / 2:3 and 2:3 / 3:3 (each measured twice)
+    path = write_labelled(tmp_path / "units2.uff", labels)
+    text = ("FRF record(s) 2 (response 1:3 / reference 2:3, 'in/n'), 6 (response 2:3 / "
+            "reference 3:3, 'mm/n') are in other units than the 7 other displacement "
+            "records ('m/n'): left out as not measured (convert them to include them)")
+    with pytest.warns(DataWarning, match=f"^{re.escape(f'{path}: {text}')}$"):
+        data = read_uff(path)
+    assert f"units2.uff: {text}" in data.notes
+
+
 def test_labels_that_differ_in_spelling_only_agree(tmp_path):
     labels = ["m"] * 4 + ["M"] * 3 + [" m "] * 2
     path = write_labelled(tmp_path / "spelling.uff", labels)
@@ -518,6 +676,89 @@ def test_a_set_pyuff_reads_short_of_its_header_is_refused(tmp_path, monkeypatch)
                                          r"reference 3:3, from line \d+\) holds 300 values "
                                          r"for the 301 points its header announces"):
         read_uff(path)
+
+
+@pytest.mark.parametrize("field", ["rsp_node", "rsp_dir", "ref_node", "ref_dir", "x"])
+def test_a_field_of_the_wrong_type_is_refused_naming_the_file_and_record(
+        tmp_path, monkeypatch, field):
+    """A set pyuff returns with a DOF label that is not an integer, or a complex
+    abscissa, is refused naming the file, the FRF record and the field."""
+    path, _, _ = write_chain(tmp_path / "chain.uff")
+    read = pyuff.UFF.read_sets
+
+    def changed(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58 and d.get("rsp_node") == 1 and d.get("ref_node") == 2:
+            d = dict(d, **{field: d[field] * (1 + 0j) if field == "x" else float(d[field])})
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
+    match = (r"FRF record 2 abscissa must be real, got complex dtype" if field == "x" else
+             rf"FRF record 2: field '{field}' must be an integer, got \d\.0$")
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: {match}"):
+        read_uff(path)
+
+
+@pytest.mark.parametrize("change", ["x one line short", "both 2-D", "no abscissa type",
+                                    "no denominator type", "a displacement denominator"])
+def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
+        tmp_path, monkeypatch, change):
+    """Behind the check of the file's text: record 2 returned with an abscissa one line
+    short, with abscissa and ordinate as columns, or over a displacement, is refused by
+    name; a set without an abscissa or denominator type (unknown, as 0) is read as
+    frequency over force."""
+    path, _, _ = write_chain(tmp_path / "chain.uff")
+    expected = read_uff(path)
+    read = pyuff.UFF.read_sets
+
+    def changed(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58 and d.get("rsp_node") == 1 and d.get("ref_node") == 2:
+            if change == "x one line short":
+                d = dict(d, x=d["x"][:-1])
+            elif change == "both 2-D":
+                d = dict(d, x=d["x"][:, None], data=d["data"][:, None])
+            elif change == "a displacement denominator":
+                d = dict(d, orddenom_spec_data_type=8)
+            else:
+                key = change.split()[1]  # "abscissa" or "denominator"
+                d = {k: v for k, v in d.items()
+                     if k != {"abscissa": "abscissa_spec_data_type",
+                              "denominator": "orddenom_spec_data_type"}[key]}
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
+    if change.startswith("no "):
+        assert np.array_equal(read_uff(path).U, expected.U)
+        return
+    if change == "a displacement denominator":
+        with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: the "
+                                             r"denominator is not a force \(specific data "
+                                             r"type 13\)$"):
+            read_uff(path)
+        return
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: abscissa "
+                                         r"and ordinate must be 1-D of equal length >= 2$"):
+        read_uff(path)
+
+
+def test_records_of_no_frf_name_the_function_types_found(tmp_path):
+    """Dataset 58 records that are no FRF (func_type 1, a time response; 2, an
+    auto-spectrum): the message lists the types found, and a bad ``quantity`` is named."""
+    path = tmp_path / "other.uff"
+    pyuff.UFF(str(path)).write_sets([pyuff.prepare_58(
+        func_type=func_type, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3,
+        data=np.arange(5.0), x=np.arange(5.0), abscissa_spacing=1,
+        abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+    ) for func_type in (2, 1, 2)], "add")
+    with pytest.raises(ValueError, match=r"other\.uff: no FRF records \(dataset 58 with "
+                                         r"func_type 4\); found func_type 1, 2$"):
+        read_uff(path)
+    good, _, _ = write_chain(tmp_path / "chain.uff")
+    with pytest.raises(ValueError, match=r"^quantity must be one of \('displacement', "
+                                         r"'velocity', 'acceleration'\) or None, got "
+                                         r"'accelerance'$"):
+        read_uff(good, quantity="accelerance")
 
 
 def test_a_delimiter_is_minus_one_alone_on_its_line_or_followed_by_blanks_to_column_80():

@@ -9,6 +9,8 @@ binary 58 ordinates are exact doubles.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -88,6 +90,36 @@ def test_dataset_55_matches_the_modal_table_and_the_shapes(written):
     assert np.allclose(back.eigenvalues, modes.eigenvalues, rtol=1e-5)
 
 
+def test_the_written_records_say_what_they_hold_in_their_text_fields(written, tmp_path):
+    """The lines another program shows: each mode's name, number, frequency and damping
+    and what its numbers are (dataset 55); each FRF's entry and origin (dataset 58),
+    its abscissa in Hz and evenly spaced; a name cut to the 80 columns of a line."""
+    _, data, result, R, _, sets = written
+    rows = modal_table(result)
+    s55 = [d for d in sets if d["type"] == 55]
+    for d, row in zip(s55, rows, strict=True):
+        assert d["id1"] == f"podid_rs: identified mode {row['mode']}"
+        f, zeta = abs(d["eig"]) / (2 * np.pi), -d["eig"].real / abs(d["eig"])
+        assert d["id2"].startswith("f = ") and ", zeta = " in d["id2"]
+        f_text, z_text = d["id2"][len("f = "):].split(" Hz, zeta = ")
+        assert abs(float(f_text) / f - 1) < 1e-5 and abs(float(z_text) / zeta - 1) < 1e-4
+        assert (d["id3"], d["id5"]) == ("NONE", "NONE")
+        assert d["id4"] == "complex eigenvalue in rad/s; shape scaled to largest entry 1"
+        assert (d["model_type"], d["data_type"], d["n_data_per_node"], d["load_case"]) == \
+            (1, 5, 3, 1)
+    s58 = [d for d in sets if d["type"] == 58]
+    for d in s58:
+        assert d["id2"] == f"H({d['rsp_node']}:3, {d['ref_node']}:3) podid_rs, identified"
+        assert (d["id4"], d["id5"]) == ("NONE", "NONE")
+        assert d["abscissa_spacing"] == 1 and d["abscissa_spec_data_type"] == 18
+    long = write_uff(tmp_path / "long.uff", result, R, data, name="x" * 100)
+    assert max(len(line) for line in long.read_bytes().split(b"\n")) == 80
+    back = pyuff.UFF(str(long)).read_sets()
+    assert {d["id1"] for d in back if d["type"] == 55} == {"x" * 80}
+    assert {d["id2"] for d in back if d["type"] == 58} == {
+        (f"H({n}:3, {r}:3) " + "x" * 100)[:80] for n in range(1, 7) for r in (2, 5)}
+
+
 def test_dataset_58_holds_the_identified_accelerances(written):
     _, data, result, R, path, sets = written
     H = identified_frf(result, R, data) * -(data.omega**2)[:, None, None]
@@ -122,6 +154,60 @@ def test_binary_58_is_exact_and_receptance_is_the_default(written, tmp_path):
     # every digit: the two products differ by round-off (7.6e-16); ASCII keeps 12 digits
     rel = np.abs(got[(4, 5)] - H[:, 3, 1]) / np.abs(H[:, 3, 1])
     assert rel.max() < 1e-14
+
+
+def test_every_bad_input_is_refused_with_its_whole_message(written, tmp_path):
+    """write_uff's messages word for word, and the edges of what it accepts: the first
+    and last measured DOF as inputs, two frequency lines, directions ±1 … ±3."""
+    _, data, result, R, _, _ = written
+    out = tmp_path / "x.uff"
+    w, dofs = data.omega, data.dofs
+    rot = np.c_[np.arange(1, 7), [3, 4, -4, 0, 5, 6]]
+    cases = [
+        ((result.M, R, data), {}, "model must be an IdentificationResult, got ndarray"),
+        ((result, R, {"U": data.U}), {}, "data must be a MeasuredData, got dict"),
+        ((result, R, data), {"dofs": dofs}, "give data, or dofs / inputs / omega, not both"),
+        ((result, R, data), {"inputs": [0]}, "give data, or dofs / inputs / omega, not both"),
+        ((result, R, data), {"omega": w}, "give data, or dofs / inputs / omega, not both"),
+        ((result, R), {}, "the model has no measured-DOF labelling: UFF output needs the "
+                          "(node, direction) label of each of the 6 basis rows (dofs=, or "
+                          "data=)"),
+        ((result, R), {"dofs": rot}, "DOF(s) [(2, 4), (3, -4), (4, 0)] are not translations "
+                                     "(direction 1-3): dataset 55 with complex shapes holds "
+                                     "X, Y, Z only"),
+        ((result, R), {"dofs": dofs, "inputs": [0]},
+         "the FRFs (dataset 58) need both inputs= and omega="),
+        ((result, R), {"dofs": dofs, "inputs": [0], "omega": w[:1]},
+         "omega must hold at least 2 strictly increasing frequency lines"),
+        ((result, R), {"dofs": dofs, "inputs": [0], "omega": w[[0, 2, 1]]},
+         "omega must hold at least 2 strictly increasing frequency lines"),
+        ((result, R), {"dofs": dofs, "inputs": [0], "omega": w[[0, 0, 1]]},
+         "omega must hold at least 2 strictly increasing frequency lines"),
+        ((result, R), {"dofs": dofs, "inputs": [6], "omega": w},
+         "inputs must index the 6 measured DOFs, got [6]"),
+        ((result, R), {"dofs": dofs, "inputs": [-1], "omega": w},
+         "inputs must index the 6 measured DOFs, got [-1]"),
+        ((result, R), {"dofs": dofs, "inputs": [0.5], "omega": w},
+         "inputs must index the 6 measured DOFs, got [0.5]"),
+        ((result, R), {"dofs": dofs, "inputs": [], "omega": w},
+         "inputs must index the 6 measured DOFs, got []"),
+        ((result, R, data), {"quantity": "accelerance"},
+         "quantity must be one of ('displacement', 'velocity', 'acceleration'), got "
+         "'accelerance'"),
+    ]
+    for args, kwargs, message in cases:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            write_uff(out, *args, **kwargs)
+    assert not out.exists()
+    signed = np.c_[np.arange(1, 7), [1, -1, 2, -2, 3, -3]]
+    write_uff(out, result, R, dofs=signed, inputs=[0, 5], omega=w[:2])
+    kinds = pyuff.UFF(str(out)).get_set_types().tolist()
+    assert kinds.count(58) == 12 and 55 in kinds
+    # every direction's component is written, with its sign: X, Y and Z read back
+    back = read_uff_modes(out)
+    modes = pr.mode_shapes(result, R, signed)
+    assert back.dofs.tolist() == np.abs(signed).tolist()
+    assert np.max(np.abs(back.shapes - np.sign(signed[:, 1:]) * modes.shapes)) < 1e-5
 
 
 def test_modes_only_without_frequency_lines(written, tmp_path):
