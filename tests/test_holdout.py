@@ -52,6 +52,12 @@ def test_held_out_lines_do_not_reach_the_fit(chain_frf):
     garbage[test] = 1e3 * (rng.standard_normal(U_n[test].shape)
                            + 1j * rng.standard_normal(U_n[test].shape))
     dirty = sweep_orders(garbage, F_n, w, P, m_max=3, patience=3, threads=1)
+    # every line was used and every order counted: the reason says the held-out lines and
+    # goes straight on to why the sweep stopped, if it says that
+    f = clean.fit(clean.chosen)
+    said = (f"m = {clean.chosen}: held-out median error {f.test_db:.2f} dB, the lowest over "
+            f"m = 1…3; every {HOLDOUT}-th line held out")
+    assert clean.reason.startswith(said) and clean.reason[len(said):][:1] in ("", ";")
     np.testing.assert_array_equal(dirty.test_lines, test)
     assert [f.m for f in dirty.fits] == [f.m for f in clean.fits]
     for a, b in zip(clean.fits, dirty.fits, strict=True):

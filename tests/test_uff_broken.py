@@ -517,6 +517,27 @@ def test_a_constant_channel_is_dead_too(tmp_path):
     assert not data.measured[2, 1]
 
 
+def test_a_channel_constant_over_three_lines_is_dead_and_over_two_is_data(tmp_path):
+    # three equal values are the fewest that say "constant"; two lines may be a live
+    # channel that happens to repeat (the band of 100-102 Hz holds 3 lines, 100-101 Hz 2)
+    def constant_at_100_to_102_hz(o, r, v):
+        if (o, r) == (2, 1):
+            v = v.copy()
+            v[100:103] = 1e-3
+        return v
+
+    path, _, _ = write_chain(tmp_path / "three.uff", change=constant_at_100_to_102_hz,
+                             references=2)
+    with pytest.warns(DataWarning, match=r"FRF record 6 .* is the constant 0.001\+0j at every "
+                                         r"line of the band: a dead channel"):
+        data = read_uff(path, band_hz=(100.0, 102.0))
+    assert data.omega.size == 3 and not data.measured[2, 1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        two = read_uff(path, band_hz=(100.0, 101.0))
+    assert two.omega.size == 2 and two.measured[2, 1]
+
+
 def _nan_at_42_hz(o, r, v):
     """The record of response 1 / reference 1 with a NaN at 42 Hz (pyuff writes it as 0)."""
     if (o, r) == (1, 1):
