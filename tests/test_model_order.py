@@ -77,6 +77,16 @@ def test_two_lines_are_too_few_to_hold_one_out_and_fit_two(chain_frf, holdout):
         sweep_orders(U_n[:2], F_n[:2], w[:2], P, holdout=holdout)
 
 
+@pytest.mark.parametrize("holdout", [3, 2])
+def test_three_lines_hold_the_middle_one_out_and_fit_the_other_two(chain_frf, holdout):
+    """The least the sweep accepts: two training lines and one held out, from mid-group."""
+    _, U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n[100:103], F_n[100:103], w[100:103], P, holdout=holdout,
+                         threads=1)
+    assert sweep.test_lines.tolist() == [False, True, False]
+    assert sweep.fits[0].m == 1 and np.isfinite(sweep.fit(sweep.chosen).test_db)
+
+
 def test_an_order_no_start_of_which_can_be_fitted_ends_the_sweep_and_is_named(
         chain_frf, monkeypatch):
     """Every start of order 3 refused (as one with a pole on a line is): the sweep ends

@@ -296,6 +296,16 @@ def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):
     with pytest.raises(ValueError, match="^result must be an IdentificationResult, got "
                                          "SecondOrderSystem$"):
         make_physical(result.system(), U, F, data.omega)
+    # a result built by hand with a NaN or a complex entry is refused with the matrix's
+    # own name (each reaches nearest_psd's checks under the name make_physical gives it)
+    for name in "MCK":
+        bad = getattr(result, name).copy()
+        bad[0, 0] = np.nan
+        with pytest.raises(ValueError, match=f"^{name} contains non-finite values"):
+            make_physical(replace(result, **{name: bad}), U, F, data.omega)
+        with pytest.raises(ValueError, match=f"^{name} must be real, got complex dtype"):
+            make_physical(replace(result, **{name: getattr(result, name) + 0j}), U, F,
+                          data.omega)
 
 
 def test_nearest_psd_names_its_argument():

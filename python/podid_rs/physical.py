@@ -49,8 +49,11 @@ def nearest_psd(A: object, floor: float = 0.0, name: str = "A") -> np.ndarray:
 def _raise_eigenvalues(X: np.ndarray, rtol: float, name: str) -> tuple[np.ndarray, int]:
     """Nearest symmetric matrix with eigenvalues >= rtol·‖X‖₂, and how many were raised.
 
-    ``rtol > 0`` asks for a positive definite answer, which a zero X cannot give.
+    ``rtol > 0`` asks for a positive definite answer, which a zero X cannot give. A NaN
+    or complex entry (a result built by hand) is refused under ``name`` before the
+    eigenvalues, which LAPACK may fail to converge on.
     """
+    X = as_array(X, name, real=True)
     d = np.linalg.eigvalsh(0.5 * (X + X.T))
     floor = rtol * float(np.max(np.abs(d)))
     if rtol > 0 and floor == 0.0:
