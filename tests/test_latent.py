@@ -343,6 +343,20 @@ def test_latent_orders_do_not_win_where_every_dof_is_measured():
     assert sweep.chosen == 4
 
 
+def test_the_observed_order_takes_the_modal_start_where_it_ends_lower_and_says_so():
+    """A 5-mass chain seen at its two ends, exact data: the observed order (m = 2) is run
+    to convergence from the modal start and from the sweep's own fit; the modal start's
+    run ends lower and is kept, under its own name."""
+    _, data = chain_data(5, [0, 4], np.arange(5.0, 150.25, 0.5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sweep = sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m_max=4,
+                             threads=1)
+    observed = sweep.fit(2)
+    assert observed.start == "modal start, to convergence"
+    assert observed.model.info["refinement"]["converged"]
+
+
 def _order(m: int, test_db: float, observed: int) -> OrderFit:
     return OrderFit(m=m, model=None, train_db=test_db, test_db=test_db, start="",
                     stable=True, seconds=0.0, observed=min(m, observed))

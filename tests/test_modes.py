@@ -229,6 +229,21 @@ def test_a_half_power_band_that_ends_exactly_at_the_bands_edge_is_in_the_band():
     assert list(mode_kinds(shapes, w)) == ["structural", "structural", "residual", "residual"]
 
 
+def test_an_undamped_pole_in_band_is_structural_and_a_real_one_residual():
+    """An undamped mode at exactly 1 rad/s (Im λ = 1, Re λ = 0: its half-power band is
+    the line itself, inside 0.5–2 rad/s) is a structural mode; a real pole is a residual
+    term whatever its size, even at 0 (ζ of a zero pole is not defined). And a bad line
+    is named as omega."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.linspace(0.5, 2.0, 31)
+    lam = np.array([1j, -1.0 + 0j, 0j])
+    shapes = ModeShapes(eigenvalues=lam, shapes=np.ones((1, 3)), modal_a=None)
+    assert list(mode_kinds(shapes, w)) == ["structural", "residual", "residual"]
+    with pytest.raises(ValueError, match="^omega contains non-finite values"):
+        mode_kinds(shapes, np.r_[w[:-1], np.nan])
+
+
 def test_a_pole_midway_between_two_lines_is_judged_on_the_lower_third_line():
     """Lines at 1, 2, …, 200 rad/s and a lightly damped pole at exactly 10.5 rad/s: its
     two nearest lines tie (10 and 11), and so do the next two (9 and 12); it is judged on

@@ -188,6 +188,12 @@ def test_bad_snapshots_and_frf_raise():
         correlation_from_frf(H, [1.0, 3.0, 2.0])
     with pytest.raises(ValueError, match="strictly positive"):
         correlation_from_frf(H, [0.0, 1.0, 2.0])
+    # a NaN in the FRFs is named as H, by the correlation and by the POD alike
+    H = np.ones((3, 2, 2), dtype=complex)
+    H[1, 0, 1] = np.nan
+    for f in (correlation_from_frf, pod_from_frf):
+        with pytest.raises(ValueError, match=r"^H contains non-finite values"):
+            f(H, [1.0, 2.0, 3.0])
 
 
 @pytest.mark.parametrize("omega", [[1.0], [1.0, 3.0, 2.0], [1.0, 2.0, 2.0]])

@@ -403,6 +403,15 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     with pytest.raises(ValueError, match=re.escape("the start model's C is (5, 5), the data "
                                                    "have order m = 6")):
         refine((chain.M, chain.C[:5, :5], chain.K), U, F, w)
+    # a matrix that is not square is named as such, not read as another order (M's rows
+    # and its columns each give an order that the other contradicts)
+    for bad in (chain.M[:, :5], chain.M[:5, :], chain.M[0]):
+        with pytest.raises(ValueError, match=re.escape(f"the start model's M must be square, "
+                                                       f"got shape {bad.shape}")):
+            refine((bad, chain.C, chain.K), U, F, w)
+    with pytest.raises(ValueError, match=re.escape("the start model's K must be square, got "
+                                                   "shape (6, 5)")):
+        refine((chain.M, chain.C, chain.K[:, :5]), U, F, w)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         for kwargs in ({"max_iter": 1}, {"max_iter": np.int64(1)}, {"ftol": 1 - 1e-12},

@@ -111,6 +111,9 @@ def _start_matrices(model: object) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
         return model.M, model.C, model.K, None
     if isinstance(model, tuple | list) and len(model) == 3:
         M, C, K = (as_array(x, name, real=True) for x, name in zip(model, "MCK", strict=True))
+        for X, name in ((M, "M"), (C, "C"), (K, "K")):
+            if X.ndim != 2 or X.shape[0] != X.shape[1]:
+                raise ValueError(f"the start model's {name} must be square, got shape {X.shape}")
         return M, C, K, None
     raise ValueError(
         "model must be an IdentificationResult, a SecondOrderSystem or a tuple (M, C, K), "
