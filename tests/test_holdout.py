@@ -56,7 +56,7 @@ def test_held_out_lines_do_not_reach_the_fit(chain_frf):
     # goes straight on to why the sweep stopped, if it says that
     f = clean.fit(clean.chosen)
     said = (f"m = {clean.chosen}: held-out median error {f.test_db:.2f} dB, the lowest over "
-            f"m = 1…3; every {HOLDOUT}-th line held out")
+            f"m = 1…3; one line in {HOLDOUT} held out")
     assert clean.reason.startswith(said) and clean.reason[len(said):][:1] in ("", ";")
     np.testing.assert_array_equal(dirty.test_lines, test)
     assert [f.m for f in dirty.fits] == [f.m for f in clean.fits]
@@ -165,10 +165,11 @@ def test_the_sweep_names_its_informative_lines_only_when_it_thinned(chain_frf):
     thinned = sweep_orders(U_n, F_n, w, P, m_max=2, sweep_lines=40, threads=1)
     picked = int(thinned.lines.sum())
     assert picked < w.size
-    assert (f"line held out of the {picked} of {w.size} lines that carry the data's "
-            "information") in thinned.reason
+    assert (f"one line in {HOLDOUT} held out of the {picked} of {w.size} lines that carry "
+            "the data's information") in thinned.reason
     every = sweep_orders(U_n, F_n, w, P, m_max=2, sweep_lines=None, threads=1)
-    assert "line held out" in every.reason and "carry the data's information" not in every.reason
+    assert f"one line in {HOLDOUT} held out" in every.reason
+    assert "carry the data's information" not in every.reason
 
 
 def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):

@@ -73,7 +73,8 @@ def test_two_lines_are_too_few_to_hold_one_out_and_fit_two(chain_frf, holdout):
     """Every holdout-th line from mid-group: of two lines, holdout 4 holds none out (no
     held-out score) and holdout 2 holds out one (one training line): both refused."""
     _, U_n, F_n, w, P = chain_frf
-    with pytest.raises(ValueError, match=rf"^2 lines are too few to hold every {holdout}-th out$"):
+    with pytest.raises(ValueError,
+                       match=rf"^2 lines are too few to hold one line in {holdout} out$"):
         sweep_orders(U_n[:2], F_n[:2], w[:2], P, holdout=holdout)
 
 

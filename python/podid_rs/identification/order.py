@@ -578,7 +578,7 @@ def sweep_orders(
     test[picked[(np.arange(picked.size) % holdout) == holdout // 2]] = True
     train = used & ~test
     if train.sum() < 2 or test.sum() < 1:
-        raise ValueError(f"{s} lines are too few to hold every {holdout}-th out")
+        raise ValueError(f"{s} lines are too few to hold one line in {holdout} out")
     observed = min(int(np.sum(pod_result.eigenvalues > 0)), n)
     entries = n * p if measured is None else int(measured.sum())
     limit = order_limit(int(train.sum()), n, p, observed, entries)
@@ -702,7 +702,7 @@ def sweep_orders(
         )
         reason = (
             f"m = {chosen}: held-out median error {f.test_db:.2f} dB, {how} over "
-            f"m = 1…{fits[-1].m}; every {holdout}-th line held out"
+            f"m = 1…{fits[-1].m}; one line in {holdout} held out"
             + ("" if picked.size == s else
                f" of the {picked.size} of {s} lines that carry the data's information")
             + ("" if len(counted) == len(fits) else
