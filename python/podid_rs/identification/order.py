@@ -579,7 +579,9 @@ def sweep_orders(
     train = used & ~test
     if train.sum() < 2 or test.sum() < 1:
         raise ValueError(f"{s} lines are too few to hold every {holdout}-th out")
-    observed = min(int(np.sum(pod_result.eigenvalues > 0)), n)
+    # the POD modes with energy that exist: by the method of snapshots the eigenvalues
+    # past the snapshots' rank are round-off, some of it positive, and have no mode
+    observed = min(int(np.sum(pod_result.eigenvalues > 0)), pod_result.n_modes, n)
     entries = n * p if measured is None else int(measured.sum())
     limit = order_limit(int(train.sum()), n, p, observed, entries)
     if m is not None:
