@@ -231,6 +231,74 @@ AUDIT = [
     # (the same) the dead-channel warning's stacklevel dropped, mutmut's read_uff__mutmut_244
     ("io/uff", 'warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=2)',
      'warnings.warn(f"{path}: {dead}", DataWarning)'),
+    # second audit — order: the decoupled mode fitted to the first coordinate instead of
+    # the new one, its projection without the conjugate, the equations without their real
+    # and imaginary halves, the order limit's boundary, observed orders weighed like
+    # latent ones, the held-out phase, the too-few-lines check, POD modes without energy
+    # counted as observed, the limit's message, the final fit's lines swapped, the modal
+    # start taken where it is worse
+    ("identification/order", "u, f = U[:, -1, :], F[:, -1, :]", "u, f = U[:, 0, :], F[:, 0, :]"),
+    ("identification/order", "num = float(np.sum(w2 * np.real(np.conj(g) * u)))",
+     "num = float(np.sum(w2 * np.real(g * u)))"),
+    ("identification/order", "equations = 2 * lines * (n * p", "equations = lines * (n * p"),
+    ("identification/order", "while free_parameters(m + 1, min(m + 1, observed)) <= equations:",
+     "while free_parameters(m + 1, min(m + 1, observed)) < equations:"),
+    ("identification/order", "if not f.latent or f.test_db < best * (1 - PROGRESS_STEP):",
+     "if f.test_db < best * (1 - PROGRESS_STEP):"),
+    ("identification/order", "% holdout) == holdout // 2]] = True", "% holdout) == 0]] = True"),
+    ("identification/order", "if train.sum() < 2 or test.sum() < 1:",
+     "if train.sum() < 1 or test.sum() < 1:"),
+    ("identification/order", "min(int(np.sum(pod_result.eigenvalues > 0)), n)",
+     "min(int(np.sum(pod_result.eigenvalues >= 0)), n)"),
+    ("identification/order", "more than the {2 * int(train.sum()) * entries} real equations",
+     "more than the {int(train.sum()) * entries} real equations"),
+    ("identification/order",
+     "lines = np.ones(omega.shape[0], dtype=bool) if every_line else sweep.lines",
+     "lines = sweep.lines if every_line else np.ones(omega.shape[0], dtype=bool)"),
+    ("identification/order", "if modal_cost < held_cost:", "if modal_cost > held_cost:"),
+    # refinement: the message's eigenvalue the smallest, a negative eigenvalue clipped
+    # instead of mirrored, relative weights from the reduced data, per-line weights tiled,
+    # the negative-weights check only when all are, the latent metric without its weight,
+    # a per-entry weight not squared, the relative residual without its root, the cost
+    # before without the constant part
+    ("identification/refinement", 'f"{d.max():.3g}): it cannot', 'f"{d.min():.3g}): it cannot'),
+    ("identification/refinement", "Y = (Q * np.maximum(np.abs(d), floor)) @ Q.T",
+     "Y = (Q * np.maximum(d, floor)) @ Q.T"),
+    ("identification/refinement", "base = data.U if measured is None else measured",
+     "base = data.U"),
+    ("identification/refinement", "w = np.repeat(w, p)", "w = np.tile(w, p)"),
+    ("identification/refinement", "if np.any(w < 0):", "if np.all(w < 0):"),
+    ("identification/refinement", "T[:, idx, idx] = w[:, None]", "T[:, idx, idx] = 1.0"),
+    ("identification/refinement", "w2 = W[i, :, j] ** 2", "w2 = W[i, :, j]"),
+    ("identification/refinement", 'relative_residual=float(np.sqrt(report["cost"])) / ref_norm',
+     'relative_residual=float(report["cost"]) / ref_norm'),
+    ("identification/refinement", '"cost_start": float(out.cost_start) + const,',
+     '"cost_start": float(out.cost_start),'),
+    # latent: the zero-columns-last check one column short, the gauge's latent block
+    # counted as symmetric, the new mode's shape in the row instead of the column, the
+    # start's name in rad/s called Hz
+    ("identification/latent", "if not np.all(nonzero[:k]):", "if not np.all(nonzero[: k - 1]):"),
+    ("identification/latent", "return latent * k + latent * latent",
+     "return latent * k + latent * (latent + 1) // 2"),
+    ("identification/latent", "T[: shape.size, m] = shape", "T[m, : shape.size] = shape"),
+    ("identification/latent", 'name = (f"latent DOF at {wc / (2 * np.pi):.4g} Hz"',
+     'name = (f"latent DOF at {wc:.4g} Hz"'),
+    # informative lines: the budget without the one line per block, the activity not
+    # measured against the typical block's
+    ("identification/lines", "budget = target - n_blocks", "budget = target"),
+    ("identification/lines", "excess = np.maximum(activity - np.median(activity), 0.0)",
+     "excess = np.maximum(activity, 0.0)"),
+    # holes: empty load cases looked for along the DOFs, the metric without its square root
+    ("identification/holes", "empty = np.flatnonzero(~mask.any(axis=0))",
+     "empty = np.flatnonzero(~mask.any(axis=1))"),
+    ("identification/holes", "L = np.sqrt(np.clip(lam, 0.0, None))[:, None] * V.T",
+     "L = np.clip(lam, 0.0, None)[:, None] * V.T"),
+    # modal start: forces that are not unit forces accepted, the design matrix without the
+    # relative weights its target has
+    ("identification/modal_start",
+     "if nonzero.size != 1 or not np.all(F_n[:, nonzero[0], j] == 1):",
+     "if nonzero.size != 1:"),
+    ("identification/modal_start", "G = w[:, None] / den", "G = 1.0 / den"),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

@@ -398,3 +398,58 @@ def test_a_decoupled_mode_is_the_candidate_of_least_cost_with_a_positive_mass():
     mu, wc, zeta = min(costs, key=lambda c: c[0])[1]
     got = _decoupled_mode(U, F, omega, np.ones((40, 1)))
     assert np.allclose(got, (mu, 2 * zeta * wc * mu, wc**2 * mu), rtol=1e-10, atol=0)
+
+
+def test_an_order_whose_free_parameters_equal_the_equations_is_within_the_limit():
+    """One measured entry, three POD coordinates. Nine lines give 2·9 = 18 real
+    equations, exactly the 3·3·4/2 = 18 free parameters of order 3 (order 4, one latent
+    coordinate: 30 less a gauge of 1·3 + 1 = 26); thirteen lines give 26, exactly order
+    4's (order 5, two latent: 45 less 2·3 + 4 = 35). As many parameters as equations
+    can be determined: the limit is that order."""
+    from podid_rs.identification.order import order_limit
+
+    assert order_limit(9, 1, 1, 3) == 3
+    assert order_limit(13, 1, 1, 3) == 4
+
+
+def _chain_seen_at_its_first_dofs(n_seen, n, lines_hz):
+    """Receptances of the n-mass chain, force at DOF 0 (DOF 1 for n = 4), on its first
+    n_seen DOFs: (U_n, F_n, omega)."""
+    chain = pr.mass_spring_chain(n)
+    w = 2 * np.pi * np.asarray(lines_hz, dtype=float)
+    F = np.zeros((w.size, n, 1), dtype=complex)
+    F[:, 1 if n == 4 else 0, 0] = 1.0
+    return chain.response(w, F)[:, :n_seen], F[:, :n_seen], w
+
+
+def test_a_pod_mode_the_noise_correction_left_without_energy_is_not_observed():
+    """The 4-mass chain seen at three masses; its POD corrected for a noise variance of
+    1.5 times the third eigenvalue (the same on every DOF: each eigenvalue less it, the
+    third clipped to exactly 0). Only two POD modes carry energy: order 3 keeps them and
+    adds a latent coordinate instead of observing through a mode of no energy."""
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(3, 4, np.linspace(5.0, 250.0, 60))
+    P = pr.pod_from_frf(U_n, w, method="correlation")
+    P = P.without_noise(1.5 * P.eigenvalues[2])
+    assert P.eigenvalues[2] == 0 and P.eigenvalues[1] > 0
+    sweep = sweep_orders(U_n, F_n, w, P, m=3, max_iter=5, threads=1)
+    assert [(f.observed, f.latent) for f in sweep.fits] == [(1, 0), (2, 0), (2, 1)]
+    assert sweep.chosen == 3 and sweep.reason == "m = 3 as asked"
+
+
+def test_a_sweep_past_the_rank_of_a_snapshot_pod_never_asks_for_a_mode_it_lacks():
+    """A scan: 30 DOFs of the chain at 5 lines, one force — 10 real snapshot columns, a
+    POD by the method of snapshots of rank 9. Its tenth eigenvalue is zero, as every one
+    past the rank (eigh's round-off there was positive on this case, and counted as a
+    tenth observed coordinate without a mode). Order 10 is the nine POD coordinates and
+    a latent one; on these four training lines the nine-mode model leaves no residual a
+    latent mode can fit, and the sweep says so (it used to ask the POD for a tenth mode,
+    and raise)."""
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(30, 30, [20.0, 30.0, 45.0, 60.0, 80.0])
+    P = pr.pod_from_frf(U_n, w)
+    assert P.method == "snapshots" and P.n_modes == 9
+    assert np.all(P.eigenvalues[:9] > 0) and np.all(P.eigenvalues[9:] == 0)
+    sweep = sweep_orders(U_n, F_n, w, P, m=10, max_iter=5, threads=1)
+    assert [f.observed for f in sweep.fits] == list(range(1, 10))
+    assert sweep.reason == ("m = 9: order 10 could not be started (m = 10 was asked; the "
+                            "model of order 9 leaves no residual a new degree of freedom can "
+                            "fit)")

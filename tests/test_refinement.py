@@ -791,3 +791,75 @@ def test_a_basis_whose_rows_are_not_the_measured_dofs_is_refused():
     with pytest.raises(ValueError, match=r"^basis must have orthonormal columns \(RᵀR = I\), "
                                          r"as POD modes do$"):
         refine(start, U_n, F_n, w, basis=2 * R)
+
+
+def test_a_start_with_no_positive_mass_is_refused_naming_its_largest_eigenvalue():
+    """M = −diag(0.5, 1, 2, 4): its largest eigenvalue is −0.5 (the smallest −4), the
+    number the message quotes, word for word."""
+    chain, U, F, w = chain_data(n=4, p=1, lines=20)
+    M = -np.diag([0.5, 1.0, 2.0, 4.0])
+    with pytest.raises(ValueError, match=re.escape(
+            "the start model's M has no positive eigenvalue (largest -0.5): it cannot be "
+            "made positive definite; identify with symmetric=True, or a lower order m")):
+        refine((M, chain.C, chain.K), U, F, w)
+
+
+def _weighted_start_cost(start, U, F, w, weight):
+    """Σ_i Σ_j weight[i, j]² ‖x_ij − u_ij‖² of a start (M, C, K), by hand."""
+    X = pr.SecondOrderSystem(*start).response(w, F)
+    return float(np.sum(weight[:, None, :] ** 2 * np.abs(X - U) ** 2))
+
+
+def test_a_weight_per_line_weighs_every_load_case_of_its_line():
+    """Weights (s,) on two load cases: line i's weight applies to both of its columns
+    (the core's columns are line-major), so the start's reported cost is Σ_i w_i² Σ_j
+    ‖x_ij − u_ij‖² — the weights ramp from 0.5 to 2 over the lines, so a weight applied
+    to the wrong line moves the sum by tens of per cent; 1e-10: the same sums in another
+    order."""
+    chain, U, F, w = chain_data(n=4, p=2, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)  # physical, 5 % off: a cost to compare
+    per_line = np.linspace(0.5, 2.0, w.size)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, weights=per_line, max_iter=1, threads=1)
+    want = _weighted_start_cost(start, U, F, w, np.repeat(per_line[:, None], 2, axis=1))
+    assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-10)
+
+
+def test_the_relative_residual_of_a_refinement_is_the_root_of_its_cost_ratio():
+    """IdentificationResult.relative_residual of an output-error fit: √(cost / cost_start),
+    a ratio of norms like CG's ‖b − Gx‖/‖b‖, in (0, 1) where the cost fell. With uniform
+    weights the costs carry the responses' units (the chain's receptances are far below 1,
+    so are the costs): a cost over the start's norm would be off by the cost's own root,
+    orders of magnitude; 1e-12 is round-off."""
+    chain, U, F, w = chain_data(n=4, p=1, lines=40)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine((chain.M, chain.C, 1.05 * chain.K), U, F, w, weights="uniform",
+                       max_iter=3, threads=1)
+    ref = model.info["refinement"]
+    assert 0 < ref["cost"] < ref["cost_start"]
+    assert model.relative_residual == pytest.approx(np.sqrt(ref["cost"] / ref["cost_start"]),
+                                                    rel=1e-12)
+
+
+def test_relative_weights_weigh_each_column_with_latent_coordinates_too():
+    """The 4-mass chain seen at its first three masses (R = [I₃, 0]: three observed
+    coordinates and one latent): with relative weights the start's reported cost is
+    Σ_ij ‖R x_ij − u_ij‖² / ‖u_ij‖², each line counting alike, as without latent
+    coordinates. The response spans decades over the band, so unweighted columns would
+    give another sum entirely; 1e-10: the same sums in another order."""
+    chain = pr.mass_spring_chain(4)
+    w = 2 * np.pi * np.linspace(5.0, 250.0, 60)
+    F4 = np.zeros((w.size, 4, 1), dtype=complex)
+    F4[:, 1, 0] = 1.0
+    U_n, F_n = chain.response(w, F4)[:, :3], F4[:, :3]
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U_n, F_n, w, basis=np.eye(3), max_iter=1, threads=1)
+    ref = model.info["refinement"]
+    assert ref["coordinates"]["latent"] == 1 and ref["weights"] == "relative"
+    X = pr.SecondOrderSystem(*start).response(w, F4)[:, :3]
+    want = float(np.sum(np.abs(X - U_n) ** 2 / np.sum(np.abs(U_n) ** 2, axis=1, keepdims=True)))
+    assert ref["cost_start"] == pytest.approx(want, rel=1e-10)

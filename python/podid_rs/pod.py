@@ -468,9 +468,10 @@ def _pod_of_snapshots(A: np.ndarray, scale: float) -> PODResult:
     if mu[0] <= 0:
         raise ValueError("the snapshots are identically zero: there is no energy to decompose")
     rank = int(np.count_nonzero(mu > max(k, n) * np.finfo(float).eps * mu[0]))
+    # past the rank the eigenvalues are zero: what eigh gives there is round-off (some of
+    # it positive), and no mode goes with it
     lam = np.zeros(n)
-    kept = min(k, n)
-    lam[:kept] = scale * np.clip(mu[:kept], 0.0, None)
+    lam[:rank] = scale * mu[:rank]
     return PODResult._from_snapshots(lam, A, V[:, :rank], np.sqrt(mu[:rank]))
 
 

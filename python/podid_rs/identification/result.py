@@ -80,8 +80,9 @@ class IdentificationResult:
     iterations : int or None
         CG or Levenberg–Marquardt iterations; None for the direct path.
     relative_residual : float or None
-        For ``"cg"``, ‖b − Gx‖/‖b‖ of the scaled normal equations; None for the
-        direct path.
+        For ``"cg"``, ‖b − Gx‖/‖b‖ of the scaled normal equations; for
+        ``"output-error"`` (:func:`~podid_rs.refine`), √(cost / cost_start), the
+        weighted output error's norm relative to the start's; None for the direct path.
     penalty_norm : float
         The root sum of squares of ``penalty_norms``.
     m : int
