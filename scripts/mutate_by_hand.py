@@ -50,6 +50,7 @@ TESTS = {
 # of what calls it)
 AUDIT_TESTS = {
     "simulation": ["tests/test_uncertainty.py"],
+    "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
                                   "tests/test_holes.py", "tests/test_identify_outputs.py"],
