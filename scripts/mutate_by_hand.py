@@ -44,11 +44,13 @@ TESTS = {
     "identification/lines": ["tests/test_holdout.py"],
     "identification/holes": ["tests/test_holes.py"],
     "identification/modal_start": ["tests/test_modal_start.py"],
+    "io/npz": ["tests/test_measurements.py", "tests/test_holes.py", "tests/test_uff_modes.py"],
 }
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
 AUDIT_TESTS = {
     "simulation": ["tests/test_uncertainty.py"],
+    "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
                                   "tests/test_holes.py", "tests/test_identify_outputs.py"],
@@ -299,6 +301,66 @@ AUDIT = [
      "if nonzero.size != 1 or not np.all(F_n[:, nonzero[0], j] == 1):",
      "if nonzero.size != 1:"),
     ("identification/modal_start", "G = w[:, None] / den", "G = 1.0 / den"),
+    # second audit, UFF: an uneven abscissa's values not counted, duplicates not averaged
+    # (the last kept), the check that every force DOF is a measured response skipped, a
+    # written FRF's reference the k-th DOF instead of the k-th driven one, unlabelled
+    # records dropped when the labels disagree, a complex mode's eigenvalue conjugated,
+    # inputs = n accepted by write_uff
+    ("io/uff", "per_point = (2 if ordinate in (5, 6) else 1) + (spacing == 0)",
+     "per_point = (2 if ordinate in (5, 6) else 1)"),
+    ("io/uff", "return np.mean([f.values for f in group], axis=0)", "return group[-1].values"),
+    ("io/uff", "unmeasured = [c for c in columns if not any(o == c for o, _ in entries)]",
+     "unmeasured = [c for c in columns if not any(r == c for _, r in entries)]"),
+    ("io/uff", "ref = (int(dofs[col, 0]), int(dofs[col, 1]))",
+     "ref = (int(dofs[k, 0]), int(dofs[k, 1]))"),
+    ("io/uff", "group = [item for item in group if item[6] in (None, unit)]",
+     "group = [item for item in group if item[6] == unit]"),
+    ("io/uff", 'eig.append(complex(d["eig"]))', 'eig.append(complex(d["eig"]).conjugate())'),
+    ("io/uff", "np.any((idx < 0) | (idx >= len(R)))", "np.any((idx < 0) | (idx > len(R)))"),
+    # measured data: acceleration's sign, a repeated input accepted, a band of one line
+    # accepted, the holes keeping what was passed, H1 data not converted to receptance
+    ("measured", "return Xa / -(w**2)", "return Xa / (w**2)"),
+    ("measured", "if np.unique(idx).size != idx.size:", "if np.unique(idx).size > idx.size:"),
+    ("measured", "if keep.sum() < 2:", "if keep.sum() < 1:"),
+    ("measured", "U[:, ~mask] = 0.0", "pass"),
+    ("measured", "return from_frf(H, omega, inputs=inputs, dofs=dofs, quantity=quantity)",
+     "return from_frf(H, omega, inputs=inputs, dofs=dofs)"),
+    # POD: the order for an energy reached exactly one too high, the snapshot side's mean
+    # squares without the square, the DOF named for too much noise the largest variance,
+    # the noise scaling the modes' columns instead of their rows
+    ("pod", 'side="left"', 'side="right"'),
+    ("pod", "scale = self._eigenvalues[0] / sigma[0] ** 2",
+     "scale = self._eigenvalues[0] / sigma[0]"),
+    ("pod", "j = int(np.argmax(d - 2 * measured))", "j = int(np.argmax(d))"),
+    ("pod", "QtDQ = Q.T @ (Q * d[:, None])", "QtDQ = Q.T @ (Q * d[None, :])"),
+    # simulation: a band up to Nyquist accepted, the SNR as an amplitude ratio, Welch's
+    # segments not mean-removed, the overlap correlation not squared
+    ("simulation", "if not 0 < lo < hi < nyquist:", "if not 0 < lo < hi <= nyquist:"),
+    ("simulation", "/ 10 ** (snr / 10))", "/ 10 ** (snr / 20))"),
+    ("simulation", "seg = seg - seg.mean(axis=-1, keepdims=True)", "seg = seg"),
+    ("simulation", "(1 - j / k) * r * r for", "(1 - j / k) * r for"),
+    # modes: the half-power band's upper end from its lower, the modal A of unscaled
+    # vectors, the second set's shapes on the first set's rows
+    ("modes", "(lam.imag + np.abs(lam.real) > w[-1])", "(lam.imag - np.abs(lam.real) > w[-1])"),
+    ("modes", "    psi = psi / top\n", ""),
+    ("modes", "return mac(a.shapes[ia], b.shapes[ib]), a.dofs[ia]",
+     "return mac(a.shapes[ia], b.shapes[ia]), a.dofs[ia]"),
+    # physical model: the residual "before" of the corrected matrices, the real
+    # (overdamped) roots dropped, the eigenvalue floor ignored
+    ("physical", "before = residual_norm(result.M, result.C, result.K, data)",
+     "before = residual_norm(M, C, K, data)"),
+    ("physical", "finite & (lam.imag >= 0)", "finite & (lam.imag > 0)"),
+    ("physical", "B = (Q * np.maximum(d, floor)) @ Q.T", "B = (Q * np.maximum(d, 0.0)) @ Q.T"),
+    # stabilisation: K's symmetry not checked, the summed FRF summed before |.|
+    ("stabilisation", "> rtol * np.linalg.norm(X) for X in mats)",
+     "> rtol * np.linalg.norm(X) for X in mats[:2])"),
+    ("stabilisation", "summed = np.sum(np.abs(data.U), axis=(1, 2))",
+     "summed = np.abs(np.sum(data.U, axis=(1, 2)))"),
+    # state space: the force entering the displacements' rows of B
+    ("statespace", "B = np.vstack([np.zeros((m, R.shape[0])), MinvRt])",
+     "B = np.vstack([MinvRt, np.zeros((m, R.shape[0]))])"),
+    # npz: a saved data set's band ignored
+    ("io/npz", "return data if band_hz is None else data.band(band_hz)", "return data"),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

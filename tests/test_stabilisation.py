@@ -300,6 +300,23 @@ def test_symmetry_is_judged_relative_to_each_matrix_size():
     assert not is_physical(replace(good, M=1e-6 * np.eye(2) + 1e-12 * skew))
 
 
+def test_every_matrix_must_be_symmetric_its_definite_symmetric_part_is_not_enough():
+    """A damping or a stiffness with a skew part (circulatory forces: a follower load, a
+    rotor's cross-coupled bearings) is not a passive structure's, even when its symmetric
+    part is positive definite; each of C and K is judged on its own. The skew parts are
+    1 % of the matrix (2-norm), ten orders above PHYSICAL_RTOL."""
+    from dataclasses import replace
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    skew = np.array([[0.0, 1.0], [-1.0, 0.0]])
+    for name in ("M", "C", "K"):
+        X = getattr(good, name)
+        Y = X + 0.01 * np.linalg.norm(X, 2) * skew
+        assert np.linalg.eigvalsh(0.5 * (Y + Y.T)).min() > 0  # its symmetric part: X's
+        bent = replace(good, **{name: Y})
+        assert not is_physical(bent), name
+
+
 def test_a_fits_warnings_are_the_orders_notes(chain_data):
     _, data = chain_data
 

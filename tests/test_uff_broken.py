@@ -565,8 +565,9 @@ def test_every_channel_dead_is_refused(tmp_path):
 # ------------------------------------------------------------------ units
 
 
-def write_labelled(path, labels):
-    """The 3-DOF chain's 9 receptances, record k's numerator units labelled ``labels[k]``."""
+def write_labelled(path, labels, denominators=None):
+    """The 3-DOF chain's 9 receptances, record k's numerator units labelled ``labels[k]``
+    and its denominator's ``denominators[k]`` (default N)."""
     chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
     freq = np.arange(0.0, 301.0, 1.0)
     H = np.zeros((freq.size, 3, 3), dtype=complex)
@@ -574,7 +575,8 @@ def write_labelled(path, labels):
     records = []
     for k, (o, r) in enumerate((o, r) for o in range(3) for r in range(3)):
         record = frf_record(DOFS[o], DOFS[r], freq, H[:, o, r])
-        record.update(ordinate_axis_units_lab=labels[k], orddenom_axis_units_lab="N")
+        record.update(ordinate_axis_units_lab=labels[k],
+                      orddenom_axis_units_lab="N" if denominators is None else denominators[k])
         records.append(record)
     pyuff.UFF(str(path)).write_sets(records, "add")
     return path
@@ -611,6 +613,23 @@ def test_two_records_in_two_other_units_are_named_in_one_whole_message(tmp_path)
     with pytest.warns(DataWarning, match=f"^{re.escape(f'{path}: {text}')}$"):
         data = read_uff(path)
     assert f"units2.uff: {text}" in data.notes
+
+
+def test_records_without_unit_labels_are_kept_when_the_labelled_ones_disagree(tmp_path):
+    """Records 8 and 9 carry no units (NONE over NONE) and record 7 is in mm among m: only
+    record 7 is left out. Record 9, the driving point 3:3 / 3:3, is measured by nothing
+    else, so without it the layout would change; the data are those of the clean file."""
+    labels = ["m"] * 6 + ["mm", "NONE", "NONE"]  # record 7: response 3:3 / reference 1:3
+    denominators = ["N"] * 7 + ["NONE", "NONE"]
+    with pytest.warns(DataWarning, match=r"FRF record\(s\) 7 \(response 3:3 / reference "
+                      r"1:3, 'mm/n'\) are in other units than the 6 other displacement "
+                      r"records \('m/n'\): left out"):
+        data = read_uff(write_labelled(tmp_path / "unlabelled.uff", labels, denominators))
+    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
+    assert data.measured.all()
+    np.testing.assert_array_equal(data.dofs[data.inputs], clean.dofs[clean.inputs])
+    # 3:3 / 1:3 is measured once more, as 1:3 / 3:3 (reciprocity): the same values
+    np.testing.assert_allclose(data.U, clean.U, rtol=0, atol=1e-14 * np.abs(clean.U).max())
 
 
 def test_labels_that_differ_in_spelling_only_agree(tmp_path):
