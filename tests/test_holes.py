@@ -332,6 +332,46 @@ def test_with_fewer_sensors_than_modes_and_a_hole_the_sweep_finds_the_true_order
     assert np.median(db_errors(predicted[:, 1, 1], H[:, 1, 1])) < 1e-3  # the hole
 
 
+def test_the_starts_of_each_order_see_the_holes_filled_with_the_last_orders_prediction(
+        monkeypatch):
+    """The fits never see the holes; the starts of an observed order (continuation,
+    residual peak, the paper's estimator) are made from reduced data Rᵀ U whose holes
+    hold the previous order's prediction R x — on the first order, zeros. Checked on
+    what the sweep hands the starts, order by order, against that prediction made here
+    from the fits it returns (to 1e-12 of the data: one einsum order apart)."""
+    from podid_rs.identification import order as order_module
+
+    chain, H, w, mask = two_force_chain(step=4.0)
+    F_n = np.zeros((w.size, 8, 2), dtype=complex)
+    F_n[:, 2, 0] = F_n[:, 5, 1] = 1.0
+    U_n = np.where(mask, H, 0.0)
+    P = pr.pod_from_frf(U_n, w)
+    seen = {}
+    observed_starts = order_module._observed_starts
+
+    def spy(order, previous, fits, Ut, Ft, wt, w_):
+        seen[order] = Ut.copy()
+        return observed_starts(order, previous, fits, Ut, Ft, wt, w_)
+
+    monkeypatch.setattr(order_module, "_observed_starts", spy)
+    sweep = order_module.sweep_orders(U_n, F_n, w, P, m=3, max_iter=5, threads=1,
+                                      measured=mask)
+    train = ~sweep.test_lines & sweep.lines
+    for m in (1, 2, 3):
+        R = P.basis(m)
+        filled = U_n
+        if m > 1:
+            R_prev = P.basis(m - 1)
+            x = sweep.fit(m - 1).model.system().response(
+                w, np.einsum("nm,snp->smp", R_prev, F_n))
+            filled = np.where(mask, U_n, np.einsum("nm,smp->snp", R_prev, x))
+        expected = np.einsum("nm,snp->smp", R, filled)[train]
+        assert np.abs(seen[m] - expected).max() < 1e-12 * np.abs(expected).max()
+    # the holes matter here: with zeros in them the data the second order starts from differ
+    zeros = np.einsum("nm,snp->smp", P.basis(2), U_n)[train]
+    assert np.abs(seen[2] - zeros).max() > 1e-3 * np.abs(zeros).max()
+
+
 def test_the_pod_of_data_with_holes_is_that_of_its_measured_entries():
     chain, H, w, mask = two_force_chain()
     data = from_frf(H, w, inputs=[2, 5], measured=mask)

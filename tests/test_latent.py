@@ -190,6 +190,25 @@ def test_the_residual_term_above_the_band_is_a_mode_at_its_factor_of_the_highest
     np.testing.assert_allclose(undamped, [w1, RESIDUAL_FACTOR * omega[-1]], rtol=1e-10)
 
 
+def test_the_residual_term_below_the_band_is_a_mode_at_its_factor_below_the_lowest_line():
+    """The mirror image: data with a mode below the band (5 Hz, lines 20–80 Hz) beside
+    the model's (50 Hz). The start "residual term below the band" adds one mode at the
+    band's lowest line over RESIDUAL_FACTOR: the start's undamped frequencies are the
+    model's and that one, to round-off."""
+    from podid_rs.identification.latent import RESIDUAL_FACTOR
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    w1, wl = 2 * np.pi * 50.0, 2 * np.pi * 5.0
+    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
+    U = (1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
+         + 1 / (0.25 * (wl**2 - omega**2 + 2j * 0.01 * wl * omega)))[:, None, None]
+    starts = latent_starts(model, U, np.ones_like(U), omega, np.eye(1),
+                           np.ones((omega.size, 1)))
+    M, _, K = next(s for _, s, n in starts if n == "latent DOF: residual term below the band")
+    undamped = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real))
+    np.testing.assert_allclose(undamped, [omega[0] / RESIDUAL_FACTOR, w1], rtol=1e-10)
+
+
 def test_a_peak_fitted_only_by_its_widest_damping_still_gets_a_start():
     """The residual at 50 Hz: a 3 %-damped mode of unit modal mass less a 0.2 %-damped one
     of 0.3. At every candidate frequency the dampings below the widest fit it only with a
@@ -314,6 +333,9 @@ def test_the_sweep_goes_past_one_sensor_and_finds_every_mode():
         warnings.simplefilter("ignore")
         model, R, sweep = data.fit()
     assert sweep.chosen > 1 and sweep.fit(sweep.chosen).latent == sweep.chosen - 1
+    # the reason names the rule of the latent orders with its step, PROGRESS_STEP = 3 %
+    assert ("; a latent order counts only where it lowers the best held-out error of the "
+            "smaller orders by 3 %;") in sweep.reason
     assert R.shape == (1, sweep.chosen) and np.count_nonzero(np.abs(R) > 0) == 1
     got = pr.modal_parameters(model)
     assert got.stable and pr.is_physical(model)

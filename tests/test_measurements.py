@@ -332,6 +332,11 @@ def test_time_history_npz_file(tmp_path):
     data = load_data(path, band_hz=(2.0, 60.0))
     direct = from_time_histories(x, y, 1 / 256, inputs=[1], nperseg=512, band_hz=(2.0, 60.0))
     assert np.array_equal(data.U, direct.U) and data.inputs.tolist() == [1]
+    # the file's quantity is read too: accelerations become receptances
+    np.savez(tmp_path / "acc.npz", forces=x, responses=y, dt=1 / 256, inputs=[1], nperseg=512,
+             quantity="acceleration")
+    acc = load_data(tmp_path / "acc.npz", band_hz=(2.0, 60.0))
+    assert np.allclose(acc.U, direct.U / -(direct.omega**2)[:, None, None], rtol=1e-12, atol=0)
     np.savez(tmp_path / "half.npz", forces=x, dt=1 / 256)
     with pytest.raises(ValueError, match="responses"):
         load_data(tmp_path / "half.npz")
@@ -445,6 +450,11 @@ def test_two_lines_are_data_and_frf_arrays_must_be_three_dimensional():
     rng = np.random.default_rng(1)
     data = MeasuredData([1.0, 2.0], rng.standard_normal((2, 3, 1)), np.ones((2, 1, 1)), inputs=[0])
     assert data.s == 2
+    # notes given as a list (of anything) are kept as a tuple of their texts: the data are
+    # frozen, and save_data writes them as strings
+    noted = MeasuredData([1.0, 2.0], np.ones((2, 3, 1)), np.ones((2, 1, 1)), inputs=[0],
+                         notes=["read from a.uff", 7])
+    assert noted.notes == ("read from a.uff", "7")
     with pytest.raises(ValueError, match=r"H must have shape \(s, n_out, n_in\), got \(2, 3\)"):
         from_frf(np.ones((2, 3)), [1.0, 2.0])
 

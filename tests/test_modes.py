@@ -418,3 +418,26 @@ def test_each_entry_rises_above_its_own_ring():
     Ua = np.ones((w.size, 2, 1))
     Ua[:, 1] = 1e-3
     assert not _data_peak(w, Ua, np.ones((2, 1), dtype=bool), complex(-1.0, 100.0))
+
+
+def test_companion_modes_of_equal_size_keep_the_eigensolvers_order():
+    """150 uncoupled oscillators of three stiffnesses: three values of |λ|, each exactly
+    shared by 50 poles. Sorted by |λ| with ties in the order scipy.linalg.eig returns
+    them (a stable sort), each pole keeps its own vector; NumPy's default sort reorders
+    ties among other keys, and would pair the poles with the vectors in another order."""
+    import scipy.linalg
+
+    from podid_rs.physical import companion_modes
+
+    k = np.tile([4.0, 9.0, 16.0], 50)
+    n = k.size
+    lam, vectors, _ = companion_modes(SecondOrderSystem(np.eye(n), 0.1 * np.eye(n),
+                                                        np.diag(k)), vectors=True)
+    eye, zero = np.eye(n), np.zeros((n, n))
+    all_lam, Z = scipy.linalg.eig(np.block([[zero, eye], [-np.diag(k), -0.1 * eye]]),
+                                  np.block([[eye, zero], [zero, eye]]))
+    pick = np.flatnonzero(all_lam.imag >= 0)
+    assert pick.size == n and np.unique(np.abs(all_lam[pick])).size == 3
+    order = pick[np.argsort(np.abs(all_lam[pick]), kind="stable")]
+    np.testing.assert_array_equal(lam, all_lam[order])
+    np.testing.assert_array_equal(vectors, Z[:n, order])

@@ -161,6 +161,9 @@ def test_pod_from_frf_equals_pod_of_its_correlation():
         (np.ones((2, 3)), "square"),
         (np.array([[1.0, 0.5], [0.0, 1.0]]), "symmetric"),
         (np.diag([1.0, -1.0]), "positive semi-definite"),
+        # the whole message: the most negative eigenvalue against the largest
+        (np.diag([-1e-3, 4.0, 2.0]), "^Ruu is not positive semi-definite: eigenvalue -0.001 "
+                                     "against largest 4$"),
         (np.zeros((3, 3)), "identically zero"),
         (np.diag([1.0, np.nan]), "non-finite"),
         (np.eye(2) * (1 + 1j), "real"),
@@ -169,6 +172,14 @@ def test_pod_from_frf_equals_pod_of_its_correlation():
 def test_pod_from_correlation_rejects_bad_input(Ruu, message):
     with pytest.raises(ValueError, match=message):
         pod_from_correlation(Ruu)
+
+
+def test_an_unknown_method_is_named_with_the_known_ones():
+    for f in (lambda m: pod(snapshots(), method=m),
+              lambda m: pod_from_frf(np.ones((3, 2, 1)), [1.0, 2.0, 3.0], method=m)):
+        with pytest.raises(ValueError, match=r"^method must be one of \('auto', 'correlation', "
+                                             r"'snapshots'\), got 'svd'$"):
+            f("svd")
 
 
 def test_pod_from_correlation_does_not_modify_input():

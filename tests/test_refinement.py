@@ -149,6 +149,23 @@ def test_the_start_warning_points_at_the_callers_line():
         with pytest.warns(StartWarning) as caught:
             refine(start, U, F, w, max_iter=3)
     assert [c.filename for c in caught if c.category is StartWarning] == [__file__]
+    # so do the note on a rank-deficient start and the warning that max_iter ended it
+    chain = pr.mass_spring_chain(4)
+    w4 = 2 * np.pi * np.linspace(5.0, 250.0, 80)
+    H = chain.frf(w4)[:, :, [1]]
+    F4 = np.broadcast_to(np.eye(4)[:, [1]], H.shape)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pr.RankDeficientWarning)
+        plain = pr.identify(H, F4, w4)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        refine(plain, H, F4, w4, max_iter=2)
+    for category, opening in ((StartWarning, "the start model comes from a rank-deficient "
+                               f"identification (rank {plain.rank} of {plain.n_unknowns} "),
+                              (ConvergenceWarning, "the output-error refinement stopped at "
+                               "max_iter = 2 with the cost still falling")):
+        assert [c.filename for c in caught if c.category is category
+                and str(c.message).startswith(opening)] == [__file__]
 
 
 def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
@@ -409,9 +426,12 @@ def test_every_bad_option_is_refused_with_its_whole_message():
         with pytest.raises(ValueError, match=re.escape(f"the start model's M must be square, "
                                                        f"got shape {bad.shape}")):
             refine((bad, chain.C, chain.K), U, F, w)
-    with pytest.raises(ValueError, match=re.escape("the start model's K must be square, got "
-                                                   "shape (6, 5)")):
-        refine((chain.M, chain.C, chain.K[:, :5]), U, F, w)
+    for name, i in (("C", 1), ("K", 2)):
+        cut = [chain.M, chain.C, chain.K]
+        cut[i] = cut[i][:, :5]
+        with pytest.raises(ValueError, match=re.escape(f"the start model's {name} must be "
+                                                       "square, got shape (6, 5)")):
+            refine(tuple(cut), U, F, w)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         for kwargs in ({"max_iter": 1}, {"max_iter": np.int64(1)}, {"ftol": 1 - 1e-12},

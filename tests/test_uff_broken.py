@@ -831,3 +831,16 @@ def test_frequency_lines_are_compared_relative_only(tmp_path):
                                      frf_record(DOFS[1], DOFS[0], shifted, H[:, 1, 0])], "add")
     with pytest.raises(ValueError, match="its frequency lines differ from those of record 1"):
         read_uff(path)
+
+
+def test_a_scalar_response_direction_zero_keeps_its_sign(tmp_path):
+    """Direction 0 is a scalar DOF (a microphone's pressure, a temperature): it has no
+    sign to flip, so its FRF is read as written — only a negative code flips one."""
+    freq = np.arange(1.0, 11.0)
+    v = (1.0 + np.arange(10.0)) * (1 + 1j)
+    records = [frf_record((1, 0), (2, 3), freq, v), frf_record((2, 3), (2, 3), freq, 2 * v),
+               frf_record((3, -3), (2, 3), freq, 3 * v)]
+    pyuff.UFF(str(tmp_path / "scalar.uff")).write_sets(records, "add")
+    data = read_uff(tmp_path / "scalar.uff")
+    assert data.dofs.tolist() == [[1, 0], [2, 3], [3, 3]] and data.inputs.tolist() == [1]
+    np.testing.assert_array_equal(data.U[:, :, 0], np.c_[v, 2 * v, -3 * v])

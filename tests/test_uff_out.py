@@ -236,7 +236,13 @@ def test_bad_input_is_named(written, tmp_path):
         write_uff(out, result, R, dofs=np.c_[np.arange(1, 7), np.full(6, 5)])
     with pytest.raises(ValueError, match=r"geometry must have shape \(k, 4\)"):
         write_uff(out, result, R, data, geometry=GEOMETRY[:, :3])
+    with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
+                                         r"z\], got \(0, 4\)$"):
+        write_uff(out, result, R, data, geometry=GEOMETRY[:0])
     assert not out.exists()
+    # one node is a geometry (the others simply have no coordinates)
+    one = write_uff(tmp_path / "one.uff", result, R, data, geometry=GEOMETRY[:1])
+    assert np.allclose(read_uff_geometry(one), GEOMETRY[:1], rtol=1e-5, atol=1e-12)
     # a reference file without mode shapes: the input FRF file
     with pytest.raises(ValueError, match=r"test\.uff: no dataset 55 \(mode shapes\).*58"):
         read_uff_modes(source)

@@ -180,6 +180,8 @@ def companion_modes(
 ) -> tuple[np.ndarray, np.ndarray | None, int]:
     """One eigenvalue per mode of the pencil, sorted by ``|λ|``, and its vector φ.
 
+    Poles of exactly equal ``|λ|`` keep the eigensolver's order (a stable sort).
+
     Generalised eigenvalues of ``A z = λ B z``, ``A = [[0, I], [−K, −C]]``,
     ``B = [[I, 0], [0, M]]`` (``scipy.linalg.eig``), z = [φ; λφ]: the one with
     ``Im λ > 0`` of each complex pair and every real one. Returns the eigenvalues
