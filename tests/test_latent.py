@@ -68,6 +68,29 @@ def test_observation_matrix_is_the_basis_then_zero_columns():
         pr.observation_matrix(bad, 7)
 
 
+def test_unit_columns_that_are_not_orthogonal_are_no_basis():
+    """Two unit columns at 45° (RᵀR has 1/√2 off its diagonal): unit norms alone do not
+    make POD modes, and the reduced data Rᵀu assume RᵀR = I."""
+    c = np.sqrt(0.5)
+    skew = np.array([[1.0, c], [0.0, c], [0.0, 0.0]])
+    assert np.allclose(np.linalg.norm(skew, axis=0), 1.0)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        observed_count(skew)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        pr.observation_matrix(skew, 3)
+
+
+def test_an_order_that_is_not_an_integer_is_refused_as_such():
+    """True is an int to Python (and equals the one observed coordinate here) but no
+    order; 2.0 is no integer: each is refused with what is wrong, not as an order below
+    the observed coordinates."""
+    Q = np.eye(3)[:, :1]
+    for m in (True, 2.0):
+        with pytest.raises(ValueError, match=rf"order m must be an integer, got {m!r}"):
+            pr.observation_matrix(Q, m)
+    assert pr.observation_matrix(Q, np.int64(2)).shape == (3, 2)
+
+
 def test_the_latent_gauge_leaves_the_measured_response_unchanged():
     """Every q = T q' with T = [[I, 0], [T_lp, T_ll]] gives the same R H(ω) Rᵀ: the
     gauge has l·k + l² directions."""
