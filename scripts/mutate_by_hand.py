@@ -54,7 +54,11 @@ AUDIT_TESTS = {
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
                                   "tests/test_holes.py", "tests/test_identify_outputs.py"],
-    "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py"],
+    "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py",
+                             "tests/test_holes.py"],  # the order limit with holes
+    # the latent starts and the modal start as the order sweep uses them
+    "identification/latent": ["tests/test_model_order.py", "tests/test_holes.py"],
+    "identification/modal_start": ["tests/test_model_order.py"],
 }
 MUTANTS = [
     ("pod", "stacklevel=4,", "stacklevel=5,"),
