@@ -195,6 +195,36 @@ def test_a_latent_mode_on_a_candidate_is_found_exactly(f1_hz, mu):
     assert [n for _, _, n in starts] == [name, "latent DOF: residual term above the band"]
 
 
+def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():
+    """Two observed DOFs (uncoupled, modes at 10 and 15 Hz), each driven in its own load
+    case, and data with one more mode on a latent coordinate seen with shape φ = (0.6, 0.8)
+    at the two sensors: the residual at every line is φ φᵀ / (μ d(ω)), so the dominant
+    direction of Re(r rᴴ) is φ and the best start reproduces the data to round-off. The
+    other direction, orthogonal to φ, sees none of the residual."""
+    from podid_rs.identification.latent import PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta, mu = omega[i] * (1 + PEAK_OFFSETS[1]), PEAK_ZETAS[1], 0.5
+    w_obs = 2 * np.pi * np.array([10.0, 15.0])
+    model = (np.eye(2), np.diag(2 * 0.02 * w_obs), np.diag(w_obs**2))
+    phi = np.array([0.6, 0.8])
+    d = wc**2 - omega**2 + 2j * zeta * wc * omega
+    H = np.zeros((omega.size, 2, 2), dtype=complex)
+    H[:, [0, 1], [0, 1]] = 1 / (w_obs**2 - omega[:, None] ** 2
+                                + 2j * 0.02 * w_obs * omega[:, None])
+    U = H + np.outer(phi, phi)[None] / (mu * d)[:, None, None]
+    F = np.broadcast_to(np.eye(2), U.shape).copy()
+    starts = latent_starts(model, U, F, omega, np.eye(2), np.ones((omega.size, 2)))
+    cost, start, name = min(starts, key=lambda c: c[0])
+    base = float(np.sum(np.abs(U - H) ** 2))
+    assert cost < 1e-12 * base and name == f"latent DOF at {wc / (2 * np.pi):.4g} Hz"
+    F3 = np.zeros((omega.size, 3, 2))
+    F3[:, :2] = np.eye(2)
+    X = pr.SecondOrderSystem(*start).response(omega, F3)[:, :2, :]
+    assert np.max(np.abs(X - U)) < 1e-8 * np.max(np.abs(U))
+
+
 def test_the_residual_term_above_the_band_is_a_mode_at_its_factor_of_the_highest_line():
     """The start "residual term above the band" adds one mode at RESIDUAL_FACTOR × the
     band's highest line and keeps the model's: the start's undamped frequencies are
