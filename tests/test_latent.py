@@ -1,7 +1,9 @@
 """Latent coordinates: models with more degrees of freedom than measured points
 (podid_rs.identification.latent, refine and the order sweep past the POD basis).
 
-Asserted: the observation matrix is [R_p, 0] and malformed bases are refused; the
+Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns that are
+not orthogonal among them) and orders that are not integers are refused; a latent start
+seen at two sensors takes the residual's dominant direction; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
 order sweep goes past the single sensor, recovers every in-band mode of a 6-mode chain
