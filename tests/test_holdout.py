@@ -567,3 +567,24 @@ def test_the_phase_counts_unwrapped_along_the_lines():
     U = np.exp(np.concatenate([0 * t, t, 0 * t, 0 * t]) + 1j * phase).reshape(64, 1, 1)
     keep = informative_lines(U, 16)
     assert keep[16:32].sum() == 1 and keep[:16].sum() >= 13
+
+
+def test_a_test_of_the_target_or_fewer_lines_keeps_them_all():
+    """With s ≤ target every line is kept, s = target included: thinned, the 16 lines
+    below (four blocks of 4, every block's activity different) would keep a single line,
+    besides the band's last, in the two blocks at or below the median activity."""
+    rng = np.random.default_rng(0)
+    U = rng.standard_normal((17, 2, 1)) + 1j * rng.standard_normal((17, 2, 1))
+    assert informative_lines(U[:16], 16).all()
+    assert informative_lines(U[:15], 16).all()
+    assert informative_lines(U, 16).sum() < 17  # one more line: it thins
+
+
+def test_a_target_below_sixteen_lines_is_refused():
+    """16 is the smallest target informative_lines takes (its four blocks then keep one
+    line each and share 12); 15 is refused, whatever the data."""
+    U = np.ones((100, 1, 1), dtype=complex)
+    assert informative_lines(U, 16).sum() <= 16
+    for target in (15, 1, 0):
+        with pytest.raises(ValueError, match=f"at least 16, got {target}"):
+            informative_lines(U, target)

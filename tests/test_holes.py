@@ -106,6 +106,29 @@ def test_targets_are_rt_u_when_complete_and_least_squares_with_holes():
         assert rel(Y[:, :, j], expected) < 1e-10
 
 
+def test_targets_of_a_column_with_fewer_measured_entries_than_coordinates_are_minimum_norm():
+    """Two measured DOFs of a load case, a basis of four coordinates: two directions of
+    Rᵀ diag(mask) R are null, their eigenvalues round-off (|λ| of 1e-18 to 1e-16 here,
+    the others 0.15 to 1) — dividing by them would make targets orders of magnitude
+    larger than the data. The targets are the
+    minimum-norm least-squares fit, whatever the sign the round-off takes; over ten bases
+    some of those eigenvalues come out positive (asserted: the test reaches them)."""
+    rng = np.random.default_rng(4)
+    s, n, p, m = 5, 8, 1, 4
+    mask = np.zeros((n, p), dtype=bool)
+    mask[[1, 6], 0] = True
+    positive_round_off = 0
+    for _ in range(10):
+        R, _ = np.linalg.qr(rng.standard_normal((n, m)))
+        U = (rng.standard_normal((s, n, p)) + 1j * rng.standard_normal((s, n, p))) * mask
+        Q = R.T @ (mask[:, :1] * R)  # as measured_targets forms it
+        lam = np.linalg.eigvalsh(0.5 * (Q + Q.T))
+        positive_round_off += int(np.sum((lam > 0) & (lam < 1e-12 * lam.max())))
+        expected = np.linalg.lstsq(R[mask[:, 0]], U[:, mask[:, 0], 0].T, rcond=None)[0].T
+        assert rel(measured_targets(U, R, mask)[:, :, 0], expected) < 1e-10
+    assert positive_round_off > 0
+
+
 def test_the_targets_scale_with_the_basis_and_are_zero_where_it_sees_nothing():
     # least squares is invariant under the basis's scale: the targets of c·R are those of
     # R over c, also for c = 1e-7, where Rᵀ diag(mask) R has eigenvalues near 1e-14 (the

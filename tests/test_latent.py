@@ -1,7 +1,9 @@
 """Latent coordinates: models with more degrees of freedom than measured points
 (podid_rs.identification.latent, refine and the order sweep past the POD basis).
 
-Asserted: the observation matrix is [R_p, 0] and malformed bases are refused; the
+Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns that are
+not orthogonal among them) and orders that are not integers are refused; a latent start
+seen at two sensors takes the residual's dominant direction; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
 order sweep goes past the single sensor, recovers every in-band mode of a 6-mode chain
@@ -66,6 +68,29 @@ def test_observation_matrix_is_the_basis_then_zero_columns():
     bad[:, [2, 4]] = bad[:, [4, 2]]  # a zero column among the observed ones
     with pytest.raises(ValueError, match="zero \\(latent\\) columns last"):
         pr.observation_matrix(bad, 7)
+
+
+def test_unit_columns_that_are_not_orthogonal_are_no_basis():
+    """Two unit columns at 45° (RᵀR has 1/√2 off its diagonal): unit norms alone do not
+    make POD modes, and the reduced data Rᵀu assume RᵀR = I."""
+    c = np.sqrt(0.5)
+    skew = np.array([[1.0, c], [0.0, c], [0.0, 0.0]])
+    assert np.allclose(np.linalg.norm(skew, axis=0), 1.0)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        observed_count(skew)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        pr.observation_matrix(skew, 3)
+
+
+def test_an_order_that_is_not_an_integer_is_refused_as_such():
+    """True is an int to Python (and equals the one observed coordinate here) but no
+    order; 2.0 is no integer: each is refused with what is wrong, not as an order below
+    the observed coordinates."""
+    Q = np.eye(3)[:, :1]
+    for m in (True, 2.0):
+        with pytest.raises(ValueError, match=rf"order m must be an integer, got {m!r}"):
+            pr.observation_matrix(Q, m)
+    assert pr.observation_matrix(Q, np.int64(2)).shape == (3, 2)
 
 
 def test_the_latent_gauge_leaves_the_measured_response_unchanged():
@@ -170,6 +195,36 @@ def test_a_latent_mode_on_a_candidate_is_found_exactly(f1_hz, mu):
     # the starts tried: the peak, and the residual term above the band (the one below
     # would need a negative modal mass: its response has the other sign in the band)
     assert [n for _, _, n in starts] == [name, "latent DOF: residual term above the band"]
+
+
+def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():
+    """Two observed DOFs (uncoupled, modes at 10 and 15 Hz), each driven in its own load
+    case, and data with one more mode on a latent coordinate seen with shape φ = (0.6, 0.8)
+    at the two sensors: the residual at every line is φ φᵀ / (μ d(ω)), so the dominant
+    direction of Re(r rᴴ) is φ and the best start reproduces the data to round-off. The
+    other direction, orthogonal to φ, sees none of the residual."""
+    from podid_rs.identification.latent import PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta, mu = omega[i] * (1 + PEAK_OFFSETS[1]), PEAK_ZETAS[1], 0.5
+    w_obs = 2 * np.pi * np.array([10.0, 15.0])
+    model = (np.eye(2), np.diag(2 * 0.02 * w_obs), np.diag(w_obs**2))
+    phi = np.array([0.6, 0.8])
+    d = wc**2 - omega**2 + 2j * zeta * wc * omega
+    H = np.zeros((omega.size, 2, 2), dtype=complex)
+    H[:, [0, 1], [0, 1]] = 1 / (w_obs**2 - omega[:, None] ** 2
+                                + 2j * 0.02 * w_obs * omega[:, None])
+    U = H + np.outer(phi, phi)[None] / (mu * d)[:, None, None]
+    F = np.broadcast_to(np.eye(2), U.shape).copy()
+    starts = latent_starts(model, U, F, omega, np.eye(2), np.ones((omega.size, 2)))
+    cost, start, name = min(starts, key=lambda c: c[0])
+    base = float(np.sum(np.abs(U - H) ** 2))
+    assert cost < 1e-12 * base and name == f"latent DOF at {wc / (2 * np.pi):.4g} Hz"
+    F3 = np.zeros((omega.size, 3, 2))
+    F3[:, :2] = np.eye(2)
+    X = pr.SecondOrderSystem(*start).response(omega, F3)[:, :2, :]
+    assert np.max(np.abs(X - U)) < 1e-8 * np.max(np.abs(U))
 
 
 def test_the_residual_term_above_the_band_is_a_mode_at_its_factor_of_the_highest_line():

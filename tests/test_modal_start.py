@@ -107,6 +107,24 @@ def test_modes_outside_the_band_become_residual_poles():
     # it explains the band far better than the in-band modes alone would: a few %
     assert _relative_cost(start, R, U, F, omega) < 0.05 * omega.size
 
+def test_the_residual_poles_sit_at_the_band_s_edges_not_at_the_model_s_poles_outside():
+    """The band of modes 2 and 3 again: the model's own poles outside it (modes 1 and 4)
+    are not kept — the start's poles are exactly the modal ones it is written from, the
+    two in-band poles and the residual poles at ω_lo / RESIDUAL_FACTOR and
+    ω_hi · RESIDUAL_FACTOR with RESIDUAL_ZETA."""
+    from podid_rs.identification.modal_start import RESIDUAL_FACTOR, RESIDUAL_ZETA
+
+    wn, zeta = natural(M4, C4, K4)
+    omega = np.linspace(0.5 * (wn[0] + wn[1]), 0.5 * (wn[2] + wn[3]), 400)
+    U, F = frf_data(omega, [0, 1, 2, 3], [0])
+    w_start, z_start = natural(*modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4),
+                                            U, F, omega))
+    residual = [omega[0] / RESIDUAL_FACTOR, omega[-1] * RESIDUAL_FACTOR]
+    assert abs(wn[3] - residual[1]) > 0.1 * wn[3]  # mode 4 is not where the pole goes
+    np.testing.assert_allclose(w_start[[0, 3]], residual, rtol=1e-9)
+    np.testing.assert_allclose(z_start[[0, 3]], RESIDUAL_ZETA, rtol=1e-9)
+
+
 def test_a_band_below_one_radian_per_second_keeps_its_residual_pole_below():
     """The same structure 1000 times slower (C / 10³, K / 10⁶: the same damping ratios),
     its band of modes 2 and 3 below 1 rad/s: still the two in-band poles exactly, one

@@ -301,6 +301,8 @@ def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, 
     assert [f.m for f in sweep.fits] == list(range(1, (m_max - 1 if stops else m_max) + 1))
     flat = f"stopped after {order.LATENT_FLAT} latent orders that lowered the training error"
     assert (flat in sweep.reason) == stops
+    # the reason's range is the orders fitted (one short of m_max where the sweep stopped)
+    assert f"over m = 1…{sweep.fits[-1].m}; one line in 4 held out" in sweep.reason
 
 
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):

@@ -79,15 +79,17 @@ def observation_matrix(basis: object, m: int) -> np.ndarray:
     ------
     ValueError
         If ``basis`` is not 2-D, its nonzero columns are not orthonormal or not
-        first, or m is below their number.
+        first, or m is not an integer (a bool is not) or is below their number.
     """
     R = as_array(basis, "basis", real=True)
     if R.ndim != 2 or R.shape[0] == 0 or R.shape[1] == 0:
         raise ValueError(f"basis must be a non-empty (n, k) array, got shape {R.shape}")
     k = observed_count(R)
-    if isinstance(m, bool) or not isinstance(m, int | np.integer) or m < k:
+    if isinstance(m, bool) or not isinstance(m, int | np.integer):
+        raise ValueError(f"the model's order m must be an integer, got {m!r}")
+    if m < k:
         raise ValueError(
-            f"the model's order m = {m!r} is below the {k} observed coordinates of the basis"
+            f"the model's order m = {m} is below the {k} observed coordinates of the basis"
         )
     out = np.zeros((R.shape[0], int(m)))
     out[:, :k] = R[:, :k]
