@@ -53,7 +53,8 @@ AUDIT_TESTS = {
     "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
-                                  "tests/test_holes.py", "tests/test_identify_outputs.py"],
+                                  "tests/test_holes.py", "tests/test_identify_outputs.py",
+                                  "tests/test_latent.py"],  # refine with latent coordinates
     "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py"],
 }
 MUTANTS = [
