@@ -53,7 +53,8 @@ AUDIT_TESTS = {
     "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
-                                  "tests/test_holes.py", "tests/test_identify_outputs.py"],
+                                  "tests/test_holes.py", "tests/test_identify_outputs.py",
+                                  "tests/test_latent.py"],  # refine with latent coordinates
     "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py",
                              "tests/test_holes.py"],  # the order limit with holes
     # the latent starts and the modal start as the order sweep uses them
@@ -431,6 +432,72 @@ AUDIT = [
     # round-off eigenvalues of the directions the measured entries do not fix
     ("identification/holes", "if unseen.size:", "if unseen.size > 1:"),
     ("identification/holes", "keep = lam > 1e-12 * max(float(lam.max()), 0.0)", "keep = lam > 0"),
+    # third audit, refinement: relative weights 1/‖u‖², log-magnitude weights of shape
+    # (s, p) = (s, n) read per column, the holes' values kept, measured= without a basis
+    # accepted, the rank without the latent gauge, the equation error of a latent fit
+    # reported, acceleration ignored, ftol = 0 accepted, the max_iter warning's costs
+    # swapped, an asymmetric start not warned of, eigenvalues under the floor not counted as
+    # raised, the measured entries' metric without the column weights, a zero model
+    # response in the dB errors, 2-D reduced data of lower order not given latent coordinates
+    ("identification/refinement", "w[nz] = 1.0 / norms[nz]", "w[nz] = 1.0 / norms[nz] ** 2"),
+    ("identification/refinement", "elif W.shape == (s, p) and W.shape != (s, n):",
+     "elif W.shape == (s, p):"),
+    ("identification/refinement",
+     "U3 = np.where(mask, U3, 0.0)  # what the holes hold never enters (a fresh array)",
+     "pass"),
+    ("identification/refinement",
+     'raise ValueError("measured (a mask over the measured DOFs) needs basis=")', "pass"),
+    ("identification/refinement", "rank=n_unk - gauge_dimension(m, observed),",
+     "rank=n_unk,"),
+    ("identification/refinement", "residual_norm(M, C, K, data) if latent == 0 else math.nan",
+     "residual_norm(M, C, K, data) if latent >= 0 else math.nan"),
+    ("identification/refinement", "acceleration=bool(acceleration),", "acceleration=False,"),
+    ("identification/refinement", "if not (0.0 < ftol < 1.0):", "if not (0.0 <= ftol < 1.0):"),
+    ("identification/refinement",
+     "falling ({report['cost_start']:.4g} → {report['cost']:.4g}); raise",
+     "falling ({report['cost']:.4g} → {report['cost_start']:.4g}); raise"),
+    ("identification/refinement", 'changed = any(start_report["eigenvalues_raised"]) or any(',
+     'changed = any(start_report["eigenvalues_raised"]) and any('),
+    ("identification/refinement", "Y, k = 0.5 * (Y + Y.T), int(np.sum(d < floor))",
+     "Y, k = 0.5 * (Y + Y.T), int(np.sum(d < 0))"),
+    ("identification/refinement", "T, Y, const = measured_metric(w, R,",
+     "T, Y, const = measured_metric(np.ones_like(w), R,"),
+    ("identification/refinement", "keep = (a > 0) & (b > 0)", "keep = b > 0"),
+    ("identification/refinement", "if basis is None and np.ndim(U) >= 2 and",
+     "if basis is None and np.ndim(U) > 2 and"),
+    # physical model: a zero M accepted, C floored like M and K, the report's counts of C
+    # and K swapped, the damping ratio over Im λ, the true mode nearest in linear
+    # frequency, an undamped mode reported stable
+    ("physical", "if rtol > 0 and floor == 0.0:", "if rtol > 0 and floor < 0.0:"),
+    ("physical", 'C, moved_C = _raise_eigenvalues(result.C, 0.0, "C")',
+     'C, moved_C = _raise_eigenvalues(result.C, rtol, "C")'),
+    ("physical", '"eigenvalues_raised": (moved_M, moved_C, moved_K),',
+     '"eigenvalues_raised": (moved_M, moved_K, moved_C),'),
+    ("physical", "zeta = np.where(mag > 0, -keep.real / mag, 0.0)",
+     "zeta = np.where(mag > 0, -keep.real / keep.imag, 0.0)"),
+    ("physical", "j = int(np.argmin(np.abs(np.log(f_true) - np.log(f)))) if f > 0 else 0",
+     "j = int(np.argmin(np.abs(f_true - f))) if f > 0 else 0"),
+    ("physical", '"stable": "yes" if lam.real < 0 else "no",',
+     '"stable": "yes" if lam.real <= 0 else "no",'),
+    # modes: an asymmetric C given a modal A, real roots kept as oscillatory, a pole seen
+    # at one line counted structural, the data's peak against the higher side, a MAC on
+    # one common DOF accepted
+    ("modes", "<= SYMMETRY_RTOL * np.linalg.norm(X) for X in (M, C, K))",
+     "<= SYMMETRY_RTOL * np.linalg.norm(X) for X in (M, K))"),
+    ("modes", "return self.select(self.eigenvalues.imag > 0)",
+     "return self.select(self.eigenvalues.imag >= 0)"),
+    ("modes", "if sum(seen) < 2:", "if sum(seen) < 1:"),
+    ("modes", "around = np.min([np.median", "around = np.max([np.median"),
+    ("modes", "if len(rows) < 2:", "if len(rows) < 1:"),
+    # stabilisation: K's definiteness not checked, poles below the band counted in it, the
+    # order named in a fit's error one too low
+    ("stabilisation", "eM.min() > 0 and eK.min() > 0 and", "eM.min() > 0 and"),
+    ("stabilisation", '"in_band": bool(lo <= f[k] <= hi),', '"in_band": bool(f[k] <= hi),'),
+    ("stabilisation", 'f"stabilisation chart, order m = {m}: {exc}"',
+     'f"stabilisation chart, order m = {m - 1}: {exc}"'),
+    # state space: M⁻¹Kᵀ (right only for a symmetric K), an empty model not refused
+    ("statespace", "for X in (Km, Cm, R.T))", "for X in (Km.T, Cm, R.T))"),
+    ("statespace", "if X.shape != (m, m) or m == 0:", "if X.shape != (m, m):"),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

@@ -353,6 +353,36 @@ def test_a_pole_rising_less_than_twice_its_ring_is_no_peak_of_the_data(half, lev
     assert not _data_peak(w, Ua, np.array([False]), lam)
 
 
+@pytest.mark.parametrize("below, above", [(1.0, 3.0), (3.0, 1.0)])
+def test_a_resonance_beside_a_stronger_one_rises_above_the_lower_side_of_its_ring(below, above):
+    """On one side of the pole the flank of a stronger resonance (3), on the other the
+    data at 1: the pole's 2.5 is a peak against the lower side (2.5 ≥ 2 × 1), whichever
+    side it is on — against the higher one (2 × 3 = 6) no resonance beside a stronger one
+    would ever count; 1.5 rises above neither."""
+    from podid_rs.modes import _data_peak
+
+    w, Ua, lam = _pole_on_a_grid(1.0, lambda a, k: 2.5 if a <= 1 else (below if k < 0 else above))
+    assert _data_peak(w, Ua, np.array([True]), lam)
+    Ua[np.abs(w - 100.0) <= 1.0] = 1.5
+    assert not _data_peak(w, Ua, np.array([True]), lam)
+
+
+def test_shape_mac_needs_two_common_dofs():
+    """One common DOF makes the MAC of any two shapes 1 (two complex numbers are always
+    multiples of each other): it is refused; two are enough."""
+    lam = np.array([-1.0 + 60.0j, -2.0 + 90.0j])
+    a = ModeShapes(lam, np.array([[1.0, 0.5], [0.5, -1.0], [0.2, 0.3]], dtype=complex),
+                   np.array([[1, 3], [2, 3], [3, 3]]))
+    b = ModeShapes(lam, a.shapes[[0, 2]], np.array([[1, 3], [7, 3]]))
+    with pytest.raises(ValueError, match=r"^the two sets of shapes share 1 \(node, direction\) "
+                       r"DOF\(s\); the MAC needs at least 2 "):
+        shape_mac(a, b)
+    c = ModeShapes(lam, a.shapes[[0, 2]], np.array([[1, 3], [3, 3]]))
+    values, used = shape_mac(a, c)
+    assert used.tolist() == [[1, 3], [3, 3]]
+    np.testing.assert_allclose(np.diag(values), 1.0, rtol=1e-12)
+
+
 def test_a_mode_the_sensors_do_not_see_is_refused():
     # two uncoupled DOFs, the sensor on the first: the second's mode is 0 on it
     model = SecondOrderSystem(np.eye(2), np.diag([0.1, 0.2]), np.diag([100.0, 400.0]))

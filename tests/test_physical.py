@@ -236,6 +236,11 @@ def test_compare_modes_pairs_by_log_frequency_and_refuses_what_it_cannot_pair():
     f_id = np.array([0.0, 0.45, 0.21])
     assert [r["f_rel_error"] for r in rows] == pytest.approx((f_id - paired) / paired, rel=1e-12)
     assert [r["zeta"] for r in rows] == [0.0, 0.011, 0.03]
+    # between the two true modes log f and f disagree: 0.33 Hz lies above their geometric
+    # mean √(0.2 · 0.5) = 0.316 Hz, nearer 0.5 Hz in log f (ln(0.5/0.33) = 0.42 against
+    # ln(0.33/0.2) = 0.50), though nearer 0.2 Hz in f (0.13 Hz against 0.17 Hz)
+    between = modes_with([-0.01 + two_pi * 0.33j])
+    assert compare_modes(between, truth)[0]["f_true_hz"] == truth.frequencies_hz[1]
     # one true mode is enough
     single = compare_modes(identified, modes_with([-0.01 + two_pi * 0.2j]))
     assert [r["f_true_hz"] for r in single] == [truth.frequencies_hz[0]] * 3

@@ -357,8 +357,13 @@ def test_an_exception_in_progress_stops_the_refinement():
 
 def test_max_iter_gives_a_convergence_warning():
     chain, U, F, w = chain_data(n=4, snr=20)
-    with pytest.warns(ConvergenceWarning, match="max_iter = 2"):
-        refine((chain.M * 1.5, chain.C * 3, chain.K * 0.7), U, F, w, max_iter=2)
+    with pytest.warns(ConvergenceWarning, match="max_iter = 2") as caught:
+        model = refine((chain.M * 1.5, chain.C * 3, chain.K * 0.7), U, F, w, max_iter=2)
+    # the costs it names are the start's, then the one it stopped at, lower
+    rep = model.info["refinement"]
+    assert rep["cost"] < rep["cost_start"]
+    message = str(next(c.message for c in caught if c.category is ConvergenceWarning))
+    assert f"cost still falling ({rep['cost_start']:.4g} → {rep['cost']:.4g})" in message
 
 
 @pytest.mark.parametrize(
@@ -767,6 +772,25 @@ def test_a_positive_definite_damping_below_one_is_kept_bit_for_bit():
     assert report["eigenvalues_raised"][1] == 0 and report["relative_change"][1] == 0.0
 
 
+def test_a_start_that_is_only_not_symmetric_is_warned_about():
+    """K with a skew part S = −Sᵀ beside its positive definite symmetric part has no
+    eigenvalue to raise, but the refinement starts from the symmetric part: a change
+    the StartWarning names, K's relative change ‖S‖ / ‖K + S‖ (the start's K is S away
+    from the one used; 1e-12: the norms' round-off)."""
+    chain, U, F, w = chain_data(n=4, snr=20)
+    S = np.zeros((4, 4))
+    S[0, 1], S[1, 0] = 0.01 * chain.K[0, 0], -0.01 * chain.K[0, 0]
+    K = chain.K + S
+    _, report = physical_start(chain.M, chain.C, K)
+    assert report["eigenvalues_raised"] == (0, 0, 0)
+    assert report["relative_change"][2] == pytest.approx(
+        np.linalg.norm(S) / np.linalg.norm(K), rel=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        with pytest.warns(StartWarning, match=r"eigenvalues changed in M, C, K: \(0, 0, 0\)"):
+            refine((chain.M, chain.C, K), U, F, w, max_iter=3)
+
+
 def test_only_the_eigenvalues_a_start_changes_are_counted_as_raised():
     """C's floor is 0: a dashpot missing at one DOF (an eigenvalue exactly 0) is kept as
     it is and not counted; the negative one beside it is raised to its magnitude."""
@@ -883,3 +907,22 @@ def test_relative_weights_weigh_each_column_with_latent_coordinates_too():
     X = pr.SecondOrderSystem(*start).response(w, F4)[:, :3]
     want = float(np.sum(np.abs(X - U_n) ** 2 / np.sum(np.abs(U_n) ** 2, axis=1, keepdims=True)))
     assert ref["cost_start"] == pytest.approx(want, rel=1e-10)
+
+
+def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p():
+    """Two coordinates and two load cases: a weight array (s, 2) is both (s, n) and
+    (s, p); documented as per entry, it weighs response coordinate a at every load case,
+    so the start's reported cost is Σ_iaj W_ia² (ln|x_iaj| − ln|u_iaj|)² (coordinate 2
+    weighed 0.1, coordinate 1 1 — a weight per load case instead would give another
+    sum: the forces are random). 1e-9: the same sums in another order."""
+    chain, U, F, w = chain_data(n=2, p=2, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    W = np.ones((w.size, 2))
+    W[:, 1] = 0.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
+                       threads=1)
+    X = pr.SecondOrderSystem(*start).response(w, F)
+    want = float(np.sum(W[:, :, None] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
+    assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)

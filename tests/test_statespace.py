@@ -134,3 +134,20 @@ def test_mass_condition_limit_is_inclusive():
                r"form with state \[q; q̇\]$")
     with pytest.raises(ValueError, match=message):
         state_space_matrices(np.diag([1.0000001 * MAX_MASS_CONDITION, 1.0]), np.eye(2), np.eye(2))
+
+
+def test_a_model_that_is_not_symmetric_keeps_its_matrices_as_they_are():
+    """identify(..., symmetric=False) gives M, C, K that are not symmetric: the transfer
+    function is still (s²M + sC + K)⁻¹, not of a transpose. At s = 0 it is K⁻¹, here by
+    hand: K = [[2, 1], [0, 3]] has K⁻¹ = [[1/2, −1/6], [0, 1/3]] (Kᵀ's inverse would have
+    the −1/6 below the diagonal). cond(M), cond(K) < 10: 1e-12 relative."""
+    M = np.array([[1.0, 0.2], [0.0, 1.0]])
+    C = np.array([[0.1, 0.05], [0.0, 0.2]])
+    K = np.array([[2.0, 1.0], [0.0, 3.0]])
+    A, B, Cout, D = state_space_matrices(M, C, K)
+    static = Cout @ np.linalg.solve(-A, B) + D  # C (0·I − A)⁻¹ B
+    np.testing.assert_allclose(static, [[0.5, -1 / 6], [0.0, 1 / 3]], rtol=1e-12, atol=1e-15)
+    omega = np.array([0.3, 1.0, 1.7, 4.0])
+    ss = scipy.signal.StateSpace(A, B, Cout, D)
+    direct = np.stack([np.linalg.inv(-(w**2) * M + 1j * w * C + K) for w in omega])
+    assert rel_error(transfer(ss, omega), direct) < 1e-12
