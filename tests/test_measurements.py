@@ -288,6 +288,27 @@ def test_several_records_are_several_load_cases():
         assert np.array_equal(data.F[:, :, k], s.force_spectrum)
 
 
+@pytest.mark.parametrize("quantity", ["velocity", "acceleration"])
+def test_spectra_of_velocity_or_acceleration_histories_are_receptances(quantity):
+    """A response cos(ω₀t) at the 5 Hz line of a 1 s record (r = 64): as a velocity its
+    displacement is sin(ω₀t)/ω₀, as an acceleration −cos(ω₀t)/ω₀²; the real FFT of
+    cos(ω₀t) there is r/2 and of sin(ω₀t) −i r/2, so the receptance on that line is
+    −i r/(2ω₀) or −r/(2ω₀²) per unit force spectrum, and zero on every other line.
+    Tolerance: the FFT's round-off, 1e-12 of the line's value."""
+    r, dt, w0 = 64, 1 / 64, 2 * np.pi * 5.0
+    t = dt * np.arange(r)
+    history = np.cos(w0 * t)[:, None]
+    data = from_time_histories(history, history, dt, quantity=quantity, estimator="spectra",
+                               band_hz=(1.0, 20.0))
+    assert np.allclose(data.freq_hz, np.arange(1.0, 21.0), rtol=1e-12)
+    line = 4  # 5 Hz
+    expected = -1j * r / (2 * w0) if quantity == "velocity" else -r / (2 * w0**2)
+    U = data.U[:, 0, 0]
+    assert abs(U[line] - expected) <= 1e-12 * abs(expected)
+    assert np.max(np.abs(np.delete(U, line))) <= 1e-12 * abs(expected)
+    assert abs(data.F[line, 0, 0] - r / 2) <= 1e-12 * r  # the force is not converted
+
+
 def periodic_test(system, ins, dt=1 / 256, r=2**15, seed=0):
     """Periodic white-noise forces on the DOFs ``ins`` only, exact periodic response."""
     rng = np.random.default_rng(seed)
@@ -421,6 +442,8 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     [
         ({"inputs": [0, 9]}, "index the 3 measured DOFs"),
         ({"inputs": [-1, 2]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[-1, 2\]$"),
+        # the first index past the end: 3 DOFs are 0 … 2
+        ({"inputs": [0, 3]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[0, 3\]$"),
         ({"inputs": [1, 1]}, "not repeat"),
         ({"inputs": [0.5, 1]}, "integer indices"),
         ({"inputs": [0j, 2j]}, "inputs must be real"),

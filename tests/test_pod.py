@@ -182,6 +182,20 @@ def test_an_unknown_method_is_named_with_the_known_ones():
             f("svd")
 
 
+@pytest.mark.parametrize("scale", [1e-12, 1e6])
+def test_the_symmetry_of_a_correlation_is_judged_relative_to_its_size(scale):
+    """Receptances squared are tiny (1e-12 here) and accelerances squared large (1e6):
+    the same matrix, a quarter of its largest entry away from symmetric, is refused at
+    either size, and a symmetric one with round-off asymmetry of 1e-14 of its size (a
+    product formed in two orders differs by about that) is accepted at either."""
+    skew = scale * np.array([[2.0, 1.0], [0.5, 2.0]])
+    with pytest.raises(ValueError, match="symmetric"):
+        pod_from_correlation(skew)
+    near = scale * np.array([[2.0, 1.0], [1.0 + 1e-14, 2.0]])
+    result = pod_from_correlation(near)
+    np.testing.assert_allclose(result.eigenvalues, scale * np.array([3.0, 1.0]), rtol=1e-12)
+
+
 def test_pod_from_correlation_does_not_modify_input():
     R = correlation_from_snapshots(snapshots())
     before = R.copy()

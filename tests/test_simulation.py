@@ -323,6 +323,18 @@ def test_simulation_refusals_word_for_word():
             "(lengthen the record or widen the band)", SYSTEM, BAND, DT, 0.02)
 
 
+@pytest.mark.parametrize("histories", [True, False])
+def test_a_duration_not_a_whole_multiple_of_dt_in_floating_point_rounds(histories):
+    """2.3 s at 10 ms is 230 samples, though 2.3 / 0.01 = 229.99999999999997 in floating
+    point: the record is round(duration / dt) samples, its lines 1 / 2.3 Hz apart."""
+    sim = simulate_white_noise(SYSTEM, BAND, DT, 2.3, seed=0, histories=histories)
+    assert sim.n_samples == 230 and sim.t.size == 230
+    if histories:
+        assert sim.forces.shape == (230, 4)
+    f = sim.omega / (2 * np.pi)
+    np.testing.assert_allclose(np.diff(f), 1 / 2.3, rtol=1e-12)
+
+
 def test_default_intensity_is_one():
     a = simulate_white_noise(SYSTEM, BAND, DT, 20.0, seed=5)
     b = simulate_white_noise(SYSTEM, BAND, DT, 20.0, intensity=1.0, seed=5)

@@ -134,6 +134,25 @@ def test_a_missing_delimiter_is_refused(beam_bytes):
         read_uff(path)
 
 
+def test_a_file_with_windows_line_ends_is_checked_like_any_other(beam_bytes):
+    """A file saved on Windows ends its lines with CR LF: its delimiters are still
+    delimiters, so the whole file reads as the LF one does and a cut record is refused
+    (pyuff reads the CR LF file too, and would drop the cut record without a word)."""
+    raw, tmp = beam_bytes
+    crlf = raw.replace(b"\n", b"\r\n")
+    assert _delimiters(crlf) == [at + raw[:at].count(b"\n") for at in delimiters(raw)]
+    whole = tmp / "windows.uff"
+    whole.write_bytes(crlf)
+    data, lf = read_uff(whole), read_uff(BEAM_UFF)
+    assert np.array_equal(data.U, lf.U) and np.array_equal(data.omega, lf.omega)
+    opened, closed = _delimiters(crlf)[2 * 15 : 2 * 15 + 2]  # record 16, an FRF
+    cut = tmp / "windows_cut.uff"
+    cut.write_bytes(crlf[: (opened + closed) // 2])
+    with pytest.raises(ValueError, match=r"windows_cut\.uff: record 16 of the file \(dataset "
+                                         r"58.*has no closing '    -1'.*cut off"):
+        read_uff(cut)
+
+
 def test_a_file_opening_with_a_blank_line_is_counted_from_it(beam_bytes):
     """Line numbers count every line of the file, a leading blank one too."""
     raw, tmp = beam_bytes

@@ -119,6 +119,22 @@ def test_a_shaker_column_and_a_hammer_row_are_two_columns(tmp_path):
                for note in data.notes)
 
 
+def test_three_measurements_of_one_entry_are_as_far_apart_as_the_widest_two(tmp_path):
+    """H(3, 2) measured three times, 0.5 and 1.0 dB above the first: the pairs are 0.5,
+    1.0 and 0.5 dB apart, and what the note reports is how far apart they are, 1.00 dB
+    (all three are within the 3 dB that refuses, so they are averaged)."""
+    shaker = [(o, 2) for o in range(1, 5)]
+    path = write(tmp_path / "three.uff", shaker + [(3, 2), (3, 2)],
+                 scale={4: 10 ** 0.025, 5: 10 ** 0.05})
+    with pytest.warns(DataWarning, match=r"response \(3, 3\) / force at \(2, 3\) was measured "
+                                         r"3 times .*averaged; they differ by 1\.00 dB"):
+        data = read_uff(path)
+    assert any("measured 3 times" in note and "they differ by 1.00 dB" in note
+               for note in data.notes)
+    mean = (1 + 10 ** 0.025 + 10 ** 0.05) / 3
+    assert np.allclose(entry(data, 3, 2), mean * H[1:, 2, 1], rtol=1e-10)
+
+
 def test_a_tie_goes_to_the_files_reference(tmp_path):
     # a shaker at 1 (driving point measured) and H(2, 3): 2 or 3 could hold that pair;
     # 3 is the file's reference, so it is read directly — only H(1, 3), the mirror of

@@ -278,6 +278,21 @@ def test_two_frequency_lines_are_written(written, tmp_path):
     assert len(s58) == 6 and all(d["x"].size == 2 for d in s58)
 
 
+@pytest.mark.parametrize("binary", [False, True])
+def test_unevenly_spaced_lines_are_written_line_by_line(written, tmp_path, binary):
+    """Lines that are not evenly spaced (a band pieced together, lines thinned out) are
+    written with their abscissa values (spacing 0): read back, they are the same lines,
+    to the abscissa's 6 digits (E13.5: 5e-6 relative)."""
+    _, data, result, R, _, _ = written
+    freq = np.array([5.0, 6.5, 9.0, 20.0, 55.5, 100.0])
+    path = write_uff(tmp_path / "uneven.uff", result, R, dofs=data.dofs, inputs=[1],
+                     omega=2 * np.pi * freq, binary=binary)
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    assert len(s58) == 6 and all(d["abscissa_spacing"] == 0 for d in s58)
+    assert all(np.allclose(d["x"], freq, rtol=5e-6, atol=0) for d in s58)
+    assert np.allclose(pr.read_uff(path).freq_hz, freq, rtol=5e-6, atol=0)
+
+
 def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
     _, data, result, R, _, _ = written
     out = tmp_path / "x.uff"
