@@ -100,7 +100,7 @@ def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -
     path : str or pathlib.Path
         The file; its suffix says what it is.
     band_hz : tuple of float, optional
-        Keep only the lines in (lo, hi) Hz.
+        Keep only the lines with lo ≤ f ≤ hi Hz (both ends included).
 
     Returns
     -------

@@ -314,7 +314,7 @@ def read_uff(
     quantity : {"displacement", "velocity", "acceleration"}, optional
         Overrides the numerator type of the records.
     band_hz : tuple of float, optional
-        Keep only the lines in (lo, hi) Hz.
+        Keep only the lines with lo ≤ f ≤ hi Hz (both ends included).
 
     Returns
     -------
