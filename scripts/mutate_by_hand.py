@@ -49,7 +49,10 @@ TESTS = {
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
 AUDIT_TESTS = {
-    "simulation": ["tests/test_uncertainty.py"],
+    "simulation": ["tests/test_uncertainty.py",
+                   # histories=False honoured for a small record (the rest of the file is
+                   # slow: the one test)
+                   "tests/test_scale.py::test_simulation_without_histories_has_the_same_spectra"],
     "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
