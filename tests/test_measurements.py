@@ -441,6 +441,8 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     "kwargs,match",
     [
         ({"inputs": [0, 9]}, "index the 3 measured DOFs"),
+        # n itself is one past the last DOF
+        ({"inputs": [0, 3]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[0, 3\]$"),
         ({"inputs": [-1, 2]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[-1, 2\]$"),
         # the first index past the end: 3 DOFs are 0 … 2
         ({"inputs": [0, 3]}, r"^inputs must index the 3 measured DOFs \(0 … 2\), got \[0, 3\]$"),
@@ -451,6 +453,9 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
         ({"dofs": [(1, 1), (1, 1), (2, 1)]}, "not repeat"),
         ({"dofs": [(1, 1)]}, "shape"),
         ({"omega": [3.0, 2.0, 1.0]}, "increasing"),
+        # a line given twice is not strictly increasing (the trapezoid rule has no width there)
+        ({"omega": [1.0, 1.0, 3.0]}, r"^omega must hold at least 2 strictly increasing "
+                                     r"frequency lines$"),
         ({"U": np.zeros((3, 3, 2))}, "identically zero"),
         ({"F": np.ones((3, 2, 1))}, "load cases"),
     ],

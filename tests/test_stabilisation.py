@@ -74,6 +74,9 @@ def test_marks_follow_the_stated_tolerances(chain_data):
 
     chart = stabilisation_chart(data, 4, fit=fit, chosen_m=3, progress=False)
     assert [o.m for o in chart.orders] == [1, 2, 3, 4] and chart.chosen_m == 3
+    # the chart keeps the tolerances it marked with, each under its name (the plot's
+    # legend states them)
+    assert (chart.f_tol, chart.zeta_tol) == (F_TOL, ZETA_TOL) == (0.01, 0.05)
     cf = [o.consistent_f.tolist() for o in chart.orders]
     c = [o.consistent.tolist() for o in chart.orders]
     assert cf == [[False], [True, False], [True, True, False], [True, False, True, False]]

@@ -151,3 +151,21 @@ def test_a_model_that_is_not_symmetric_keeps_its_matrices_as_they_are():
     ss = scipy.signal.StateSpace(A, B, Cout, D)
     direct = np.stack([np.linalg.inv(-(w**2) * M + 1j * w * C + K) for w in omega])
     assert rel_error(transfer(ss, omega), direct) < 1e-12
+
+
+def test_a_mass_that_is_not_symmetric_is_inverted_not_transposed():
+    # identify(symmetric=False) gives non-symmetric matrices. M = [[1, 1], [0, 1]] has
+    # M⁻¹ = [[1, −1], [0, 1]] (its transpose's inverse is [[1, 0], [−1, 1]]); with
+    # K = diag(4, 9), C = 0: A's lower left is −M⁻¹K = [[−4, 9], [0, −9]], B's lower
+    # rows M⁻¹. Small integers: the LU solve is exact, the tolerance is round-off only.
+    M, K = np.array([[1.0, 1.0], [0.0, 1.0]]), np.diag([4.0, 9.0])
+    A, B, _, _ = state_space_matrices(M, np.zeros((2, 2)), K)
+    np.testing.assert_allclose(A[2:, :2], [[-4.0, 9.0], [0.0, -9.0]], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(B[2:], [[1.0, -1.0], [0.0, 1.0]], rtol=0, atol=1e-15)
+    # and the transfer function is the dynamic stiffness's inverse on every line
+    # (cond(M) ≈ 2.6: the bound of the module's docstring holds with room to spare)
+    C = np.array([[0.3, 0.1], [0.0, 0.2]])
+    omega = np.array([0.5, 2.0, 2.9, 7.0])
+    ss = scipy.signal.StateSpace(*state_space_matrices(M, C, K))
+    direct = np.stack([np.linalg.inv(K - w**2 * M + 1j * w * C) for w in omega])
+    assert rel_error(transfer(ss, omega), direct) < 1e-8
