@@ -376,6 +376,13 @@ def test_an_orders_starts_continue_the_previous_model_and_the_best_earlier_one(c
     for k, X in enumerate(starts["continuation from m = 1"]):
         first_k = (first.M, first.C, first.K)[k][0, 0]
         assert np.array_equal(X, np.diag([first_k, second[k], third[k]]))
+    # and, by name, a mode at the largest residual peak and the paper's estimator on
+    # these reduced data
+    assert list(starts) == ["continuation", "continuation from m = 1", "residual peak",
+                            "paper estimator"]
+    paper = pr.identify(Ut, Ft, w, symmetric=True)
+    for k in "MCK":
+        assert np.array_equal(getattr(starts["paper estimator"], k), getattr(paper, k))
 
 
 def test_a_decoupled_mode_is_the_candidate_of_least_cost_with_a_positive_mass():

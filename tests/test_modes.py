@@ -471,3 +471,47 @@ def test_companion_modes_of_equal_size_keep_the_eigensolvers_order():
     order = pick[np.argsort(np.abs(all_lam[pick]), kind="stable")]
     np.testing.assert_array_equal(lam, all_lam[order])
     np.testing.assert_array_equal(vectors, Z[:n, order])
+
+
+def test_an_undamped_model_is_symmetric_and_has_its_modal_constants():
+    """C = 0 is symmetric (‖C − Cᵀ‖ = 0 ≤ SYMMETRY_RTOL·‖C‖ = 0): the undamped chain's
+    modes get modal constants a = 2λ φᵀMφ (the C term vanishes) — here, with M = I and
+    shapes (1, 1) and (1, −1), a = 4λ."""
+    model = SecondOrderSystem(np.eye(2), np.zeros((2, 2)), np.array([[2.0, -1.0], [-1.0, 2.0]]))
+    shapes = mode_shapes(model)
+    np.testing.assert_allclose(np.abs(shapes.shapes), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(shapes.eigenvalues, [1j, np.sqrt(3) * 1j], rtol=1e-12)
+    np.testing.assert_allclose(shapes.modal_a, 4 * shapes.eigenvalues, rtol=1e-12)
+
+
+def test_a_zero_pole_has_zero_damping_not_nan():
+    """A free mass (K = C = 0) has a double pole at exactly 0: frequency 0 and damping
+    ratio 0 (−Re λ/|λ| is 0/0 there), without a warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        table = modal_parameters(SecondOrderSystem(np.eye(1), np.zeros((1, 1)),
+                                                   np.zeros((1, 1))))
+    assert np.array_equal(table.eigenvalues, [0j, 0j])
+    assert np.array_equal(table.damping_ratios, [0.0, 0.0])
+
+
+def test_the_visibility_window_includes_its_edges():
+    """A pole at exactly 100 rad/s (half-power band ±1 rad/s: its term is seen at its
+    three nearest lines 99–101), lines at 1, 2, …, 200 rad/s: its window ±VISIBLE_WINDOW
+    (2 %) ends exactly on the lines 98 and 102, and includes them. A spike 100 times the
+    pole's peak on line 102 sets the level the pole must reach (VISIBLE_FRACTION of it,
+    10 peaks), which it reaches at none of its nearest lines: weak. Off the window's edge
+    (on line 103) the spike is not in it: structural."""
+    from podid_rs.modes import VISIBLE_WINDOW, mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -1.0 + 100.0j
+    assert abs(102.0 - lam.imag) == VISIBLE_WINDOW * lam.imag  # exactly on the edge
+    a = 2j * lam.imag
+    term = 1 / (a * (1j * w - lam))
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=np.ones((1, 1)),
+                        modal_a=np.array([a]))
+    for spike, kind in ((102.0, "weak"), (103.0, "structural")):
+        U = term.copy()
+        U[w == spike] = 100 * abs(term[w == 100.0])
+        assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]

@@ -196,6 +196,17 @@ def test_the_symmetry_of_a_correlation_is_judged_relative_to_its_size(scale):
     np.testing.assert_allclose(result.eigenvalues, scale * np.array([3.0, 1.0]), rtol=1e-12)
 
 
+def test_a_rank_one_correlation_has_no_negative_energy():
+    """vvᵀ of six DOFs: eigh gives its five zero eigenvalues as round-off of either sign
+    (−1.9e-15 here); the POD reports them as 0 — energy is never negative — and the one
+    that is not as v·v."""
+    v = np.random.default_rng(3).standard_normal(6)
+    assert np.linalg.eigvalsh(np.outer(v, v)).min() < 0
+    P = pod_from_correlation(np.outer(v, v))
+    assert np.all(P.eigenvalues >= 0) and np.all(P.eigenvalues[1:] < 1e-14 * P.eigenvalues[0])
+    assert P.eigenvalues[0] == pytest.approx(v @ v, rel=1e-12)
+
+
 def test_pod_from_correlation_does_not_modify_input():
     R = correlation_from_snapshots(snapshots())
     before = R.copy()

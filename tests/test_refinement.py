@@ -92,6 +92,10 @@ def test_the_exact_start_stays_exact():
     model = refine(exact, U, F, w)
     for k in "MCK":
         assert rel(getattr(model, k), getattr(chain, k)) < 1e-8
+    # the refined model is exactly symmetric: no penalty norm; and the start's method is kept
+    assert model.penalty_norms == (0.0, 0.0, 0.0) and model.penalty_norm == 0.0
+    assert model.info["start_method"] == exact.method == "cholesky"
+    assert "start_method" not in refine((chain.M, chain.C, chain.K), U, F, w).info
 
 
 @pytest.mark.parametrize("seed", range(4))

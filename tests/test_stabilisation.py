@@ -337,3 +337,14 @@ def test_a_mass_with_a_zero_eigenvalue_is_not_physical():
 
     good = model_with_modes([10.0, 20.0], 0.02)
     assert not is_physical(replace(good, M=np.diag([1.0, 0.0])))
+
+
+def test_a_chart_of_one_mode_writes_one_row_under_its_header(chain_data, tmp_path):
+    _, data = chain_data
+    chart = stabilisation_chart(data, 1)
+    rows = chart.rows()
+    assert len(rows) == 1
+    with open(chart.to_csv(tmp_path / "one.csv"), newline="") as fh:
+        back = list(csv.DictReader(fh))
+    assert list(back[0]) == list(rows[0]) and back[0]["m"] == "1"
+    assert float(back[0]["f_hz"]) == rows[0]["f_hz"]

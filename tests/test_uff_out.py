@@ -63,6 +63,8 @@ def test_dataset_order_and_geometry(written):
     assert kinds == [15] + [55] * n_modes + [58] * 12
     g = sets[0]
     assert [int(n) for n in g["node_nums"]] == list(range(1, 8))
+    # every node in the global Cartesian system (0), as displacement and definition
+    assert list(g["def_cs"]) == [0] * 7 and list(g["disp_cs"]) == [0] * 7
     assert np.allclose(np.c_[g["x"], g["y"], g["z"]], GEOMETRY[:, 1:], rtol=1e-5, atol=1e-12)
     assert np.allclose(read_uff_geometry(path), GEOMETRY, rtol=1e-5, atol=1e-12)
 
@@ -236,6 +238,8 @@ def test_bad_input_is_named(written, tmp_path):
         write_uff(out, result, R, dofs=np.c_[np.arange(1, 7), np.full(6, 5)])
     with pytest.raises(ValueError, match=r"geometry must have shape \(k, 4\)"):
         write_uff(out, result, R, data, geometry=GEOMETRY[:, :3])
+    with pytest.raises(ValueError, match=r"^geometry contains non-finite values"):
+        write_uff(out, result, R, data, geometry=np.r_[GEOMETRY[:1], [[2, np.nan, 0.0, 0.0]]])
     with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
                                          r"z\], got \(0, 4\)$"):
         write_uff(out, result, R, data, geometry=GEOMETRY[:0])
@@ -291,6 +295,14 @@ def test_unevenly_spaced_lines_are_written_line_by_line(written, tmp_path, binar
     assert len(s58) == 6 and all(d["abscissa_spacing"] == 0 for d in s58)
     assert all(np.allclose(d["x"], freq, rtol=5e-6, atol=0) for d in s58)
     assert np.allclose(pr.read_uff(path).freq_hz, freq, rtol=5e-6, atol=0)
+    # even to 1e-6 of a step is not even: spacing and first line would put the fourth
+    # line 1.5e-6 Hz off (evenly spaced means equal steps to 1e-9)
+    nearly = 5.0 + 1.5 * np.arange(6.0)
+    nearly[3:] += 1.5e-6
+    path = write_uff(tmp_path / "nearly.uff", result, R, dofs=data.dofs, inputs=[1],
+                     omega=2 * np.pi * nearly, binary=binary)
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    assert all(d["abscissa_spacing"] == 0 for d in s58)
 
 
 def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
@@ -363,3 +375,6 @@ def test_the_58_sets_remark_reciprocity_only_when_a_note_says_so():
     read = "t.uff: the 9 FRFs ... 2 entries read by reciprocity, H(j, k) = H(k, j)"
     assert (_reciprocity_remark(SimpleNamespace(notes=(dead, read)))
             == "entries read by reciprocity: H(j, k) = H(k, j)")
+    roving = "t.uff: a roving-hammer test: its references read as the responses"
+    assert (_reciprocity_remark(SimpleNamespace(notes=(roving,)))
+            == "roving-hammer test read by reciprocity: H(j, k) = H(k, j)")
