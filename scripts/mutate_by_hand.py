@@ -621,6 +621,75 @@ AUDIT = [
     ("io/npz", "            measured=data.measured,\n", ""),
     ("io/npz", 'for k in ("quantity", "estimator", "nperseg") if k in z',
      'for k in ("quantity", "estimator") if k in z'),
+    # fourth audit, refinement: C's zero eigenvalues counted as raised (floored like M and
+    # K), a K with no positive eigenvalue not refused, all-zero weights accepted, uniform
+    # weights reported as relative, (s, p) weights read column-major, negative
+    # log-magnitude weights accepted, the per-entry metric's constant without the part the
+    # targets reproduce, per-entry weights on the holes kept, negative per-entry weights
+    # accepted, the matrix-free step's metric reported diagonal under "auto", the core's
+    # responses read as (s, m, p), the dB summary's mean for its median, max_iter = 0
+    # accepted, metric="modal" not forcing the matrix-free step, a start from a conjugate-
+    # gradient solve warned of as rank-deficient
+    ("identification/refinement", '(C, "C", 0.0)', '(C, "C", rtol)'),
+    ("identification/refinement", 'if name != "C" and not np.any(d > 0):',
+     'if name == "M" and not np.any(d > 0):'),
+    ("identification/refinement", "if not np.any(w > 0):", "if False:"),
+    ("identification/refinement", 'return np.ones(s * p), "uniform"',
+     'return np.ones(s * p), "relative"'),
+    ("identification/refinement", "w = w.reshape(-1)", "w = w.T.reshape(-1)"),
+    ("identification/refinement", "if np.any(W < 0):", "if False:"),
+    ("identification/refinement", "const += full - float(np.real(np.vdot(y, Q @ y)))",
+     "const += full"),
+    ("identification/refinement", "Wa = Wa * mask  #", "Wa = Wa  #"),
+    ("identification/refinement", "if np.any(Wa < 0) or not np.any(Wa > 0):",
+     "if not np.any(Wa > 0):"),
+    ("identification/refinement", '("diagonal" if metric == "diagonal" else "modal")',
+     '("diagonal" if metric != "modal" else "modal")'),
+    ("identification/refinement", "X = rows.reshape(data.s, p, m).transpose(0, 2, 1)",
+     "X = rows.reshape(data.s, m, p)"),
+    ("identification/refinement", "summary = lambda e: (float(np.median(e)),",
+     "summary = lambda e: (float(np.mean(e)),"),
+    ("identification/refinement", "or max_iter < 1:", "or max_iter < 0:"),
+    ("identification/refinement", '        solver = "matrix-free"\n', ""),
+    ("identification/refinement", 'if not model.well_posed and model.method != "cg":',
+     "if not model.well_posed:"),
+    # fourth audit, order: a latent order's basis with POD modes in its latent columns, the
+    # table's held-out and training columns swapped, a decoupled mode of negative mass
+    # accepted, the residual peak's shape in T's row, the sweep's fits without the mask of
+    # measured entries, m_max above the order limit kept, max_iter = TRIAL_ITER running a
+    # pass of 0 steps, the last order run to convergence when no latent order follows, the
+    # holes filled with the measurement and the rest with the prediction, one order more
+    # than the patience, the reason's count of lines the training lines, the complex refit
+    # judged by its 95th percentile, the held-out fit kept with the refit's errors, the
+    # log-magnitude probe longer than max_iter, the kept pass named the other way round
+    ("identification/order",
+     "return observation_matrix(pod_result.basis(self.fit(m).observed), m)",
+     "return observation_matrix(pod_result.basis(m), m)"),
+    ("identification/order", "| {f.test_db:.3f} | {f.train_db:.3f} |",
+     "| {f.train_db:.3f} | {f.test_db:.3f} |"),
+    ("identification/order", "if den <= 0 or num <= 0:\n                continue\n"
+     "            a = num / den\n            cost = float(np.sum(w2 * np.abs",
+     "if den <= 0:\n                continue\n"
+     "            a = num / den\n            cost = float(np.sum(w2 * np.abs"),
+    ("identification/order", "T[:, -1] = phi", "T[-1, :] = phi"),
+    ("identification/order", "curvature=True, measured=measured)", "curvature=True)"),
+    ("identification/order", "m_max = min(m_max, limit)", "m_max = m_max"),
+    ("identification/order", "if max_iter > TRIAL_ITER and", "if max_iter >= TRIAL_ITER and"),
+    ("identification/order", "if order == observed < m_max:", "if order == observed <= m_max:"),
+    ("identification/order",
+     'filled = np.where(measured, U_n, np.einsum("nm,smp->snp", R, X))',
+     'filled = np.where(measured, np.einsum("nm,smp->snp", R, X), U_n)'),
+    ("identification/order", "since_best >= (patience", "since_best > (patience"),
+    ("identification/order", 'f" of the {picked.size} of {s} lines',
+     'f" of the {int(train.sum())} of {s} lines'),
+    ("identification/order", 'if ref["db_after"][0] <= ref["db_before"][0]:',
+     'if ref["db_after"][1] <= ref["db_before"][1]:'),
+    ("identification/order", 'best, best_db = start, ref["db_before"]',
+     'best, best_db = start, ref["db_after"]'),
+    ("identification/order", "steps=min(LOG_MAGNITUDE_PROBE, max_iter))",
+     "steps=LOG_MAGNITUDE_PROBE)"),
+    ("identification/order", 'kept_name = "complex refit" if best is model else "held-out fit"',
+     'kept_name = "complex refit" if best is start else "held-out fit"'),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

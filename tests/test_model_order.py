@@ -462,3 +462,46 @@ def test_a_sweep_past_the_rank_of_a_snapshot_pod_never_asks_for_a_mode_it_lacks(
     assert sweep.reason == ("m = 9: order 10 could not be started (m = 10 was asked; the "
                             "model of order 9 leaves no residual a new degree of freedom can "
                             "fit)")
+
+
+def test_an_m_max_above_the_order_limit_is_cut_to_it(chain_frf):
+    """On four lines (three fitted) of the 8-DOF chain the data's 2·3·8 = 48 real
+    equations determine the 45 free parameters of order 5 but not the 63 of order 6: an
+    m_max of 8 is cut to the limit, 5, and no order past it is fitted (the patience
+    is larger than the orders, so only the limit ends the sweep)."""
+    from podid_rs.identification.order import order_limit
+
+    _, U_n, F_n, w, P = chain_frf
+    few = slice(0, 4 * 26, 26)
+    assert order_limit(3, 8, 1, 8) == 5
+    sweep = sweep_orders(U_n[few], F_n[few], w[few], P, m_max=8, patience=100, max_iter=5,
+                         threads=1)
+    assert [f.m for f in sweep.fits] == [1, 2, 3, 4, 5]
+
+
+def test_a_step_budget_of_the_trial_steps_alone_is_the_trials():
+    """max_iter = TRIAL_ITER: the starts' trials take the whole budget, and the best of
+    them is the order's fit — no second pass (of max_iter − TRIAL_ITER = 0 steps, which
+    refine refuses) follows."""
+    from podid_rs.identification.order import TRIAL_ITER
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(3, 4, np.linspace(5.0, 250.0, 60))
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m=2, max_iter=TRIAL_ITER,
+                         threads=1)
+    assert [f.m for f in sweep.fits] == [1, 2]
+    assert all(f.model.iterations <= TRIAL_ITER for f in sweep.fits)
+
+
+def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one():
+    """The 4-mass chain seen at two masses: two POD coordinates. Asked for m = 3, order 2
+    is run to convergence before the latent order 3 is weighed against it (its start
+    says so); asked for m = 2, no latent order follows and order 2 keeps the sweep's
+    budget of 5 steps."""
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(2, 4, np.linspace(5.0, 250.0, 60))
+    P = pr.pod_from_frf(U_n, w)
+    latent = sweep_orders(U_n, F_n, w, P, m=3, max_iter=5, threads=1)
+    assert [f.latent for f in latent.fits] == [0, 0, 1]
+    assert latent.fit(2).start.endswith(", to convergence")
+    observed = sweep_orders(U_n, F_n, w, P, m=2, max_iter=5, threads=1)
+    assert not observed.fit(2).start.endswith("to convergence")
+    assert observed.fit(2).model.iterations <= 5

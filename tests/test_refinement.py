@@ -874,6 +874,43 @@ def test_a_weight_per_line_weighs_every_load_case_of_its_line():
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-10)
 
 
+def test_uniform_weights_are_reported_as_such_and_weigh_every_column_alike():
+    """weights="uniform": the start's reported cost is Σ_i Σ_j ‖x_ij − u_ij‖², by hand,
+    and the report names the weights "uniform" (relative ones "relative", with a cost of
+    Σ ‖x_ij − u_ij‖² / ‖u_ij‖²); 1e-10: the same sums in another order."""
+    chain, U, F, w = chain_data(n=4, p=2, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)  # physical, 5 % off: a cost to compare
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        uniform = refine(start, U, F, w, weights="uniform", max_iter=1, threads=1)
+        relative = refine(start, U, F, w, weights="relative", max_iter=1, threads=1)
+    ref = uniform.info["refinement"]
+    assert ref["weights"] == "uniform"
+    assert ref["cost_start"] == pytest.approx(
+        _weighted_start_cost(start, U, F, w, np.ones((w.size, 2))), rel=1e-10)
+    assert relative.info["refinement"]["weights"] == "relative"
+    assert relative.info["refinement"]["cost_start"] == pytest.approx(
+        _weighted_start_cost(start, U, F, w, 1.0 / np.linalg.norm(U, axis=1)), rel=1e-10)
+
+
+def test_a_weight_per_column_weighs_its_own_line_and_load_case():
+    """Weights (s, p) on two load cases: weight[i, j] applies to line i's column j (the
+    core's columns are line-major: line 0's two load cases, then line 1's …), so the
+    start's reported cost is Σ_i Σ_j weight[i, j]² ‖x_ij − u_ij‖². The weights ramp from
+    0.5 to 2 over the lines and are three times larger in the second load case: read in
+    the other order, most columns would get another line's or load case's weight and the
+    sum would move by tens of per cent; 1e-10: the same sums in another order."""
+    chain, U, F, w = chain_data(n=4, p=2, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    per_column = np.outer(np.linspace(0.5, 2.0, w.size), [1.0, 3.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, weights=per_column, max_iter=1, threads=1)
+    assert model.info["refinement"]["weights"] == "user"
+    assert model.info["refinement"]["cost_start"] == pytest.approx(
+        _weighted_start_cost(start, U, F, w, per_column), rel=1e-10)
+
+
 def test_the_relative_residual_of_a_refinement_is_the_root_of_its_cost_ratio():
     """IdentificationResult.relative_residual of an output-error fit: √(cost / cost_start),
     a ratio of norms like CG's ‖b − Gx‖/‖b‖, in (0, 1) where the cost fell. With uniform
