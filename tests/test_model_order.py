@@ -163,6 +163,11 @@ def test_sweep_table_and_plot(chain_frf, tmp_path):
     "kwargs,match",
     [
         ({"holdout": 1}, "holdout must be at least 2"),
+        # a sweep of no order, or orders of no step, is asked for by mistake: named
+        ({"m_max": 0}, r"^m_max must be a positive integer, got 0$"),
+        ({"max_iter": 0}, r"^max_iter must be a positive integer, got 0$"),
+        ({"max_iter": 2.5}, r"^max_iter must be a positive integer, got 2\.5$"),
+        ({"m_max": True}, r"^m_max must be a positive integer, got True$"),
         # past the measured DOFs only as far as the equations go: the limit is named
         ({"m": 500}, r"m must be in \[1, \d+\]: an order-500 model with 8 observed"),
     ],

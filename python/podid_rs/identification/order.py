@@ -562,7 +562,8 @@ def sweep_orders(
     Raises
     ------
     ValueError
-        For ``holdout`` < 2, too few lines to hold some out, ``m`` out of range (an
+        For ``holdout`` < 2, ``m_max`` or ``max_iter`` not a positive integer, too few
+        lines to hold some out, ``m`` out of range (an
         order with more free parameters than the data's equations: the message names
         the limit), or when no order could be fitted.
     """
@@ -572,6 +573,10 @@ def sweep_orders(
         raise ValueError(
             f"holdout must be at least 2 (every holdout-th line is left out), got {holdout}"
         )
+    for name, value in (("m_max", m_max), ("max_iter", max_iter)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int | np.integer)
+                                  or value < 1):
+            raise ValueError(f"{name} must be a positive integer, got {value!r}")
     used = np.ones(s, dtype=bool) if sweep_lines is None else informative_lines(U_n, sweep_lines)
     picked = np.flatnonzero(used)
     test = np.zeros(s, dtype=bool)
