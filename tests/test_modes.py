@@ -515,3 +515,24 @@ def test_the_visibility_window_includes_its_edges():
         U = term.copy()
         U[w == spike] = 100 * abs(term[w == 100.0])
         assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]
+
+
+def test_a_pole_seen_at_two_of_its_three_nearest_lines_is_a_resonance():
+    """A pole midway between lines 100 and 101 rad/s (λ = −0.3 + 100.5j): its term is
+    1/|0.5i + 0.3| = 1.71 (in units of 1/|a|) on both and 1/|1.5i − 0.3| = 0.65 on the
+    third nearest, 99. A spike of 10 on line 102, inside the ±2 % window, sets the level
+    to VISIBLE_FRACTION × 10 = 1: the pole is seen on two lines of three, which is a
+    resonance (structural); a spike of 20 (level 2) leaves it seen on none: weak."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -0.3 + 100.5j
+    a = 2j * lam.imag
+    term = 1 / (a * (1j * w - lam))
+    unit = 1 / abs(a)
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=np.ones((1, 1)),
+                        modal_a=np.array([a]))
+    for spike, kind in ((10.0, "structural"), (20.0, "weak")):
+        U = term.copy()
+        U[w == 102.0] = spike * unit
+        assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]

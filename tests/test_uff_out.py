@@ -328,6 +328,9 @@ def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(writ
     with pytest.raises(ValueError, match=r"^geometry's first column must hold distinct integer "
                        r"node numbers$"):
         write_uff(out, result, R, data, geometry=np.r_[GEOMETRY[:1], GEOMETRY])
+    with pytest.raises(ValueError, match=r"^geometry's first column must hold distinct integer "
+                       r"node numbers$"):
+        write_uff(out, result, R, data, geometry=GEOMETRY + np.r_[0.5, 0.0, 0.0, 0.0])
     assert not out.exists()
 
 

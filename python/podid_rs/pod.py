@@ -248,10 +248,9 @@ class PODResult:
             require_memory(FLOAT_BYTES * self.n * m, f"{m} POD modes of {self.n} DOFs")
             phi = A.T @ (V[:, :m] / sigma[:m])
             # Aᵀv/σ is orthonormal only to eps·λ₁/λ_i: a mode of relative energy 3e-13
-            # was off by 6e-7. Gram–Schmidt (QR, each column kept on its own side) makes
-            # them orthonormal and leaves the first j spanning the same space for every j
-            phi, r = np.linalg.qr(phi)
-            phi *= np.where(np.diag(r) < 0, -1.0, 1.0)
+            # was off by 6e-7. Gram–Schmidt (QR) makes them orthonormal and leaves the
+            # first j spanning the same space for every j; each column's sign is set next
+            phi = np.linalg.qr(phi)[0]
             formed = self._formed = phi * _lead_signs(phi)
         return formed[:, :m]
 
