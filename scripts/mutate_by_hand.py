@@ -49,6 +49,9 @@ TESTS = {
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
 AUDIT_TESTS = {
+    # basis(m) one past the snapshots' rank refused (the one test of test_scale.py on the
+    # method of snapshots' modes; the file's others take a minute)
+    "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix"],
     "simulation": ["tests/test_uncertainty.py",
                    # histories=False honoured for a small record (the rest of the file is
                    # slow: the one test)
@@ -690,6 +693,70 @@ AUDIT = [
      "steps=LOG_MAGNITUDE_PROBE)"),
     ("identification/order", 'kept_name = "complex refit" if best is model else "held-out fit"',
      'kept_name = "complex refit" if best is start else "held-out fit"'),
+    # fourth audit, UFF: a record whose frequency lines differ from the first's accepted
+    # when it has as many, a tie of two unit labels not refused, the minority unit kept
+    # (the majority dropped), a non-finite value's line number one low, a directly
+    # measured entry overwritten by its reciprocal mirror, the layout note's response and
+    # reference counts swapped, the force columns' ties broken to the higher DOF, a
+    # complex single-precision binary record sized as doubles, the geometry not sorted by
+    # node, a dataset-55 DOF that is zero in every mode kept, repeated geometry nodes
+    # accepted, omega= beside data= ignored
+    ("io/uff", "elif x.shape != freq.shape or not np.allclose(x, freq, rtol=1e-9, atol=0.0):",
+     "elif x.shape != freq.shape:"),
+    ("io/uff", "if ranked[0][1] == ranked[1][1]:", "if ranked[0][1] < ranked[1][1]:"),
+    ("io/uff", "ranked = sorted(counts.items(), key=lambda kv: -kv[1])",
+     "ranked = sorted(counts.items(), key=lambda kv: kv[1])"),
+    ("io/uff", "(line {i + 1} of {y.size})", "(line {i} of {y.size})"),
+    ("io/uff", "if o in cols and o != r and (r, o) not in entries:", "if o in cols and o != r:"),
+    ("io/uff", "the {len(records)} FRFs of {len(outs)} response and {len(refs)} ",
+     "the {len(records)} FRFs of {len(refs)} response and {len(outs)} "),
+    ("io/uff", "key=lambda v: (count[v], v in references, (-v[0], -v[1])))",
+     "key=lambda v: (count[v], v in references, (v[0], v[1])))"),
+    ("io/uff", "size = 4 if ordinate in (2, 5) else 8", "size = 4 if ordinate == 2 else 8"),
+    ("io/uff", "for n, xyz in sorted(rows.items())]", "for n, xyz in rows.items()]"),
+    ("io/uff", "for key, v in col.items() if v != 0})", "for key, v in col.items()})"),
+    ("io/uff", " or np.unique(g[:, 0]).size != g.shape[0]:", ":"),
+    ("io/uff", "if dofs is not None or inputs is not None or omega is not None:",
+     "if dofs is not None or inputs is not None:"),
+    # POD: a basis one mode past the snapshots' rank accepted, the load cases' projection
+    # conjugated, the snapshot modes formed once and never widened, a second noise
+    # correction accepted, the mean squares from |φ| instead of φ², round-off Gram
+    # eigenvalues counted in the rank, the positive-semi-definite test absolute
+    ("pod", "if m > self.n_modes:", "if m > self.n_modes + 1:"),
+    ("pod", "np.matmul(R.T, Xa)", "np.matmul(R.T, Xa.conj())"),
+    ("pod", "if formed is None or formed.shape[1] < m:", "if formed is None:"),
+    ("pod", '        if self.noise_variance is not None:\n'
+            '            raise ValueError("this POD is already noise-corrected")\n', ""),
+    ("pod", "return (self._modes * self._modes) @ self._eigenvalues",
+     "return np.abs(self._modes) @ self._eigenvalues"),
+    ("pod", "np.count_nonzero(mu > max(k, n) * np.finfo(float).eps * mu[0])",
+     "np.count_nonzero(mu > 0)"),
+    ("pod", "if lam[-1] < -1e-8 * lam[0]:", "if lam[-1] < -1e-8:"),
+    # physical model: nearest_psd of the lower triangle instead of the symmetric part, the
+    # floor relative to the largest eigenvalue instead of the largest magnitude, the
+    # report's relative change over the new matrix, a true mode at 0 Hz accepted, the
+    # damped frequency Im λ / 2π reported as the natural one, more kinds than modes accepted
+    ("physical", "d, Q = np.linalg.eigh(0.5 * (a + a.T))", "d, Q = np.linalg.eigh(a)"),
+    ("physical", "floor = rtol * float(np.max(np.abs(d)))", "floor = rtol * float(np.max(d))"),
+    ("physical", "float(np.linalg.norm(new - old) / max(np.linalg.norm(old),",
+     "float(np.linalg.norm(new - old) / max(np.linalg.norm(new),"),
+    ("physical", "if f_true.size == 0 or np.any(f_true <= 0):", "if f_true.size == 0:"),
+    ("physical", "frequencies_hz=mag / (2 * np.pi),", "frequencies_hz=keep.imag / (2 * np.pi),"),
+    ("physical", "if kinds is not None and len(kinds) != modes.eigenvalues.size:",
+     "if kinds is not None and len(kinds) < modes.eigenvalues.size:"),
+    # modes: shapes scaled by their largest real part instead of largest magnitude, a
+    # selection keeping every modal A, a mode at the band's lower end left out, a zero
+    # column among others given a MAC, a pole's residue at the first rows instead of the
+    # driven DOFs'
+    ("modes", "top = phi[np.argmax(np.abs(phi), axis=0), np.arange(phi.shape[1])]",
+     "top = phi[np.argmax(phi.real, axis=0), np.arange(phi.shape[1])]"),
+    ("modes", "modal_a=None if self.modal_a is None else self.modal_a[keep],",
+     "modal_a=self.modal_a,"),
+    ("modes", "return self.select((f >= band_hz[0]) & (f <= band_hz[1]))",
+     "return self.select((f > band_hz[0]) & (f <= band_hz[1]))"),
+    ("modes", "if np.any(norms == 0):", "if np.all(norms == 0):"),
+    ("modes", "np.outer(shapes.shapes[:, k], shapes.shapes[idx, k])",
+     "np.outer(shapes.shapes[:, k], shapes.shapes[: idx.size, k])"),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

@@ -59,6 +59,8 @@ def test_mac_definition_and_invariances():
     [
         (np.ones((4, 2)), np.ones((5, 2)), "same number of rows"),
         (np.ones((4, 2)), np.zeros((4, 2)), "B column 0 is zero"),
+        # one zero column among others is refused too (its MAC would be 0 / 0)
+        (np.ones((4, 2)), np.array([[1.0, 0.0]] * 4), "^B column 1 is zero: it has no MAC$"),
         (np.ones((4, 0)), np.ones((4, 2)), "non-empty"),
         (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
         (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
@@ -264,6 +266,28 @@ def test_a_pole_midway_between_two_lines_is_judged_on_the_lower_third_line():
         U = term.copy()
         U[w == spike] = 100 * abs(term[w == 10.0])
         assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]
+
+
+def test_a_pole_is_seen_through_its_shape_at_the_driven_dof():
+    """Two DOFs, the force at the second (inputs=[1]); a lightly damped pole at 50 rad/s
+    whose shape is 1 at the driven DOF and 1e-3 at the first, a node of the mode, on
+    lines 1, 2, …, 200 rad/s. The data are the pole's own term, φ_i φ_1 / (a (iω − λ)):
+    it is seen at its three nearest lines (|iω − λ| is 0.5 at 50 rad/s and √1.25 at 49
+    and 51: 0.45 of the peak there, above 0.1) and the data rise to a peak (13 times the
+    ring 3–10 rad/s away), so it is structural.
+    Its residue is φ_i φ_1, the shape at the driven DOF; at the first row's (1e-3) the
+    term would be a thousandth of the data: weak."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -0.5 + 50j
+    a = 2j * lam.imag
+    phi = np.array([1e-3, 1.0])
+    term = 1 / (a * (1j * w - lam))
+    U = (phi[None, :] * phi[1] * term[:, None])[:, :, None]
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=phi[:, None].astype(complex),
+                        modal_a=np.array([a]))
+    assert list(mode_kinds(shapes, w, U, inputs=[1])) == ["structural"]
 
 
 def test_a_model_symmetric_to_round_off_relative_to_its_size_has_modal_constants():

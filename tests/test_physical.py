@@ -155,6 +155,8 @@ def test_the_table_reports_the_frequency_error_against_the_truth_and_checks_the_
     assert [r["f_hz"] / r["f_true_hz"] for r in rows] == pytest.approx([1.1] * 3, rel=1e-9)
     with pytest.raises(ValueError, match=r"^kinds has 2 entries for 3 modes$"):
         modal_table(model, kinds=np.array(["structural", "weak"]))
+    with pytest.raises(ValueError, match=r"^kinds has 4 entries for 3 modes$"):
+        modal_table(model, kinds=np.array(["structural"] * 4))
 
 
 def test_the_markdown_of_two_rows():
@@ -271,6 +273,13 @@ def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
     assert got[2:] == pytest.approx(d[2:], rel=1e-9)
     assert phys.info["physical"]["eigenvalues_raised"][2] == 2
     assert phys.info["physical"]["rtol"] == rtol
+    # −K: its largest eigenvalue is negative, its largest magnitude max |d|; the floor is
+    # relative to ‖K‖₂ = max |d|, so every raised eigenvalue lands on the same positive
+    # floor and the corrected K is positive definite
+    flipped = make_physical(replace(result, K=-result.K), U, F, data.omega, rtol=rtol)
+    got = np.linalg.eigvalsh(flipped.K)
+    assert got == pytest.approx(np.sort(np.maximum(-d, floor)), rel=1e-6)
+    assert got.min() > 0
 
 
 def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):

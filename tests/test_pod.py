@@ -90,6 +90,11 @@ def test_basis_and_projection():
     Pp = result.project(Xp, 2)
     assert Pp.shape == (5, 2, 2)
     np.testing.assert_allclose(Pp[:, :, 1], Xp[:, :, 1] @ result.basis(2), rtol=1e-13)
+    # complex load cases (FRF columns): each column projected as it is, not conjugated
+    Xc = Xp + 1j * rng.standard_normal((5, 6, 2))
+    Pc = result.project(Xc, 2)
+    for j in range(2):
+        np.testing.assert_allclose(Pc[:, :, j], Xc[:, :, j] @ result.basis(2), rtol=1e-13)
 
 
 def test_basis_and_projection_reject_bad_input():
@@ -205,6 +210,19 @@ def test_a_rank_one_correlation_has_no_negative_energy():
     P = pod_from_correlation(np.outer(v, v))
     assert np.all(P.eigenvalues >= 0) and np.all(P.eigenvalues[1:] < 1e-14 * P.eigenvalues[0])
     assert P.eigenvalues[0] == pytest.approx(v @ v, rel=1e-12)
+
+
+@pytest.mark.parametrize("scale", [1e-12, 1e6])
+def test_a_negative_eigenvalue_is_judged_relative_to_the_largest(scale):
+    """Positive semi-definite to round-off means relative to λ_max (1e-8 of it): at a
+    receptance-sized (1e-12) or an accelerance-sized (1e6) scale alike, an eigenvalue of
+    −1e-3 λ_max is refused and one of −1e-10 λ_max (round-off of a correlation formed
+    from data) is accepted as zero energy."""
+    with pytest.raises(ValueError, match="not positive semi-definite"):
+        pod_from_correlation(scale * np.diag([4.0, 2.0, -4e-3]))
+    result = pod_from_correlation(scale * np.diag([4.0, 2.0, -4e-10]))
+    np.testing.assert_allclose(result.eigenvalues[:2], scale * np.array([4.0, 2.0]), rtol=1e-14)
+    assert result.eigenvalues[2] == 0.0  # clipped: no negative energy
 
 
 def test_pod_from_correlation_does_not_modify_input():

@@ -11,8 +11,8 @@ The files are written by the tests from the exact receptances of a uniform 4-DOF
 - the fewest force DOFs that hold every measured pair: a shaker column plus a
   roving-hammer row are two columns (their common FRF averaged, with a
   :class:`DataWarning` saying how far apart the two were); a tie goes to the file's
-  reference; a driving point lost from a shaker grid leaves its pairs to the other
-  columns, by reciprocity;
+  reference, between two references to the lower DOF; a driving point lost from a
+  shaker grid leaves its pairs to the other columns, by reciprocity;
 - two FRFs of one entry more than 3 dB apart are refused, naming both records;
 - a force DOF no FRF measures as a response is refused (as before).
 """
@@ -84,6 +84,9 @@ def test_one_way_pairs_fill_by_reciprocity_and_the_rest_are_holes(tmp_path):
     assert any("1 entry read by reciprocity" in note for note in data.notes)
     assert any("1 of the 4 × 2 entries" in note and "response (4, 3) / force at (3, 3)"
                in note for note in data.notes)
+    # the 6 records have 4 response DOFs (1-4) and 2 reference DOFs (1, 3)
+    assert any("the 6 FRFs of 4 response and 2 reference DOF(s)" in note
+               for note in data.notes)
 
 
 def test_two_entries_read_by_reciprocity_are_counted_in_words(tmp_path):
@@ -146,6 +149,22 @@ def test_a_tie_goes_to_the_files_reference(tmp_path):
     assert np.allclose(entry(data, 1, 3), H[1:, 2, 0], rtol=1e-10)
     assert any("1 entry read by reciprocity" in note for note in data.notes)
     assert data.n == 3 and data.measured.sum() == 5  # H(3, 3): never measured
+
+
+def test_a_tie_between_two_references_goes_to_the_lower_dof(tmp_path):
+    """A shaker at 1 (driving point measured), H(1, 2) and H(2, 3): the pair {2, 3} is
+    held by 2 or by 3, both the file's references, each in one pair left — the lower DOF,
+    2, is the column. H(2, 3) comes by reciprocity as H(3, 2), H(1, 2) is read directly,
+    and no entry is measured twice (with 3 as the column H(1, 2) would become H(2, 1), a
+    second measurement of the shaker's)."""
+    pairs = [(1, 1), (2, 1), (3, 1), (1, 2), (2, 3)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        data = read_uff(write(tmp_path / "lower.uff", pairs))
+    assert columns(data) == [1, 2]
+    assert np.allclose(entry(data, 1, 2), H[1:, 0, 1], rtol=1e-10)
+    assert np.allclose(entry(data, 3, 2), H[1:, 1, 2], rtol=1e-10)  # = H(2, 3)
+    assert any("1 entry read by reciprocity" in note for note in data.notes)
 
 
 def test_a_lost_driving_point_leaves_its_pairs_to_the_other_columns(tmp_path):
