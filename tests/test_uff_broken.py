@@ -559,6 +559,27 @@ def test_a_channel_constant_over_three_lines_is_dead_and_over_two_is_data(tmp_pa
     assert two.omega.size == 2 and two.measured[2, 1]
 
 
+@pytest.mark.parametrize("quantity,code", [("velocity", 11), ("acceleration", 12)])
+def test_a_constant_mobility_or_accelerance_channel_is_dead(tmp_path, quantity, code):
+    """The channel is judged as written: an accelerometer's record holding 0.5 at every
+    line is a dead channel, though as a receptance (÷ −ω²) it is not constant."""
+    freq = np.arange(1.0, 21.0)
+    live = 1.0 / (1.0 + 1j * freq)
+    records = [
+        pyuff.prepare_58(binary=0, func_type=4, rsp_node=rsp, rsp_dir=3, ref_node=1, ref_dir=3,
+                         data=values.astype(complex), x=freq, abscissa_spacing=1,
+                         abscissa_spec_data_type=18, ordinate_spec_data_type=code,
+                         orddenom_spec_data_type=13)
+        for rsp, values in ((1, live), (2, np.full(freq.size, 0.5)))
+    ]
+    pyuff.UFF(str(tmp_path / "acc.uff")).write_sets(records, "add")
+    with pytest.warns(DataWarning, match=r"FRF record 2 \(response 2:3 / reference 1:3\) is the "
+                                         r"constant 0.5\+0j at every line in the file: a dead "
+                                         r"channel"):
+        data = read_uff(tmp_path / "acc.uff")
+    assert data.dofs.tolist() == [[1, 3]]  # the dead one left out, the live one read
+
+
 def _nan_at_42_hz(o, r, v):
     """The record of response 1 / reference 1 with a NaN at 42 Hz (pyuff writes it as 0)."""
     if (o, r) == (1, 1):

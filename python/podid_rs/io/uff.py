@@ -390,7 +390,7 @@ def read_uff(
     records = []
     for number, rsp, ref, y, q, label, _ in raw:
         record = _Frf(number, rsp, ref, to_receptance(y[keep], omega, q), label)
-        dead = _dead_channel(record, freq[keep], where)
+        dead = _dead_channel(record, y[keep], freq[keep], where)
         if dead:
             warnings.warn(f"{path}: {dead}", DataWarning, stacklevel=2)
             notes.append(f"{path.name}: {dead}")
@@ -471,11 +471,14 @@ def _finite_ordinate(values: object, x: np.ndarray, where: str) -> np.ndarray:
     return as_array(values, f"{where} ordinate")
 
 
-def _dead_channel(record: _Frf, freq_hz: np.ndarray, where: str) -> str | None:
-    """What is wrong with an FRF that measured nothing (zero or constant at every line),
-    None for a live one — which gets a warning of its own for lines that are exactly
-    zero (a value lost in writing: pyuff writes NaN as 0)."""
-    v = record.values
+def _dead_channel(
+    record: _Frf, written: np.ndarray, freq_hz: np.ndarray, where: str
+) -> str | None:
+    """What is wrong with an FRF that measured nothing (zero or constant at every line of
+    the values as ``written``, in the record's own quantity: a constant accelerance is no
+    longer constant as a receptance), None for a live one — which gets a warning of its
+    own for lines that are exactly zero (a value lost in writing: pyuff writes NaN as 0)."""
+    v = written
     if not np.any(v):
         return (f"{record.name} is zero at every line {where}: a dead channel; that entry "
                 "is treated as not measured")
