@@ -757,6 +757,69 @@ AUDIT = [
     ("modes", "if np.any(norms == 0):", "if np.all(norms == 0):"),
     ("modes", "np.outer(shapes.shapes[:, k], shapes.shapes[idx, k])",
      "np.outer(shapes.shapes[:, k], shapes.shapes[: idx.size, k])"),
+    # fourth audit (second round) — latent: an empty basis accepted, the observed columns
+    # taken from the basis's end, the gauge of an order below the observed count negative,
+    # the parameter count of M, C, K with m(m − 1)/2, the new mode's damping without its
+    # 2, the weights not squared, the residual's excess relative to the data instead of
+    # the model, the weakest peaks tried, the residual term above the band shaped at the
+    # lowest line, the residual's dominant direction without the conjugate, a negative
+    # modal mass accepted, the worst offset and damping of a candidate kept
+    ("identification/latent",
+     "if R.ndim != 2 or R.shape[0] == 0 or R.shape[1] == 0:", "if R.ndim != 2:"),
+    ("identification/latent", "out[:, :k] = R[:, :k]", "out[:, :k] = R[:, -k:]"),
+    ("identification/latent", "latent = max(m - k, 0)", "latent = m - k"),
+    ("identification/latent", "return 3 * m * (m + 1) // 2", "return 3 * m * (m - 1) // 2"),
+    ("identification/latent", "(mu, 2 * zeta * wc * mu, wc**2 * mu)",
+     "(mu, zeta * wc * mu, wc**2 * mu)"),
+    ("identification/latent", "w2 = weights**2", "w2 = weights"),
+    ("identification/latent", "np.sum(np.abs(X) ** 2, axis=(1, 2)), np.finfo(float).tiny",
+     "np.sum(np.abs(U_n) ** 2, axis=(1, 2)), np.finfo(float).tiny"),
+    ("identification/latent", "peaks = inner[np.argsort(excess[inner])[::-1][:PEAKS]]",
+     "peaks = inner[np.argsort(excess[inner])[:PEAKS]]"),
+    ("identification/latent", "(s - 1, [omega[-1] * RESIDUAL_FACTOR]",
+     "(0, [omega[-1] * RESIDUAL_FACTOR]"),
+    ("identification/latent", "np.real(r[i] @ r[i].conj().T)", "np.real(r[i] @ r[i].T)"),
+    ("identification/latent", "if den <= 0 or num <= 0:", "if den <= 0:"),
+    ("identification/latent", "if best is None or cost < best[0]:",
+     "if best is None or cost > best[0]:"),
+    # modal start: unstable poles kept, a band from 0 Hz given a residual pole at 0, the
+    # residual poles' damping ratios not cut to the room left, the mask's row j read as
+    # load case j's, the shape's scale from the first DOFs instead of the driven ones,
+    # the rank-one fit's denominator without the mask, M = A⁻¹A⁻ᵀ, a mode without a
+    # shape kept at its pole
+    ("identification/modal_start", "(zeta < ZETA_MAX) & (zeta >= 0)", "(zeta < ZETA_MAX)"),
+    ("identification/modal_start", "if w_lo > 0 else []", "if w_lo >= 0 else []"),
+    ("identification/modal_start", "np.full(min(room, len(residual)), RESIDUAL_ZETA)",
+     "np.full(len(residual), RESIDUAL_ZETA)"),
+    ("identification/modal_start", "else measured[:, j]", "else measured[j]"),
+    ("identification/modal_start", "at_inputs = a[inputs]", "at_inputs = a[: inputs.size]"),
+    ("identification/modal_start", "np.maximum(w.T @ a_next**2,",
+     "np.maximum(np.sum(a_next**2),"),
+    ("identification/modal_start", "M = A_inv.T @ A_inv", "M = A_inv @ A_inv.T"),
+    ("identification/modal_start", "seen = np.linalg.norm(shapes, axis=0) > 0",
+     "seen = np.ones(shapes.shape[1], dtype=bool)"),
+    # informative lines: 2-D data accepted, the phase not unwrapped, four blocks per line
+    # instead of a quarter, a block given more lines than it has, a block's dip marked in
+    # the first block
+    ("identification/lines", "if U.ndim != 3:", "if U.ndim < 2:"),
+    ("identification/lines", "phase = np.unwrap(np.angle(flat), axis=0)",
+     "phase = np.angle(flat)"),
+    ("identification/lines", "max(int(target * BLOCKS_PER_LINE), 1)",
+     "max(int(target / BLOCKS_PER_LINE), 1)"),
+    ("identification/lines", "new = np.minimum(count + extra, sizes)", "new = count + extra"),
+    ("identification/lines", "keep[a + int(np.argmin(level[a:b]))] = True",
+     "keep[int(np.argmin(level[a:b]))] = True"),
+    # holes: a mask that is not boolean accepted, a transposed mask accepted, the unseen
+    # DOFs' message listing the empty load cases, the column weights read load-case-major,
+    # the targets not divided by the eigenvalues of Rᵀ diag(mask) R
+    ("identification/holes", "if mask.dtype != np.bool_ or mask.shape != (n, p):",
+     "if mask.shape != (n, p):"),
+    ("identification/holes", "or mask.shape != (n, p):", "or mask.size != n * p:"),
+    ("identification/holes", 'f"measured DOF(s) {unseen.tolist()}',
+     'f"measured DOF(s) {empty.tolist()}'),
+    ("identification/holes", "W = np.asarray(w, dtype=np.float64).reshape(s, p)",
+     "W = np.asarray(w, dtype=np.float64).reshape(p, s).T"),
+    ("identification/holes", "(Vk.T @ B) / lam[keep, None]", "(Vk.T @ B)"),
 ]
 suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
 only = set()

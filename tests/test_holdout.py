@@ -10,6 +10,7 @@ deterministic on one thread), while the held-out score changes.
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -593,6 +594,16 @@ def test_a_test_of_the_target_or_fewer_lines_keeps_them_all():
     assert informative_lines(U[:16], 16).all()
     assert informative_lines(U[:15], 16).all()
     assert informative_lines(U, 16).sum() < 17  # one more line: it thins
+
+
+def test_responses_that_are_not_three_dimensional_are_refused():
+    """U is (s, n, p): a 2-D (s, n) array — one load case without its axis — or a 4-D
+    one is refused with the shape it has, not thinned as if its columns were entries
+    (200 lines, more than the target: it would thin)."""
+    for shape in ((200, 2), (200, 2, 1, 1)):
+        with pytest.raises(ValueError, match=rf"U must be \(s, n, p\), got shape "
+                                             rf"{re.escape(str(shape))}"):
+            informative_lines(np.ones(shape, dtype=complex), 16)
 
 
 def test_a_target_below_sixteen_lines_is_refused():

@@ -17,6 +17,7 @@ Asserted, and why the tolerances:
   holes read as measured zeros give errors over 1 dB there;
 - the POD of data with holes is that of the zero-filled responses: each load case adds
   the products of its measured entries only (1e-12);
+- a mask of another shape is refused, a transposed one (as many entries) too;
 - :class:`MeasuredData` validates, zero-fills, keeps (``band``) and saves the mask;
 - the dB errors and the mode kinds count measured entries only.
 """
@@ -286,6 +287,18 @@ def test_a_mask_needs_a_basis_and_the_data_shape():
 
 
 # ------------------------------------------------------------------ the pipeline
+
+
+def test_a_mask_of_the_wrong_shape_is_refused_also_when_it_has_as_many_entries():
+    """A (p, n) mask — the grid transposed, as many entries as (n, p) — is refused: read
+    as it is, the load cases' columns would be the DOFs' rows."""
+    n, p = 4, 2
+    mask = np.ones((n, p), dtype=bool)
+    mask[0, 1] = False
+    assert np.array_equal(check_measured(mask, n, p), mask)
+    with pytest.raises(ValueError, match=r"boolean mask of shape \(n, p\) = \(4, 2\).*"
+                                         r"got bool \(2, 4\)"):
+        check_measured(mask.T, n, p)
 
 
 def test_a_load_case_with_no_measured_entry_is_named():

@@ -2,7 +2,8 @@
 (podid_rs.identification.latent, refine and the order sweep past the POD basis).
 
 Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns that are
-not orthogonal among them) and orders that are not integers are refused; a latent start
+not orthogonal among them, an empty basis) and orders that are not integers are refused;
+an order at or below the observed coordinates has no gauge; a latent start
 seen at two sensors takes the residual's dominant direction; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
@@ -70,6 +71,16 @@ def test_observation_matrix_is_the_basis_then_zero_columns():
         pr.observation_matrix(bad, 7)
 
 
+def test_an_empty_basis_is_refused():
+    """No measured DOF, or no column: there is no basis to observe anything through —
+    refused, not turned into an observation matrix of zero rows or of latent columns
+    only; a 1-D array is no (n, k) basis either."""
+    for shape in ((0, 2), (3, 0), (3,)):
+        with pytest.raises(ValueError, match=rf"non-empty \(n, k\) array, got shape "
+                                             rf"{re.escape(str(shape))}"):
+            pr.observation_matrix(np.zeros(shape), 2)
+
+
 def test_unit_columns_that_are_not_orthogonal_are_no_basis():
     """Two unit columns at 45° (RᵀR has 1/√2 off its diagonal): unit norms alone do not
     make POD modes, and the reduced data Rᵀu assume RᵀR = I."""
@@ -110,6 +121,10 @@ def test_the_latent_gauge_leaves_the_measured_response_unchanged():
     assert np.max(np.abs(H1 - H2)) < 1e-12 * np.max(np.abs(H1))
     assert gauge_dimension(m, k) == 3 * 2 + 3 * 3
     assert free_parameters(m, k) == 3 * m * (m + 1) // 2 - 15
+    # no latent coordinate, no gauge: also for an order below the observed coordinates
+    for m_low in (k, k - 1):
+        assert gauge_dimension(m_low, k) == 0
+        assert free_parameters(m_low, k) == 3 * m_low * (m_low + 1) // 2
 
 
 def test_one_frf_determines_every_mode_of_a_four_mass_chain():

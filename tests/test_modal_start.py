@@ -5,8 +5,9 @@ Asserted: on exact FRFs of a proportionally damped 4-DOF system whose modes all 
 in the band, the start rebuilt from the system's own poles reproduces the FRFs to
 round-off — observed at every DOF, with a hole in the grid, and from one driving
 point through latent coordinates; with only two modes in the band it keeps those two
-poles exactly, stands in for the others with one pole below and one above the band,
-and stays physical; forces that are not unit forces at one DOF (no FRFs) give no
+poles exactly, stands in for the others with one pole below and one above the band
+(none below a band from 0 rad/s), and stays physical, also from a model with an unstable
+pole, which it leaves out; forces that are not unit forces at one DOF (no FRFs) give no
 start; and the final fit starts from it when it fits better than the held-out fit —
 never reading a hole, and judging the first pass against the held-out fit — and says
 nothing of it otherwise; it keeps the held-out fit when the refit raises the median
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 import podid_rs as pr
 from podid_rs.identification.latent import observation_matrix
@@ -142,6 +144,52 @@ def test_a_band_below_one_radian_per_second_keeps_its_residual_pole_below():
     np.testing.assert_allclose(w_start[1:3], wn[1:3], rtol=1e-12)
     np.testing.assert_allclose(z_start[1:3], zeta[1:3], rtol=1e-9)
     assert w_start[0] < omega[0] and w_start[3] > omega[-1]
+
+
+def test_an_unstable_pole_of_the_model_is_left_out_and_the_start_stays_physical(omega_all):
+    """The 4-DOF system with its third mode's damping ratio negated (ζ₃ = −0.0021: an
+    unstable pole, as an estimate without the physical constraints can have): the start
+    keeps the three stable in-band poles exactly and not the unstable one — kept, its
+    negative 2ζω would make C indefinite — and fills the fourth coordinate with a pole
+    above the band; C ⪰ 0 as always."""
+    lam, phi = scipy.linalg.eigh(K4, M4)  # mass-normalised modes, φᵀ C4 φ diagonal
+    w = np.sqrt(lam)
+    zeta = np.diag(phi.T @ C4 @ phi) / (2 * w)
+    zeta[2] = -zeta[2]
+    C_unstable = M4 @ phi @ np.diag(2 * zeta * w) @ phi.T @ M4  # Φᵀ C Φ = diag(2ζω)
+    assert np.sum(natural(M4, C_unstable, K4)[1] < 0) == 1
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
+    start = modal_start(pr.SecondOrderSystem(M4, C_unstable, K4), np.eye(4), U, F, omega_all)
+    assert_physical(start)
+    w_start, z_start = natural(*start)
+    # the kept poles are the model's own, rebuilt through A: round-off, as above
+    np.testing.assert_allclose(w_start[:3], w[[0, 1, 3]], rtol=1e-12)
+    np.testing.assert_allclose(z_start[:3], zeta[[0, 1, 3]], rtol=1e-9)
+    assert w_start[3] > omega_all[-1] and np.all(z_start > 0)
+
+
+def test_a_band_from_zero_has_no_residual_pole_below_it():
+    """Lines from 0 rad/s (the static receptance K⁻¹ at the first) up to between modes 2
+    and 3: no pole fits below the band — one at 0 rad/s would divide the first line by
+    zero — so the two in-band poles are kept exactly, the residual pole above sits at
+    ω_hi · RESIDUAL_FACTOR (ζ = RESIDUAL_ZETA) and the last coordinate is completed at
+    FILL_FACTOR · ω_hi."""
+    from podid_rs.identification.modal_start import RESIDUAL_FACTOR, RESIDUAL_ZETA
+
+    wn, zeta = natural(M4, C4, K4)
+    omega = np.linspace(0.0, 0.5 * (wn[1] + wn[2]), 400)
+    U = np.empty((omega.size, 4, 1), dtype=complex)
+    U[1:] = pr.SecondOrderSystem(M4, C4, K4).frf(omega[1:])[:, :, [0]]  # frf refuses 0
+    U[0] = np.linalg.inv(K4)[:, [0]]
+    F = np.zeros_like(U)
+    F[:, 0, 0] = 1.0
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega)
+    assert_physical(start)
+    w_start, z_start = natural(*start)
+    np.testing.assert_allclose(w_start[:2], wn[:2], rtol=1e-12)
+    above = np.array([RESIDUAL_FACTOR, FILL_FACTOR]) * omega[-1]
+    np.testing.assert_allclose(w_start[2:], above, rtol=1e-9)
+    np.testing.assert_allclose(z_start[2:], RESIDUAL_ZETA, rtol=1e-9)
 
 
 def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line(omega_all):
