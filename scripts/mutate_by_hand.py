@@ -821,45 +821,51 @@ AUDIT = [
      "W = np.asarray(w, dtype=np.float64).reshape(p, s).T"),
     ("identification/holes", "(Vk.T @ B) / lam[keep, None]", "(Vk.T @ B)"),
 ]
-suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
-only = set()
-for arg in (a for a in sys.argv[1:] if a != "--suite"):
-    first, _, last = arg.partition("-")
-    only.update(str(k) for k in range(int(first), int(last or first) + 1))
-for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
-    if only and str(i) not in only:
-        continue
-    path = PKG / f"{mod}.py"
-    src, stat = path.read_text(), path.stat()
-    assert src.count(old) == 1, (mod, old, src.count(old))
-    path.write_text(src.replace(old, new))
-    try:
-        r = subprocess.run(
-            [
-                "nice",
-                "-n",
-                "19",
-                sys.executable,
-                "-m",
-                "pytest",
-                "-x",
-                "-q",
-                "-p",
-                "no:cacheprovider",
-                *(["tests"] if suite else TESTS[mod]),
-                *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) and not suite else []),
-            ],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-        )
-    finally:
-        path.write_text(src)
-        # the old modification time too: mutmut regenerates the mutants of a source newer
-        # than its mutated copy, and 3.8 then forgot the module's verdicts
-        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
-    last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
-    print(
-        f"{i:2d} {'KILLED ' if r.returncode else 'SURVIVED'} {mod}: {old!r} -> {new!r} | {last}",
-        flush=True,
-    )
+
+
+def main() -> None:
+    """Run the mutants named on the command line (all without arguments)."""
+    suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
+    only = set()
+    for arg in (a for a in sys.argv[1:] if a != "--suite"):
+        first, _, last = arg.partition("-")
+        only.update(str(k) for k in range(int(first), int(last or first) + 1))
+    for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
+        if only and str(i) not in only:
+            continue
+        path = PKG / f"{mod}.py"
+        src, stat = path.read_text(), path.stat()
+        assert src.count(old) == 1, (mod, old, src.count(old))
+        path.write_text(src.replace(old, new))
+        try:
+            r = subprocess.run(
+                [
+                    "nice",
+                    "-n",
+                    "19",
+                    sys.executable,
+                    "-m",
+                    "pytest",
+                    "-x",
+                    "-q",
+                    "-p",
+                    "no:cacheprovider",
+                    *(["tests"] if suite else TESTS[mod]),
+                    *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) and not suite else []),
+                ],
+                cwd=ROOT,
+                capture_output=True,
+                text=True,
+            )
+        finally:
+            path.write_text(src)
+            # the old modification time too: mutmut regenerates the mutants of a source newer
+            # than its mutated copy, and 3.8 then forgot the module's verdicts
+            os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+        last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
+        verdict = "KILLED " if r.returncode else "SURVIVED"
+        print(f"{i:2d} {verdict} {mod}: {old!r} -> {new!r} | {last}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
