@@ -178,6 +178,17 @@ def test_bad_options_are_refused(chain_frf, kwargs, match):
         sweep_orders(U_n, F_n, w, P, **kwargs)
 
 
+def test_lines_that_are_not_positive_or_not_one_per_line_are_named(chain_frf):
+    _, U_n, F_n, w, P = chain_frf
+    zero = np.r_[0.0, w[1:]]
+    with pytest.raises(ValueError, match=r"^omega must be strictly positive \(rad/s\); "
+                                         r"omega\[0\] = 0\.0$"):
+        sweep_orders(U_n, F_n, zero, P)
+    with pytest.raises(ValueError, match=rf"^omega must hold the {w.size} lines of U_n, got "
+                                         rf"{w.size - 1}$"):
+        sweep_orders(U_n, F_n, w[1:], P)
+
+
 def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_frf):
     """m = 0 and m one past the limit of the data's equations, word for word: the limit,
     the observed and latent coordinates, the free parameters against the real

@@ -38,7 +38,7 @@ def as_omega(omega: object) -> np.ndarray:
         raise ValueError(f"omega must be a non-empty 1-D array (rad/s), got shape {w.shape}")
     if np.any(w <= 0):
         i = int(np.argmax(w <= 0))
-        raise ValueError(f"omega must be strictly positive (rad/s); omega[{i}] = {w[i]!r}")
+        raise ValueError(f"omega must be strictly positive (rad/s); omega[{i}] = {float(w[i])!r}")
     return w
 
 

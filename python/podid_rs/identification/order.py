@@ -50,6 +50,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .._arrays import as_omega
 from ..physical import modal_parameters
 from ..pod import PODResult
 from ..systems import SecondOrderSystem
@@ -562,12 +563,16 @@ def sweep_orders(
     Raises
     ------
     ValueError
-        For ``holdout`` < 2, ``m_max`` or ``max_iter`` not a positive integer, too few
+        For lines (``omega``) not positive or not one per line of ``U_n``, ``holdout``
+        < 2, ``m_max`` or ``max_iter`` not a positive integer, too few
         lines to hold some out, ``m`` out of range (an
         order with more free parameters than the data's equations: the message names
         the limit), or when no order could be fitted.
     """
     s, n, p = U_n.shape
+    omega = as_omega(omega)
+    if omega.size != s:
+        raise ValueError(f"omega must hold the {s} lines of U_n, got {omega.size}")
     measured = check_measured(measured, n, p)
     if holdout < 2:
         raise ValueError(
