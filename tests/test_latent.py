@@ -242,41 +242,28 @@ def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():
     assert np.max(np.abs(X - U)) < 1e-8 * np.max(np.abs(U))
 
 
-def test_the_residual_term_above_the_band_is_a_mode_at_its_factor_of_the_highest_line():
-    """The start "residual term above the band" adds one mode at RESIDUAL_FACTOR × the
-    band's highest line and keeps the model's: the start's undamped frequencies are
-    those two to round-off (the latent coordinate is a congruence of diag(model, mode))."""
+@pytest.mark.parametrize("side", ["above", "below"])
+def test_a_residual_term_is_a_mode_at_its_factor_beyond_the_bands_edge(side):
+    """Data with a mode beyond the band (lines 20–80 Hz; the other mode at 50 Hz, above,
+    or at 5 Hz, below) beside the model's (10 Hz or 50 Hz). The start "residual term
+    above the band" adds one mode at RESIDUAL_FACTOR × the band's highest line, "below
+    the band" one at its lowest line over RESIDUAL_FACTOR, and keeps the model's: the
+    start's undamped frequencies are those two to round-off (the latent coordinate is a
+    congruence of diag(model, mode))."""
     from podid_rs.identification.latent import RESIDUAL_FACTOR
 
     omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
-    w1, wc = 2 * np.pi * 10.0, 2 * np.pi * 50.0
+    w1, wc, added = ((2 * np.pi * 10.0, 2 * np.pi * 50.0, RESIDUAL_FACTOR * omega[-1])
+                     if side == "above" else
+                     (2 * np.pi * 50.0, 2 * np.pi * 5.0, omega[0] / RESIDUAL_FACTOR))
     model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
     U = (1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
          + 1 / (0.25 * (wc**2 - omega**2 + 2j * 0.01 * wc * omega)))[:, None, None]
     starts = latent_starts(model, U, np.ones_like(U), omega, np.eye(1),
                            np.ones((omega.size, 1)))
-    M, _, K = next(s for _, s, n in starts if n == "latent DOF: residual term above the band")
+    M, _, K = next(s for _, s, n in starts if n == f"latent DOF: residual term {side} the band")
     undamped = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real))
-    np.testing.assert_allclose(undamped, [w1, RESIDUAL_FACTOR * omega[-1]], rtol=1e-10)
-
-
-def test_the_residual_term_below_the_band_is_a_mode_at_its_factor_below_the_lowest_line():
-    """The mirror image: data with a mode below the band (5 Hz, lines 20–80 Hz) beside
-    the model's (50 Hz). The start "residual term below the band" adds one mode at the
-    band's lowest line over RESIDUAL_FACTOR: the start's undamped frequencies are the
-    model's and that one, to round-off."""
-    from podid_rs.identification.latent import RESIDUAL_FACTOR
-
-    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
-    w1, wl = 2 * np.pi * 50.0, 2 * np.pi * 5.0
-    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
-    U = (1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
-         + 1 / (0.25 * (wl**2 - omega**2 + 2j * 0.01 * wl * omega)))[:, None, None]
-    starts = latent_starts(model, U, np.ones_like(U), omega, np.eye(1),
-                           np.ones((omega.size, 1)))
-    M, _, K = next(s for _, s, n in starts if n == "latent DOF: residual term below the band")
-    undamped = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real))
-    np.testing.assert_allclose(undamped, [omega[0] / RESIDUAL_FACTOR, w1], rtol=1e-10)
+    np.testing.assert_allclose(undamped, sorted([w1, added]), rtol=1e-10)
 
 
 def test_a_peak_fitted_only_by_its_widest_damping_still_gets_a_start():
