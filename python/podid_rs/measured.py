@@ -292,6 +292,7 @@ class MeasuredData:
 
     @property
     def freq_hz(self) -> np.ndarray:
+        """The frequency lines in Hz, ω / 2π."""
         return self.omega / (2 * np.pi)
 
     @property

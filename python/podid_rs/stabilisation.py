@@ -109,6 +109,7 @@ class StabilisationOrder:
 
     @property
     def stable(self) -> np.ndarray:
+        """Poles strictly in the left half-plane, Re λ < 0 (an undamped one is not)."""
         return self.modes.eigenvalues.real < 0
 
     @property
