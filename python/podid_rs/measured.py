@@ -630,7 +630,8 @@ def from_time_histories(
             "forces and responses must have the same number of records and samples, "
             f"got {x.shape} and {y.shape}"
         )
-    omega = spectra(y[0], dt, band_hz)[0]
+    responses_f = [spectra(rec, dt, band_hz) for rec in y]
+    omega = responses_f[0][0]
     X = np.stack([spectra(rec, dt, band_hz)[1] for rec in x], axis=-1)
-    Y = np.stack([spectra(rec, dt, band_hz)[1] for rec in y], axis=-1)
+    Y = np.stack([spectrum for _, spectrum in responses_f], axis=-1)
     return MeasuredData(omega, to_receptance(Y, omega, quantity), X, dofs, inputs)
