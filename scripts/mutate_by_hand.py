@@ -57,6 +57,8 @@ AUDIT_TESTS = {
                    # slow: the one test)
                    "tests/test_scale.py::test_simulation_without_histories_has_the_same_spectra"],
     "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
+    # the pencil's eigenvalues and vectors as mode_shapes takes them (companion_modes)
+    "physical": ["tests/test_modes.py"],
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
                                   "tests/test_holes.py", "tests/test_identify_outputs.py",
