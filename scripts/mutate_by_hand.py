@@ -57,6 +57,8 @@ AUDIT_TESTS = {
                    # slow: the one test)
                    "tests/test_scale.py::test_simulation_without_histories_has_the_same_spectra"],
     "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
+    # the pencil's eigenvalues and vectors as mode_shapes takes them (companion_modes)
+    "physical": ["tests/test_modes.py"],
     "io/uff": ["tests/test_two_campaigns.py"],
     "identification/refinement": ["tests/test_holdout.py", "tests/test_model_order.py",
                                   "tests/test_holes.py", "tests/test_identify_outputs.py",
@@ -820,6 +822,46 @@ AUDIT = [
     ("identification/holes", "W = np.asarray(w, dtype=np.float64).reshape(s, p)",
      "W = np.asarray(w, dtype=np.float64).reshape(p, s).T"),
     ("identification/holes", "(Vk.T @ B) / lam[keep, None]", "(Vk.T @ B)"),
+    # fifth audit, refinement: a SecondOrderSystem start with C and K swapped, a list
+    # (M, C, K) start refused, the start's relative change measured from its symmetric
+    # part (a non-symmetric start reported unchanged), user weights labelled "relative",
+    # latent coordinates weighted like observed ones, the log-magnitude objective's mask
+    # dropped, its entries flattened load-case-major, per-entry targets without the
+    # weights, the per-entry metric without its transpose, the history without the
+    # constant of the per-entry metric, the unknowns counted as 3m², log_diagonal ignored
+    ("identification/refinement", "return model.M, model.C, model.K, None",
+     "return model.M, model.K, model.C, None"),
+    ("identification/refinement", "if isinstance(model, tuple | list) and len(model) == 3:",
+     "if isinstance(model, tuple) and len(model) == 3:"),
+    ("identification/refinement", "change.append(float(np.linalg.norm(Y - X) /",
+     "change.append(float(np.linalg.norm(Y - sym) /"),
+    ("identification/refinement", 'return w, "user"', 'return w, "relative"'),
+    ("identification/refinement", "idx = np.arange(observed)", "idx = np.arange(m)"),
+    ("identification/refinement", "W = W * measured  #", "W = W  #"),
+    ("identification/refinement", "np.ascontiguousarray(X.transpose(0, 2, 1).reshape(s * p, n))",
+     "np.ascontiguousarray(X.reshape(s * p, n))"),
+    ("identification/refinement", "b = R.T @ (w2 * U_n[i, :, j])", "b = R.T @ U_n[i, :, j]"),
+    ("identification/refinement", "[:, None] * V.T)", "[:, None] * V)"),
+    ("identification/refinement", '"history": [(int(i), float(c) + const)',
+     '"history": [(int(i), float(c))'),
+    ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2", "n_unk = 3 * m * m"),
+    ("identification/refinement", "log_diagonal=bool(log_diagonal),", "log_diagonal=True,"),
+    # physical model: an empty matrix accepted by nearest_psd, the corrected model carrying
+    # the residual before the correction, M floored at 0 instead of rtol, the vectors'
+    # λφ half instead of φ, the modes sorted by Im λ instead of |λ|, the report's modes
+    # numbered from 0, the true damping column holding the identified one, the Markdown
+    # rule one column short
+    ("physical", "if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] == 0:",
+     "if a.ndim != 2 or a.shape[0] != a.shape[1]:"),
+    ("physical", "residual_norm=after,", "residual_norm=before,"),
+    ("physical", 'M, moved_M = _raise_eigenvalues(result.M, rtol, "M")',
+     'M, moved_M = _raise_eigenvalues(result.M, 0.0, "M")'),
+    ("physical", "None if Z is None else Z[:n, pick]", "None if Z is None else Z[n:, pick]"),
+    ("physical", 'pick[np.argsort(np.abs(lam[pick]), kind="stable")]',
+     'pick[np.argsort(lam[pick].imag, kind="stable")]'),
+    ("physical", '"mode": k + 1,', '"mode": k,'),
+    ("physical", 'zeta_true=p["zeta_true"]', 'zeta_true=p["zeta"]'),
+    ("physical", '"|" + "---|" * len(keys)', '"|" + "---|" * (len(keys) - 1)'),
 ]
 
 

@@ -108,6 +108,17 @@ def test_modal_parameters_of_one_dof_oscillator():
     assert singular.n_infinite >= 1 and not singular.stable
 
 
+def test_modes_are_sorted_by_the_natural_frequency_not_the_damped_one():
+    # two uncoupled oscillators (M = I): ω = 5 rad/s with ζ = 0.01 and ω = 10 rad/s with
+    # ζ = 0.9, whose damped frequency 10·√(1 − 0.81) = 4.36 rad/s lies below the first's
+    # 4.9997: sorted by |λ| = ω the lightly damped one comes first
+    model = SecondOrderSystem(np.eye(2), np.diag([2 * 0.9 * 10.0, 2 * 0.01 * 5.0]),
+                              np.diag([100.0, 25.0]))
+    modes = modal_parameters(model)
+    assert 2 * np.pi * modes.frequencies_hz == pytest.approx([5.0, 10.0], rel=1e-12)
+    assert modes.damping_ratios == pytest.approx([0.01, 0.9], rel=1e-12)
+
+
 def test_chain_modes_match_rayleigh_theory():
     chain = mass_spring_chain(20)
     wk = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(chain.M, chain.K)).real))
@@ -157,6 +168,22 @@ def test_the_table_reports_the_frequency_error_against_the_truth_and_checks_the_
         modal_table(model, kinds=np.array(["structural", "weak"]))
     with pytest.raises(ValueError, match=r"^kinds has 4 entries for 3 modes$"):
         modal_table(model, kinds=np.array(["structural"] * 4))
+
+
+def test_the_table_reports_the_true_damping_of_the_paired_mode():
+    # stiffness-proportional damping C = βK has ζ_k = β ω_k / 2; K × 1.21 with the same C
+    # keeps each mode's c and k·1.21, so ω × 1.1 and ζ = β ω_k / (2 · 1.1): the true
+    # column must hold the truth's ζ, 1.1 times the model's, not the model's own.
+    # β = 1e-5 s with the chain's ω up to 2866 rad/s: ζ ≤ 0.015, every mode oscillatory
+    chain = mass_spring_chain(3)
+    beta = 1e-5
+    truth = SecondOrderSystem(chain.M, beta * chain.K, chain.K)
+    model = SecondOrderSystem(chain.M, beta * chain.K, 1.21 * chain.K)
+    rows = modal_table(model, truth=truth)
+    assert [r["zeta_true"] for r in rows] == pytest.approx(
+        list(modal_parameters(truth).damping_ratios), rel=1e-12
+    )
+    assert [r["zeta_true"] / r["zeta"] for r in rows] == pytest.approx([1.1] * 3, rel=1e-9)
 
 
 def test_the_markdown_of_two_rows():

@@ -98,6 +98,24 @@ def test_the_exact_start_stays_exact():
     assert "start_method" not in refine((chain.M, chain.C, chain.K), U, F, w).info
 
 
+def test_a_system_or_a_list_is_the_same_start_as_the_tuple():
+    # the same M, C, K in three containers: the same computation (one thread, so the same
+    # sums in the same order) and so the same numbers to the last bit
+    chain, U, F, w = chain_data(n=5, p=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        as_tuple = refine((chain.M, chain.C, chain.K), U, F, w, max_iter=1, threads=1)
+        for start in (chain, [chain.M, chain.C, chain.K]):
+            other = refine(start, U, F, w, max_iter=1, threads=1)
+            assert other.info["refinement"]["cost_start"] == as_tuple.info["refinement"][
+                "cost_start"]
+            for k in "MCK":
+                np.testing.assert_array_equal(getattr(other, k), getattr(as_tuple, k))
+    # the start is the truth of noise-free data: its responses are the data (the dB error
+    # of round-off, far below the 1e-6 dB asked)
+    assert as_tuple.info["refinement"]["db_before"][1] < 1e-6
+
+
 def test_the_log_diagonal_option_reaches_the_core():
     """log_diagonal=False takes the factors' diagonals as they are instead of exp(θ): the
     same start, the same three steps, another path — and both models stay physical."""
