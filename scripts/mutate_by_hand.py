@@ -862,6 +862,48 @@ AUDIT = [
     ("physical", '"mode": k + 1,', '"mode": k,'),
     ("physical", 'zeta_true=p["zeta_true"]', 'zeta_true=p["zeta"]'),
     ("physical", '"|" + "---|" * len(keys)', '"|" + "---|" * (len(keys) - 1)'),
+    # modes (fifth audit): a mode with no component on the measured DOFs let through when
+    # others have one, the lower edge's half-power band dropped, two lines instead of the
+    # three nearest, the visibility window absolute instead of relative, visible_fraction
+    # ignored, the measured mask dropped from the visibility test and from the data's
+    # peak, the zero column's message naming the largest column
+    ("modes", "if np.any(top == 0):", "if np.all(top == 0):"),
+    ("modes", "(lam.imag - np.abs(lam.real) < w[0])", "(lam.imag < w[0])"),
+    ("modes", 'kind="stable")[:3]', 'kind="stable")[:2]'),
+    ("modes", "<= VISIBLE_WINDOW * lam[k].imag", "<= VISIBLE_WINDOW"),
+    ("modes", "level = visible_fraction * np.abs(Ua[near])", "level = np.abs(Ua[near])"),
+    ("modes", "& measured_entries) for j in lines]", ") for j in lines]"),
+    ("modes", "return bool(np.any((peak >= PEAK_RISE * around) & measured))",
+     "return bool(np.any(peak >= PEAK_RISE * around))"),
+    ("modes", "column {int(np.argmin(norms))} is zero", "column {int(np.argmax(norms))} is zero"),
+    # stabilisation (fifth audit): C's tolerance below 0 turned into a margin above it,
+    # the current order's damping ratios compared with themselves, the rows' consistent_f
+    # column reading consistent, a fit of the wrong order accepted, pod_fit's symmetric
+    # option ignored
+    ("stabilisation", "eC.min() >= -rtol * scale_C", "eC.min() >= rtol * scale_C"),
+    ("stabilisation", "fp, zp = prev.frequencies_hz, prev.damping_ratios",
+     "fp, zp = prev.frequencies_hz, modes.damping_ratios"),
+    ("stabilisation", '"consistent_f": bool(o.consistent_f[k]),',
+     '"consistent_f": bool(o.consistent[k]),'),
+    ("stabilisation", "if not isinstance(model, IdentificationResult) or model.m != m:",
+     "if not isinstance(model, IdentificationResult):"),
+    ("stabilisation", "return identify(U_m, F_m, data.omega, lam, symmetric)",
+     "return identify(U_m, F_m, data.omega, lam, True)"),
+    # UFF modes, geometry and writer (fifth audit): a normal mode's frequency read as
+    # rad/s, its damped frequency from 1 - zeta instead of 1 - zeta², the geometry's x and
+    # y swapped on reading, repeated lines accepted, a mode mask of the wrong length let
+    # through, a selected mode written under its position instead of its number, the FRFs'
+    # abscissa written in rad/s
+    ("io/uff", 'w, z = 2 * np.pi * float(d["freq"]),', 'w, z = float(d["freq"]),'),
+    ("io/uff", "np.sqrt(max(1.0 - z * z, 0.0))", "np.sqrt(max(1.0 - z, 0.0))"),
+    ("io/uff", "rows[int(node)] = (float(x), float(y), float(z))",
+     "rows[int(node)] = (float(y), float(x), float(z))"),
+    ("io/uff", "if w.size < 2 or np.any(np.diff(w) <= 0):",
+     "if w.size < 2 or np.any(np.diff(w) < 0):"),
+    ("io/uff", "if keep.dtype != np.bool_ or keep.shape != (shapes.n_modes,):",
+     "if keep.dtype != np.bool_:"),
+    ("io/uff", "number = int(modes.mode_numbers[j])", "number = j + 1"),
+    ("io/uff", "    freq = omega / (2 * np.pi)\n    step", "    freq = omega\n    step"),
 ]
 
 

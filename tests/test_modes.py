@@ -560,3 +560,28 @@ def test_a_pole_seen_at_two_of_its_three_nearest_lines_is_a_resonance():
         U = term.copy()
         U[w == 102.0] = spike * unit
         assert list(mode_kinds(shapes, w, U[:, None, None], inputs=[0])) == [kind]
+
+
+def test_an_entry_that_was_not_measured_does_not_make_a_pole_visible():
+    """The pole of the visibility-window test (λ = −1 + 100i, lines 1, 2, …, 200 rad/s)
+    at two sensors, driven at the first. The first entry is measured: its term with a
+    spike 100 times the pole's peak on line 102 (inside the ±2 % window), so the level
+    (10 peaks) is reached at none of the three nearest lines. The second entry is a hole
+    of the test holding zeros, where any term reaches the level 0.1 × 0: were it judged,
+    the pole would be seen on every line (and the first entry's data do rise to a peak
+    at it, so it would be structural). Judged on the measured entry alone it is weak."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -1.0 + 100.0j
+    a = 2j * lam.imag
+    term = 1 / (a * (1j * w - lam))
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=np.ones((2, 1)),
+                        modal_a=np.array([a]))
+    U = np.zeros((w.size, 2, 1), dtype=complex)
+    U[:, 0, 0] = term
+    U[w == 102.0, 0, 0] = 100 * abs(term[w == 100.0])
+    measured = np.array([[True], [False]])
+    assert list(mode_kinds(shapes, w, U, inputs=[0], measured=measured)) == ["weak"]
+    # the same data with the zeros counted as measured: seen everywhere, and a resonance
+    assert list(mode_kinds(shapes, w, U, inputs=[0])) == ["structural"]

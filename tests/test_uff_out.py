@@ -316,7 +316,26 @@ def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
     with pytest.raises(ValueError, match=rf"^modes must be a boolean mask over the model's {k} "
                                          r"modes, got int64 \(2,\)$"):
         write_uff(out, result, R, data, modes=np.array([1, 0]))
+    # a boolean mask of the wrong length (one mode short, or as a column) is named as
+    # such, not left to numpy's indexing
+    for mask in (np.ones(k - 1, dtype=bool), np.ones((k, 1), dtype=bool)):
+        with pytest.raises(ValueError, match=rf"^modes must be a boolean mask over the model's "
+                                             rf"{k} modes, got bool {re.escape(str(mask.shape))}$"):
+            write_uff(out, result, R, data, modes=mask)
     assert not out.exists()
+
+
+def test_a_selected_mode_keeps_its_number_in_the_modal_table(written, tmp_path):
+    _, data, result, R, _, _ = written
+    rows = modal_table(result)
+    keep = np.zeros(len(rows), dtype=bool)
+    keep[1::2] = True  # modes 2, 4, ...: none written under its position among the kept
+    path = write_uff(tmp_path / "some.uff", result, R, data, modes=keep)
+    wanted = [r["mode"] for r in rows][1::2]
+    s55 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 55]
+    assert [int(d["mode_n"]) for d in s55] == wanted
+    assert [d["id1"].strip() for d in s55] == [f"podid_rs: identified mode {n}" for n in wanted]
+    assert read_uff_modes(path).mode_numbers.tolist() == wanted
 
 
 def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(written, tmp_path):
