@@ -904,6 +904,47 @@ AUDIT = [
      "if keep.dtype != np.bool_:"),
     ("io/uff", "number = int(modes.mode_numbers[j])", "number = j + 1"),
     ("io/uff", "    freq = omega / (2 * np.pi)\n    step", "    freq = omega\n    step"),
+    # fifth audit, latent: the round-off test against an absolute floor, the mass cap on
+    # a instead of 1/a, the added mode's damping sign flipped, the modal force from the
+    # responses, the first POD column dropped, the shape dropped from the mode's response
+    ("identification/latent", "if base <= NOTHING_LEFT * scale:", "if base <= NOTHING_LEFT:"),
+    ("identification/latent", "if 1.0 / a > max_mass:", "if a > max_mass:"),
+    ("identification/latent", "d = wc**2 - omega**2 + 2j * zeta * wc * omega",
+     "d = wc**2 - omega**2 - 2j * zeta * wc * omega"),
+    ("identification/latent", 'f = np.einsum("nk,snp->skp", Rp, F_n)',
+     'f = np.einsum("nk,snp->skp", Rp, U_n)'),
+    ("identification/latent", "Rp = R[:, :k]\n    X = np.einsum",
+     "Rp = R[:, 1:k]\n    X = np.einsum"),
+    ("identification/latent", "g = shape[None, :, None] * (modal_force / d[:, None])[:, None, :]",
+     "g = (modal_force / d[:, None])[:, None, :]"),
+    ("identification/latent", "if m < k:", "if m < k - 1:"),
+    # modal start: the damping ratio's sign, one pole in band too few, the rank by an
+    # absolute threshold, the leading left singular vector without its singular value,
+    # the first completing mode at 0 rad/s, C and K returned swapped
+    ("identification/modal_start", "zeta = -lam.real / np.where", "zeta = lam.real / np.where"),
+    ("identification/modal_start", "wk, zk = wk[:m], zk[:m]", "wk, zk = wk[: m - 1], zk[: m - 1]"),
+    ("identification/modal_start", "rank = int(np.sum(sv > 1e-3 * sv[0]))",
+     "rank = int(np.sum(sv > 1e-3))"),
+    ("identification/modal_start", "a, b = u[:, 0] * sv[0], vt[0]", "a, b = u[:, 0], vt[0]"),
+    ("identification/modal_start", "FILL_FACTOR * w_hi * (1.0 + np.arange(m - wk.size))",
+     "FILL_FACTOR * w_hi * np.arange(m - wk.size)"),
+    ("identification/modal_start", "return (M + M.T) / 2, (C + C.T) / 2, (K + K.T) / 2",
+     "return (M + M.T) / 2, (K + K.T) / 2, (C + C.T) / 2"),
+    # order: the message's observed coordinates the order itself, the held-out error on
+    # the training lines, the latent plateau one order late, m_max = 0 accepted, the
+    # table's stability column inverted, the cost's norm over holes, the best earlier
+    # order extended only when it is worse than the last
+    ("identification/order", "            k = min(m, observed)\n", "            k = m\n"),
+    ("identification/order", "test_db=_median_db(model, R, F, omega, U_n, test, measured)",
+     "test_db=_median_db(model, R, F, omega, U_n, train, measured)"),
+    ("identification/order", "if m is None and flat >= LATENT_FLAT:",
+     "if m is None and flat > LATENT_FLAT:"),
+    ("identification/order", "or value < 1):", "or value < 0):"),
+    ("identification/order", "{'yes' if f.stable else 'no'}", "{'yes' if not f.stable else 'no'}"),
+    ("identification/order", "norm = np.sum(np.abs(U_n) ** 2 * mask, axis=1)",
+     "norm = np.sum(np.abs(U_n) ** 2, axis=1)"),
+    ("identification/order", "if best.train_db < fits[-1].train_db:",
+     "if best.train_db > fits[-1].train_db:"),
 ]
 
 

@@ -212,6 +212,31 @@ def test_a_latent_mode_on_a_candidate_is_found_exactly(f1_hz, mu):
     assert [n for _, _, n in starts] == [name, "latent DOF: residual term above the band"]
 
 
+def test_a_mode_past_the_mass_cap_gets_no_start_and_a_light_one_does():
+    """The cap is on the modal mass μ = 1/a, not on a: data with one more mode of mass
+    10 × MAX_MASS_RATIO times the model's (1 kg) get no start at all (the mode on its
+    own candidate needs that mass, and a candidate off its frequency or damping explains
+    less of it, so needs more), while a mode 10⁻⁹ times as heavy — a large residual, far
+    inside the cap — is started at its line (the candidate of the setup above)."""
+    from podid_rs.identification.latent import MAX_MASS_RATIO, PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta = omega[i] * (1 + PEAK_OFFSETS[2]), PEAK_ZETAS[2]
+    w1 = 2 * np.pi * 1.0
+    model = (np.eye(1), np.array([[2 * 0.02 * w1]]), np.array([[w1**2]]))
+
+    def starts(mu):
+        U = (1 / (w1**2 - omega**2 + 2j * 0.02 * w1 * omega)
+             + 1 / (mu * (wc**2 - omega**2 + 2j * zeta * wc * omega)))[:, None, None]
+        return latent_starts(model, U, np.ones_like(U), omega, np.eye(1),
+                             np.ones((omega.size, 1)))
+
+    assert starts(10 * MAX_MASS_RATIO) == []
+    names = [name for _, _, name in starts(1e-9)]
+    assert f"latent DOF at {wc / (2 * np.pi):.4g} Hz" in names
+
+
 def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():
     """Two observed DOFs (uncoupled, modes at 10 and 15 Hz), each driven in its own load
     case, and data with one more mode on a latent coordinate seen with shape φ = (0.6, 0.8)

@@ -249,6 +249,23 @@ def test_the_rank_one_shape_with_holes_does_not_depend_on_the_units():
                                    rtol=1e-9)
 
 
+def test_the_start_does_not_depend_on_the_units_of_the_data(omega_all):
+    """Receptances c times larger are those of a structure with matrices c times smaller
+    (H = (−ω²M + iωC + K)⁻¹): the start from c·U is the start from U divided by c — in
+    m/N (1e-8 of mm/N: shapes of order 1e-4) as in mm/N. Every step (residues, rank-one
+    shapes, the rank of A) is linear or relative to the scale, so only round-off
+    differs: rtol 1e-9 is far above it (1e-15 here). (Observed at every DOF: with latent coordinates
+    the completion's basis of the empty directions is the SVD's, any rotation of it as
+    good, and a residual pole's near-zero residue takes its sign from round-off.)"""
+    model = pr.SecondOrderSystem(M4, C4, K4)
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
+    start = modal_start(model, np.eye(4), U, F, omega_all)
+    for c in (1e-8, 1e4):
+        scaled = modal_start(model, np.eye(4), c * U, F, omega_all)
+        for X, Y in zip(scaled, start, strict=True):
+            np.testing.assert_allclose(c * X, Y, rtol=1e-9, atol=1e-9 * np.abs(Y).max())
+
+
 def test_no_start_without_unit_forces(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
     F[:, 1, 0] = 0.5  # a force spread over two DOFs: not FRF data
