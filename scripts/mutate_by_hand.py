@@ -945,6 +945,34 @@ AUDIT = [
      "norm = np.sum(np.abs(U_n) ** 2, axis=1)"),
     ("identification/order", "if best.train_db < fits[-1].train_db:",
      "if best.train_db > fits[-1].train_db:"),
+    # sixth audit, pod: repeated lines accepted by the FRF check, order_for_energy not
+    # capped at the modes available, basis(0) accepted, the snapshot side's basis(m)
+    # returning every mode formed so far, the noise correction's span scaled by the first
+    # singular value only, a zero Ruu no longer refused, the FRF snapshots unweighted
+    ("pod", "if w.size < 2 or np.any(np.diff(w) <= 0):",
+     "if w.size < 2 or np.any(np.diff(w) < 0):"),
+    ("pod", "return min(m, self.n_modes)", "return m"),
+    ("pod", 'm = as_count(m, "m", 1, self.n)', 'm = as_count(m, "m", 0, self.n)'),
+    ("pod", "return formed[:, :m]", "return formed"),
+    ("pod", "Q = V / sigma  # the modes", "Q = V / sigma[0]  # the modes"),
+    ("pod", "if scale == 0:", "if scale < 0:"),
+    ("pod", "_pod_of_snapshots(_stacked_rows(Ha, _trapezoid_weights(w)), 1.0)",
+     "_pod_of_snapshots(_stacked_rows(Ha), 1.0)"),
+    # simulation: the 0 Hz line kept without a band, spectra's lines in Hz, Welch's lines
+    # from the record's length instead of the segment's, axis = -ndim refused, a missing
+    # band no longer refused, the effective averages of one record only
+    ("simulation", "return np.flatnonzero(f > 0)", "return np.flatnonzero(f >= 0)"),
+    ("simulation", "omega = 2 * np.pi * np.fft.rfftfreq(a.shape[0], dt)[lines]",
+     "omega = np.fft.rfftfreq(a.shape[0], dt)[lines]"),
+    ("simulation", "omega = 2 * np.pi * np.fft.rfftfreq(nperseg, dt)[lines]",
+     "omega = 2 * np.pi * np.fft.rfftfreq(r, dt)[lines]"),
+    ("simulation", "or not (-a.ndim <= axis < a.ndim)", "or not (-a.ndim < axis < a.ndim)"),
+    ("simulation", 'if band_hz is None:\n        raise ValueError("band_hz is required',
+     'if band_hz is False:\n        raise ValueError("band_hz is required'),
+    ("simulation", "gamma2, effective * welch.x.shape[0], corr)", "gamma2, effective, corr)"),
+    # statespace: the singularity check on K instead of M, the velocity's sign in A
+    ("statespace", "cond = np.linalg.cond(Mm)", "cond = np.linalg.cond(Km)"),
+    ("statespace", "A = np.block([[zero, eye], [", "A = np.block([[zero, -eye], ["),
 ]
 
 
