@@ -66,6 +66,19 @@ def test_energy_fraction_and_order_for_energy():
         assert result.order_for_energy(k) == m
 
 
+def test_order_for_energy_is_at_most_the_modes_available():
+    # eigenvalues of 3 modes but only the first 2 kept as modes (a truncated POD): the
+    # energy fractions are 3/6, 5/6 and 1, so a fraction above 5/6 needs the third mode,
+    # which is not there. The order returned must be one basis() accepts: 2, not 3.
+    result = PODResult(eigenvalues=np.array([3.0, 2.0, 1.0]), modes=np.eye(3)[:, :2])
+    assert result.n_modes == 2
+    assert result.order_for_energy(0.8) == 2  # 5/6 >= 0.8: reached with the modes there
+    for k in (0.9, 1.0):
+        m = result.order_for_energy(k)
+        assert m == 2
+        assert result.basis(m).shape == (3, 2)
+
+
 @pytest.mark.parametrize("k", [0.0, -0.5, 1.01, np.nan, [0.5, 0.9]])
 def test_order_for_energy_rejects_bad_fraction(k):
     result = PODResult(eigenvalues=np.array([2.0, 1.0]), modes=np.eye(2))
