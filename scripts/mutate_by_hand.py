@@ -960,7 +960,8 @@ AUDIT = [
     # JSON's lists not turned back into tuples
     ("io/npz", 'if path.suffix.lower() in (".uff", ".unv", ".uf"):',
      'if path.suffix in (".uff", ".unv", ".uf"):'),
-    ("io/npz", 'if "format" not in z or str(z["format"]) != MODEL_FORMAT:', 'if "format" not in z:'),
+    ("io/npz", 'if "format" not in z or str(z["format"]) != MODEL_FORMAT:',
+     'if "format" not in z:'),
     ("io/npz", "return tuple(_tuples(v) for v in x)", "return [_tuples(v) for v in x]"),
     # sixth audit, the UFF reader: quantity= no longer overrides the records, brackets in unit
     # labels not ignored, duplicates compared where only one is non-zero, the reciprocity
@@ -969,7 +970,8 @@ AUDIT = [
      'q = UFF_QUANTITY.get(d.get("ordinate_spec_data_type")) or quantity'),
     ("io/uff", 'c not in " ^*()[]"', 'c not in " ^*()"'),
     ("io/uff", "both = (a != 0) & (b != 0)", "both = (a != 0) | (b != 0)"),
-    ("io/uff", "by_reciprocity += f.reference not in cols", "by_reciprocity += f.reference in cols"),
+    ("io/uff", "by_reciprocity += f.reference not in cols",
+     "by_reciprocity += f.reference in cols"),
     ("io/uff", 'e.g. response {holes[0][0]} / force "\n            f"at {holes[0][1]}',
      'e.g. response {holes[0][1]} / force "\n            f"at {holes[0][0]}'),
     ("io/uff", "return replace(data, notes=(*layout.notes, *notes))",
