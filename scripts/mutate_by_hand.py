@@ -973,6 +973,37 @@ AUDIT = [
     # statespace: the singularity check on K instead of M, the velocity's sign in A
     ("statespace", "cond = np.linalg.cond(Mm)", "cond = np.linalg.cond(Km)"),
     ("statespace", "A = np.block([[zero, eye], [", "A = np.block([[zero, -eye], ["),
+    # sixth audit, measured data: to_receptance's line-count check skipped, fractional
+    # inputs accepted, one load case read as n, complete from any(), identify's m-and-energy
+    # and from_time_histories' nperseg-with-spectra refusals skipped
+    ("measured", "if Xa.ndim == 0 or Xa.shape[0] != w.size:", "if Xa.ndim == 0:"),
+    ("measured", "if a.size != n_in or np.any(a != np.round(a)):", "if a.size != n_in:"),
+    ("measured", "a = a[:, :, None]", "a = a[:, None, :]"),
+    ("measured", "return bool(self.measured.all())", "return bool(self.measured.any())"),
+    ("measured", 'raise ValueError("give the reduced order m or the energy fraction, not both")',
+     "pass"),
+    ("measured", "raise ValueError(\"nperseg applies to estimator='h1' only (Welch segments)\")",
+     "pass"),
+    # sixth audit, npz files: an upper-case UFF suffix refused, a data file read as a model,
+    # JSON's lists not turned back into tuples
+    ("io/npz", 'if path.suffix.lower() in (".uff", ".unv", ".uf"):',
+     'if path.suffix in (".uff", ".unv", ".uf"):'),
+    ("io/npz", 'if "format" not in z or str(z["format"]) != MODEL_FORMAT:',
+     'if "format" not in z:'),
+    ("io/npz", "return tuple(_tuples(v) for v in x)", "return [_tuples(v) for v in x]"),
+    # sixth audit, the UFF reader: quantity= no longer overrides the records, brackets in unit
+    # labels not ignored, duplicates compared where only one is non-zero, the reciprocity
+    # count inverted, the hole note's response and force swapped, the unit notes dropped
+    ("io/uff", 'q = quantity or UFF_QUANTITY.get(d.get("ordinate_spec_data_type"))',
+     'q = UFF_QUANTITY.get(d.get("ordinate_spec_data_type")) or quantity'),
+    ("io/uff", 'c not in " ^*()[]"', 'c not in " ^*()"'),
+    ("io/uff", "both = (a != 0) & (b != 0)", "both = (a != 0) | (b != 0)"),
+    ("io/uff", "by_reciprocity += f.reference not in cols",
+     "by_reciprocity += f.reference in cols"),
+    ("io/uff", 'e.g. response {holes[0][0]} / force "\n            f"at {holes[0][1]}',
+     'e.g. response {holes[0][1]} / force "\n            f"at {holes[0][0]}'),
+    ("io/uff", "return replace(data, notes=(*layout.notes, *notes))",
+     "return replace(data, notes=layout.notes)"),
 ]
 
 

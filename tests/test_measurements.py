@@ -487,6 +487,31 @@ def test_two_lines_are_data_and_frf_arrays_must_be_three_dimensional():
         from_frf(np.ones((2, 3)), [1.0, 2.0])
 
 
+@pytest.mark.parametrize("quantity", ["displacement", "velocity", "acceleration"])
+@pytest.mark.parametrize("lines", [3, 1])
+def test_to_receptance_refuses_spectra_of_another_number_of_lines(quantity, lines):
+    """X must have one row per line of omega: 3 rows for 4 lines would be returned as they
+    are (displacement) or fail in numpy's broadcasting, and 1 row would be broadcast over
+    the 4 lines (velocity, acceleration) — spectra of other lines silently taken for these."""
+    X = np.ones((lines, 2), dtype=complex)
+    match = rf"^X must be frequency-first with 4 lines, got shape \({lines}, 2\)$"
+    with pytest.raises(ValueError, match=match):
+        to_receptance(X, [1.0, 2.0, 3.0, 4.0], quantity)
+
+
+def test_load_data_reads_a_uff_file_whatever_the_case_of_its_suffix(tmp_path, chain6):
+    """Windows tools write FRF.UFF / FRF.UNV: the suffix names the format in any case."""
+    _, freq, H = chain6
+    dofs = [(k + 1, 3) for k in range(6)]
+    for name in ("frf.UFF", "frf.Unv"):
+        path = write_uff(tmp_path / name, freq, H, dofs, dofs, quantity="displacement")
+        data = load_data(path)
+        assert data.dofs.tolist() == [list(d) for d in dofs] and data.p == 6
+        # the 0 Hz line is dropped; half the records are ASCII (about 12 significant
+        # digits), so the FRFs come back to 1e-10 as in the round trip above
+        assert data.freq_hz[0] == 1.0 and rel(data.U, H[1:]) < 1e-10
+
+
 def test_band_must_keep_two_lines_and_order_or_energy(chain6):
     _, freq, H = chain6
     data = from_frf(H[1:], 2 * np.pi * freq[1:])
