@@ -1004,6 +1004,36 @@ AUDIT = [
      'e.g. response {holes[0][1]} / force "\n            f"at {holes[0][0]}'),
     ("io/uff", "return replace(data, notes=(*layout.notes, *notes))",
      "return replace(data, notes=layout.notes)"),
+    # sixth audit, holes: the normal matrix without the column's mask, the metric without
+    # its column weight, the fitted part of the constant without its conjugate
+    ("identification/holes", "Q = R.T @ (d[:, None] * R)", "Q = R.T @ R"),
+    ("identification/holes", "T[:, j] = W[:, j, None, None] * L", "T[:, j] = L"),
+    ("identification/holes", 'np.einsum("sa,ab,sb->s", y.conj(), Q, y)',
+     'np.einsum("sa,ab,sb->s", y, Q, y)'),
+    # lines: the evenly spaced lines one past the block, the budget charged what was asked
+    # rather than what was granted, the magnitude's range in log10 against the phase's
+    ("identification/lines", "idx = np.linspace(a, b - 1, c)", "idx = np.linspace(a, b, c)"),
+    ("identification/lines", "budget -= int((new - count).sum())", "budget -= int(extra.sum())"),
+    ("identification/lines", "logmag = np.log(np.maximum", "logmag = np.log10(np.maximum"),
+    # order's final fit: a thinned sweep judged on the fitted lines only, the all-line
+    # error's mean for its median, the log-magnitude pass kept on its 95th percentile, the
+    # returned model's steps those of the second part only, the pass continued only once
+    # it had converged
+    ("identification/order", "thinned = not np.all(lines)", "thinned = False"),
+    ("identification/order", "return float(np.median(e)), float(np.percentile(e, 95))",
+     "return float(np.mean(e)), float(np.percentile(e, 95))"),
+    ("identification/order", 'if lref["db_after"][0] < best_db[0]:',
+     'if lref["db_after"][1] < best_db[1]:'),
+    ("identification/order", "logm = replace(more, iterations=log_steps)", "logm = more"),
+    ("identification/order", 'elif not logm.info["refinement"]["converged"] and',
+     'elif logm.info["refinement"]["converged"] and'),
+    # refinement: db_errors over the holes too, the report's error before the fit that of
+    # after, its final cost without the part no model can change, the weights' label
+    # silent about the mask
+    ("identification/refinement", "keep &= measured", "keep &= True"),
+    ("identification/refinement", '"db_before": summary(before),', '"db_before": summary(after),'),
+    ("identification/refinement", '"cost": float(out.cost) + const,', '"cost": float(out.cost),'),
+    ("identification/refinement", 'label += ", measured entries"', 'label += ""'),
 ]
 
 
