@@ -57,7 +57,8 @@ def test_mac_definition_and_invariances():
 @pytest.mark.parametrize(
     "A,B,message",
     [
-        (np.ones((4, 2)), np.ones((5, 2)), "same number of rows"),
+        (np.ones((4, 2)), np.ones((5, 2)),
+         r"^A and B must have the same number of rows \(DOFs\), got 4 and 5$"),
         (np.ones((4, 2)), np.zeros((4, 2)), "B column 0 is zero"),
         # one zero column among others is refused too (its MAC would be 0 / 0)
         (np.ones((4, 2)), np.array([[1.0, 0.0]] * 4), "^B column 1 is zero: it has no MAC$"),
@@ -457,6 +458,9 @@ def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
     U = model.frf(w)[:, :, :1]
     with pytest.raises(ValueError, match=r"U must be \(s, n, p\) = \(51, 2, 1\)"):
         mode_kinds(shapes, w, U[:-1], [0])  # one line short, the DOFs right
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
+                                         r"\(51, 2, 2\)$"):
+        mode_kinds(shapes, w, model.frf(w), [0])  # two load cases, one input
     U[3, 0, 0] = np.nan
     with pytest.raises(ValueError, match="U contains non-finite values"):
         mode_kinds(shapes, w, U, [0])
@@ -585,3 +589,90 @@ def test_an_entry_that_was_not_measured_does_not_make_a_pole_visible():
     assert list(mode_kinds(shapes, w, U, inputs=[0], measured=measured)) == ["weak"]
     # the same data with the zeros counted as measured: seen everywhere, and a resonance
     assert list(mode_kinds(shapes, w, U, inputs=[0])) == ["structural"]
+
+
+def test_the_mac_of_a_shape_with_itself_is_at_most_one():
+    """|aᴴa|² / (aᴴa)² is 1, but computed in floating point it can come out a unit of
+    round-off above it; MAC values are clipped to [0, 1]. 200 random complex shapes: 1 to
+    1e-15 (a few units of round-off), never above."""
+    rng = np.random.default_rng(0)
+    a = rng.standard_normal((7, 200)) + 1j * rng.standard_normal((7, 200))
+    values = mac(a, a)
+    assert values.max() <= 1.0
+    np.testing.assert_allclose(np.diag(values), 1.0, rtol=0, atol=1e-15)
+
+
+def test_residual_damping_ratio_is_inclusive():
+    """λ = 8(−0.6 + 0.8i): |λ| = 8 and ζ = 0.6 exactly in binary; its half-power band
+    6.4 ± 4.8 rad/s lies inside the lines 1 … 12 rad/s. At residual_zeta = 0.6 it is a
+    residual term (ζ ≥ the threshold), just above it a structural mode."""
+    from podid_rs.modes import mode_kinds
+
+    shapes = ModeShapes(np.array([8 * complex(-0.6, 0.8)]), np.ones((1, 1)))
+    assert shapes.damping_ratios.tolist() == [0.6]
+    w = np.arange(1.0, 13.0)
+    assert list(mode_kinds(shapes, w, residual_zeta=0.6)) == ["residual"]
+    assert list(mode_kinds(shapes, w, residual_zeta=0.6000001)) == ["structural"]
+
+
+def test_a_zero_pole_is_residual_even_on_a_line_at_zero():
+    """A band that starts at 0 rad/s (a static line): a pole λ = 0 sits on it with a
+    half-power band of zero width, inside the band, and ζ = 0; it is still a real root,
+    no mode."""
+    from podid_rs.modes import mode_kinds
+
+    shapes = ModeShapes(np.array([0j, 1j]), np.ones((1, 2)))
+    assert list(mode_kinds(shapes, np.linspace(0.0, 2.0, 21))) == ["residual", "structural"]
+
+
+def test_a_sharp_poles_ring_is_two_to_six_lines_away():
+    """A pole 0.1 rad/s from the axis on lines 1 rad/s apart: its ring is the lines 2 to 6
+    away (PEAK_RING half-power bands are 0.6 and 2 rad/s, under the lines' minimum). The
+    data: 1.2 at the pole, 10 one line away, 1 two and three lines away, 0.5 four to six
+    lines away and 100 beyond. The ring's median is 0.5 and 1.2 ≥ 2 × 0.5 a peak; a ring
+    from the first line (median 0.75), to the third (median 1) or to the seventh (median
+    0.75) would leave none."""
+    from podid_rs.modes import _data_peak
+
+    def level(a, k):
+        return {0: 1.2, 1: 10.0, 2: 1.0, 3: 1.0, 4: 0.5, 5: 0.5, 6: 0.5}.get(a, 100.0)
+
+    w, Ua, lam = _pole_on_a_grid(0.1, level)
+    assert _data_peak(w, Ua, np.array([True]), lam)
+
+
+def test_a_line_at_the_edge_of_the_half_power_band_is_part_of_the_peak():
+    """Half-power band 99 … 101 rad/s on lines 1 rad/s apart: the lines at 99 and 101 are
+    in it (ends included). The data: 2.5 at those two, 1 everywhere else — a peak only if
+    the band's ends count (at the pole's own line 1 is no rise over the ring's 1)."""
+    from podid_rs.modes import _data_peak
+
+    w, Ua, lam = _pole_on_a_grid(1.0, lambda a, k: 2.5 if a == 1 else 1.0)
+    assert _data_peak(w, Ua, np.array([True]), lam)
+
+
+@pytest.mark.parametrize(
+    "w, lam",
+    [
+        (np.array([99.0, 100.0, 101.0]), complex(-0.1, 100.0)),  # the ring: 2 to 6 lines away
+        (np.array([100.0]), 100j),  # one line, at an undamped pole: not its own ring
+    ],
+)
+def test_a_pole_with_no_line_in_its_ring_is_not_judged(w, lam):
+    """No line in the ring on either side: no evidence against a peak (a flat response
+    passes)."""
+    from podid_rs.modes import _data_peak
+
+    assert _data_peak(w, np.ones((w.size, 1)), np.array([True]), lam)
+
+
+def test_shape_mac_with_labels_on_one_side_only_compares_the_rows_as_they_are():
+    labelled = ModeShapes(np.array([1j, 2j]), np.array([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+                          dofs=np.array([[1, 3], [2, 3], [3, 3]]))
+    bare = ModeShapes(np.array([1j]), np.array([[1.0], [1.0], [0.0]]))
+    for a, b in ((labelled, bare), (bare, labelled)):
+        values, dofs = shape_mac(a, b)
+        assert dofs is None
+        np.testing.assert_array_equal(values, mac(a.shapes, b.shapes))
+    # the rows by hand: (1, 1, 0) against itself 1, against (0, 1, 1) 1/4
+    np.testing.assert_allclose(shape_mac(labelled, bare)[0], [[1.0], [0.25]], rtol=1e-15)

@@ -79,7 +79,7 @@ def test_make_physical_on_noisy_chain(noisy_band3):
 def test_make_physical_refuses_mismatched_or_degenerate_input(noisy_band3):
     _, data, result, R = noisy_band3
     U, F = data.project(R)
-    with pytest.raises(ValueError, match="order m = 9"):
+    with pytest.raises(ValueError, match=r"^the data have order m = 9 but the model has m = 10$"):
         make_physical(result, U[:, :9], F[:, :9], data.omega)
     zero_M = replace(result, M=np.zeros_like(result.M))
     with pytest.raises(ValueError, match="M is zero"):
@@ -362,3 +362,18 @@ def test_nearest_psd_refuses_a_complex_matrix_or_a_negative_floor():
         nearest_psd(np.eye(2) + 0j)
     with pytest.raises(ValueError, match="^floor must be a non-negative number, got -1$"):
         nearest_psd(np.eye(2), floor=-1)
+
+
+def test_the_table_puts_each_modes_kind_on_its_row():
+    chain = mass_spring_chain(3)
+    model = SecondOrderSystem(chain.M, np.zeros((3, 3)), chain.K)
+    kinds = np.array(["structural", "weak", "residual"])
+    assert [r["kind"] for r in modal_table(model, kinds=kinds)] == list(kinds)
+    assert "kind" not in modal_table(model)[0]
+
+
+def test_modal_parameters_name_the_type_they_refuse():
+    with pytest.raises(ValueError, match="^model must be an IdentificationResult or a "
+                                         "SecondOrderSystem, got ndarray$"):
+        modal_parameters(np.eye(2))
+

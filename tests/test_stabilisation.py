@@ -85,6 +85,13 @@ def test_marks_follow_the_stated_tolerances(chain_data):
     rows = chart.rows()
     assert len(rows) == 10 and sum(r["chosen"] for r in rows) == 3
     assert np.allclose([r["f_hz"] for r in rows if r["m"] == 4], [10.0, 20.4, 40.0, 80.0])
+    # three times either tolerance: order 4's pole 2 (moved 2 %) is within 3 % in frequency,
+    # order 3's pole 1 (damping moved 10 %) within 15 % in damping
+    loose = stabilisation_chart(data, 4, fit=fit, f_tol=3 * F_TOL, zeta_tol=3 * ZETA_TOL,
+                                progress=False)
+    assert (loose.f_tol, loose.zeta_tol) == (3 * F_TOL, 3 * ZETA_TOL)
+    assert loose.orders[3].consistent_f.tolist() == [True, True, True, False]
+    assert loose.orders[2].consistent.tolist() == [True, True, False]
 
 
 def test_default_fit_recovers_the_chain_at_full_order(chain_data, tmp_path, capsys):
@@ -229,6 +236,10 @@ def test_the_rows_of_a_chart_by_hand():
                              "physical", "consistent_f", "consistent", "real_pole", "in_band",
                              "chosen"]
     assert [r["mode"] for r in rows] == [1, 2, 3]
+    # f = |λ| / 2π and ζ = −Re λ / |λ| of each pole: √26, 7 and 3 rad/s
+    assert [r["f_hz"] for r in rows] == pytest.approx(
+        [np.sqrt(26) / (2 * np.pi), 7 / (2 * np.pi), 3 / (2 * np.pi)], rel=1e-15)
+    assert [r["zeta"] for r in rows] == pytest.approx([1 / np.sqrt(26), 0.0, 1.0], rel=1e-15)
     assert [r["im_lambda"] for r in rows] == [5.0, 7.0, 0.0]
     assert [r["re_lambda"] for r in rows] == [-1.0, 0.0, -3.0]
     assert [r["stable"] for r in rows] == [True, False, True]
@@ -348,3 +359,49 @@ def test_a_chart_of_one_mode_writes_one_row_under_its_header(chain_data, tmp_pat
         back = list(csv.DictReader(fh))
     assert list(back[0]) == list(rows[0]) and back[0]["m"] == "1"
     assert float(back[0]["f_hz"]) == rows[0]["f_hz"]
+
+
+def test_the_symmetry_and_damping_tolerances_are_the_given_rtol():
+    """rtol reaches both tests of is_physical: a mass asymmetric by 10⁻⁸ of itself and a
+    damping with an eigenvalue 10⁻⁸ of its largest below 0 are not physical at the default
+    10⁻¹⁰, and are at rtol = 10⁻⁶ (both two orders inside either tolerance)."""
+    from dataclasses import replace
+
+    from podid_rs.stabilisation import PHYSICAL_RTOL
+
+    assert PHYSICAL_RTOL == 1e-10
+    good = model_with_modes([10.0, 20.0], 0.02)
+    skew = np.array([[0.0, 1.0], [0.0, 0.0]])
+    bent = replace(good, M=np.eye(2) + 1e-8 * np.linalg.norm(np.eye(2)) * skew)
+    assert not is_physical(bent)
+    assert is_physical(bent, rtol=1e-6)
+    leaky = replace(good, C=np.diag([1.0, -1e-8]))
+    assert not is_physical(leaky)
+    assert is_physical(leaky, rtol=1e-6)
+
+
+def test_a_stiffness_with_a_rigid_body_mode_is_not_physical():
+    # a free structure's K (a zero eigenvalue) is semidefinite, not definite
+    from dataclasses import replace
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert not is_physical(replace(good, K=np.array([[1.0, -1.0], [-1.0, 1.0]])))
+
+
+def test_a_chart_names_the_order_it_does_not_have(chain_data):
+    _, data = chain_data
+    chart = stabilisation_chart(data, 2, progress=False)
+    assert chart.order(2).m == 2
+    with pytest.raises(KeyError, match=r"^'the chart has no order m = 5'$"):
+        chart.order(5)
+
+
+def test_a_pole_at_zero_frequency_is_consistent_with_nothing():
+    # the frequency tolerance is relative to the previous pole's frequency: 0 Hz gives
+    # no tolerance to be within, even for another pole at 0 Hz
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    zero = ModalParameters(np.array([0j]), np.array([0.0]), np.array([0.0]), 0)
+    cf, c = _match_previous(zero, zero, 0.5, 0.5)
+    assert cf.tolist() == [False] and c.tolist() == [False]

@@ -136,6 +136,12 @@ def test_mass_condition_limit_is_inclusive():
         state_space_matrices(np.diag([1.0000001 * MAX_MASS_CONDITION, 1.0]), np.eye(2), np.eye(2))
 
 
+def test_a_singular_mass_is_refused_with_its_condition_number():
+    # cond₂(diag(1e16, 1)) = 1e16, two orders past the limit: the message quotes it
+    with pytest.raises(ValueError, match=r"^M is singular \(condition number 1e\+16\)"):
+        state_space_matrices(np.diag([1e16, 1.0]), np.eye(2), np.eye(2))
+
+
 def test_a_model_that_is_not_symmetric_keeps_its_matrices_as_they_are():
     """identify(..., symmetric=False) gives M, C, K that are not symmetric: the transfer
     function is still (s²M + sC + K)⁻¹, not of a transpose. At s = 0 it is K⁻¹, here by
