@@ -1060,6 +1060,9 @@ AUDIT = [
     ("modes", "return True  # nothing around it", "return False  # nothing around it"),
     ("modes", "inner = distance <= half", "inner = distance < half"),
     ("modes", "ring & (w < lam.imag)", "ring & (w <= lam.imag)"),
+    ("stabilisation", '"physical": o.physical,', '"physical": True,'),
+    ("stabilisation", "summed, data.is_frf,", "summed, True,"),
+    ("modes", "if U is None or shapes.modal_a is None:", "if U is None:"),
 ]
 
 

@@ -676,3 +676,19 @@ def test_shape_mac_with_labels_on_one_side_only_compares_the_rows_as_they_are():
         np.testing.assert_array_equal(values, mac(a.shapes, b.shapes))
     # the rows by hand: (1, 1, 0) against itself 1, against (0, 1, 1) 1/4
     np.testing.assert_allclose(shape_mac(labelled, bare)[0], [[1.0], [0.25]], rtol=1e-15)
+
+
+def test_without_modal_constants_the_data_are_not_consulted():
+    """The shapes of a model that is not symmetric have no modal_a: no term to compare
+    with the data, so a pole is judged on its band and damping alone: a lightly damped
+    pole at 50 rad/s (its term 0.02 at its line) that flat data of 1 would show weak."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -0.5 + 50j
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=np.ones((1, 1), dtype=complex),
+                        modal_a=np.array([2j * lam.imag]))
+    flat = np.ones((w.size, 1, 1), dtype=complex)
+    assert list(mode_kinds(shapes, w, flat, inputs=[0])) == ["weak"]
+    bare = ModeShapes(eigenvalues=shapes.eigenvalues, shapes=shapes.shapes)
+    assert list(mode_kinds(bare, w, flat, inputs=[0])) == ["structural"]

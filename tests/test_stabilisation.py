@@ -249,6 +249,10 @@ def test_the_rows_of_a_chart_by_hand():
     # f = |λ| / 2π: 0.81, 1.11 and 0.48 Hz against the band 0.5-1 Hz
     assert [r["in_band"] for r in rows] == [True, False, False]
     assert all(r["chosen"] and r["physical"] and r["m"] == 3 for r in rows)
+    from dataclasses import replace
+
+    unphysical = replace(chart, orders=(replace(order, physical=False),))
+    assert [r["physical"] for r in unphysical.rows()] == [False, False, False]
 
 
 def test_damping_may_be_semidefinite_to_the_tolerance_of_its_largest_eigenvalue():
@@ -405,3 +409,15 @@ def test_a_pole_at_zero_frequency_is_consistent_with_nothing():
     zero = ModalParameters(np.array([0j]), np.array([0.0]), np.array([0.0]), 0)
     cf, c = _match_previous(zero, zero, 0.5, 0.5)
     assert cf.tolist() == [False] and c.tolist() == [False]
+
+
+def test_a_chart_of_response_spectra_says_so(chain_data):
+    # the same receptances as the spectra of forces of amplitude 2: no longer FRFs
+    from dataclasses import replace
+
+    _, data = chain_data
+    spectra = replace(data, U=2.0 * data.U, F=2.0 * data.F)
+    assert data.is_frf and not spectra.is_frf
+    assert stabilisation_chart(data, 1, progress=False).is_frf
+    assert not stabilisation_chart(spectra, 1, progress=False).is_frf
+
