@@ -1063,6 +1063,10 @@ AUDIT = [
     ("stabilisation", '"physical": o.physical,', '"physical": True,'),
     ("stabilisation", "summed, data.is_frf,", "summed, True,"),
     ("modes", "if U is None or shapes.modal_a is None:", "if U is None:"),
+    ("statespace", "m = mats[0].shape[0]", "m = mats[2].shape[0]"),
+    ("stabilisation", "if prev is None or prev.eigenvalues.size == 0:", "if prev is None:"),
+    ("modes", "Ua.shape[1] != shapes.shapes.shape[0] or", "False or"),
+    ("modes", "if measured_entries.shape != Ua.shape[1:]:", "if False:"),
 ]
 
 

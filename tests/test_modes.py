@@ -461,6 +461,9 @@ def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
     with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
                                          r"\(51, 2, 2\)$"):
         mode_kinds(shapes, w, model.frf(w), [0])  # two load cases, one input
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
+                                         r"\(51, 3, 1\)$"):
+        mode_kinds(shapes, w, np.ones((51, 3, 1)), [0])  # a third DOF the shapes lack
     U[3, 0, 0] = np.nan
     with pytest.raises(ValueError, match="U contains non-finite values"):
         mode_kinds(shapes, w, U, [0])
@@ -589,6 +592,12 @@ def test_an_entry_that_was_not_measured_does_not_make_a_pole_visible():
     assert list(mode_kinds(shapes, w, U, inputs=[0], measured=measured)) == ["weak"]
     # the same data with the zeros counted as measured: seen everywhere, and a resonance
     assert list(mode_kinds(shapes, w, U, inputs=[0])) == ["structural"]
+    # the mask transposed, (p, n), would broadcast against (n, p) and count both entries
+    # as measured: it is refused, and so is a mask with the entries in one row
+    with pytest.raises(ValueError, match=r"^measured must be \(n, p\) = \(2, 1\), got \(1, 2\)$"):
+        mode_kinds(shapes, w, U, inputs=[0], measured=measured.T)
+    with pytest.raises(ValueError, match=r"^measured must be \(n, p\) = \(2, 1\), got \(2,\)$"):
+        mode_kinds(shapes, w, U, inputs=[0], measured=measured[:, 0])
 
 
 def test_the_mac_of_a_shape_with_itself_is_at_most_one():

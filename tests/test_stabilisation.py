@@ -421,3 +421,14 @@ def test_a_chart_of_response_spectra_says_so(chain_data):
     assert stabilisation_chart(data, 1, progress=False).is_frf
     assert not stabilisation_chart(spectra, 1, progress=False).is_frf
 
+
+
+def test_a_previous_order_without_poles_leaves_every_pole_unmatched():
+    # a model whose poles are all infinite (a zero mass) has none to compare with
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    one = ModalParameters(np.array([-1.0 + 1.0j]), np.array([1.0]), np.array([0.5]), 0)
+    none = ModalParameters(np.zeros(0, dtype=complex), np.zeros(0), np.zeros(0), 2)
+    cf, c = _match_previous(one, none, 0.5, 0.5)
+    assert cf.tolist() == [False] and c.tolist() == [False]

@@ -352,7 +352,8 @@ def mode_kinds(
     Raises
     ------
     ValueError
-        For ``U`` without ``inputs``, or arrays whose shapes do not match.
+        For ``U`` without ``inputs``, or arrays whose shapes do not match (``U`` against
+        the lines, the shapes' rows and the inputs; ``measured`` against ``U``'s (n, p)).
     """
     w = as_array(omega, "omega", real=True).reshape(-1)
     lam = shapes.eigenvalues
@@ -374,6 +375,10 @@ def mode_kinds(
         )
     measured_entries = (np.ones(Ua.shape[1:], dtype=bool) if measured is None
                         else np.asarray(measured))
+    if measured_entries.shape != Ua.shape[1:]:  # a transposed mask would broadcast
+        raise ValueError(
+            f"measured must be (n, p) = {Ua.shape[1:]}, got {measured_entries.shape}"
+        )
     for k in np.flatnonzero(kinds == STRUCTURAL):
         lines = np.argsort(np.abs(w - lam[k].imag), kind="stable")[:3]
         residue = np.abs(np.outer(shapes.shapes[:, k], shapes.shapes[idx, k]))
