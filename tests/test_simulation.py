@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from podid_rs.simulation import add_noise, frf_h1, simulate_white_noise, spectra
+from podid_rs.simulation import add_noise, frf_h1, h1_coherence, simulate_white_noise, spectra
 from podid_rs.systems import SecondOrderSystem, mass_spring_chain
 
 # A soft, well-damped 4-DOF chain: modes at 7.7, 16.4, 32.7 and 55.3 Hz.
@@ -419,3 +419,41 @@ def test_band_ends_are_inclusive_and_its_limits_exclusive():
         simulate_white_noise(SYSTEM, (5.01, 5.09), DT, 10.0)
     with pytest.raises(ValueError, match="^band_hz must be real"):
         simulate_white_noise(SYSTEM, (5.0 + 0j, 7.0), DT, 10.0)
+
+
+def test_refusals_quote_the_argument_as_given_and_both_shapes():
+    # the band and the SNR as the caller wrote them, not as the arrays they were read into
+    with pytest.raises(ValueError, match=exactly("band_hz must be a pair (lo, hi) in Hz, "
+                                                 "got (1.0,)")):
+        simulate_white_noise(SYSTEM, (1.0,), DT, 10.0)
+    with pytest.raises(ValueError, match=exactly("snr_db must be a number, got [5.0, 6.0]")):
+        add_noise(np.arange(10.0), [5.0, 6.0])
+    # forces and responses that differ in samples, or in records: both shapes named
+    x = np.random.default_rng(0).standard_normal((1000, 3))
+    for forces, responses, shapes in ((x, x[:999], "(1, 1000, 3) and (1, 999, 3)"),
+                                      (np.stack([x, x]), x, "(2, 1000, 3) and (1, 1000, 3)")):
+        with pytest.raises(ValueError, match=exactly(
+                "forces and responses must have the same number of records and samples, "
+                f"got {shapes}")):
+            frf_h1(forces, responses, DT)
+
+
+def test_an_empty_signal_or_history_without_channels_is_refused():
+    with pytest.raises(ValueError, match=exactly(
+            "x is empty (shape (0, 3)): no signal variance to scale noise to")):
+        add_noise(np.zeros((0, 3)), 10.0)
+    for name, args in (("forces", (np.ones((10, 0)), np.ones((10, 2)))),
+                       ("responses", (np.ones((10, 2)), np.ones((10, 0))))):
+        with pytest.raises(ValueError, match=exactly(
+                f"{name} must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, "
+                "got (1, 10, 0)")):
+            frf_h1(*args, DT)
+
+
+def test_h1_coherence_names_the_number_of_inputs():
+    rng = np.random.default_rng(1)
+    x, y = rng.standard_normal((1024, 2)), rng.standard_normal((1024, 3))
+    with pytest.raises(ValueError, match=exactly(
+            "h1_coherence takes one input (ordinary coherence), got 2; with several, give "
+            "the noise variance instead")):
+        h1_coherence(x, y, DT, nperseg=256)
