@@ -1034,6 +1034,46 @@ AUDIT = [
     ("identification/refinement", '"db_before": summary(before),', '"db_before": summary(after),'),
     ("identification/refinement", '"cost": float(out.cost) + const,', '"cost": float(out.cost),'),
     ("identification/refinement", 'label += ", measured entries"', 'label += ""'),
+    # hardening pass, pod, simulation, lines, holes: written with their tests (a check, not
+    # a measurement)
+    # pod: the FRF's message naming H's lines for omega's, basis's refusal naming the wrong
+    # m, the warning naming the last clipped DOF, pod_from_frf's side chosen on s·p complex
+    # rows
+    ("pod", "with s = {w.size} lines (len(omega))", "with s = {Ha.shape[0]} lines (len(omega))"),
+    ("pod", 'f"{self.n_modes}), m = {m} asked for"',
+     'f"{self.n_modes}), m = {m - 1} asked for"'),
+    ("pod", "j = int(np.flatnonzero(over)[0])", "j = int(np.flatnonzero(over)[-1])"),
+    ("pod", 'if _choose(method, 2 * s * p, n) == "correlation":\n        return pod_from_corr',
+     'if _choose(method, s * p, n) == "correlation":\n        return pod_from_corr'),
+    # simulation: messages quoting the checked array for the argument, the other shape, the
+    # responses' channels for the forces'; an empty x let through
+    ("simulation", 'in Hz, got {band_hz!r}")', 'in Hz, got {band!r}")'),
+    ("simulation", 'f"snr_db must be a number, got {snr_db!r}"',
+     'f"snr_db must be a number, got {snr!r}"'),
+    ("simulation", "if a.size == 0:", "if a.size < 0:"),
+    ("simulation", 'f"got {x.shape} and {y.shape}"', 'f"got {x.shape} and {x.shape}"'),
+    ("simulation", 'f"{welch.x.shape[2]}; with several', 'f"{welch.y.shape[2]}; with several'),
+    # lines: the level of the peak and dip without its magnitude or of the first entry only
+    ("identification/lines", "level = np.abs(flat).sum(axis=1)", "level = flat.real.sum(axis=1)"),
+    ("identification/lines", "level = np.abs(flat).sum(axis=1)", "level = np.abs(flat[:, 0])"),
+    # holes: the caller's mask handed back (not a copy), a constant of round-off below zero
+    ("identification/holes", "return None if mask.all() else mask.copy()",
+     "return None if mask.all() else mask"),
+    ("identification/holes", "return T.reshape(s * p, m * m), Y, max(const, 0.0)",
+     "return T.reshape(s * p, m * m), Y, const"),
+    # more layouts and input checks: H without inputs, histories without channels, forces
+    # and responses of different record counts, blocks cut by truncation, a float target,
+    # an empty correlation matrix
+    ("pod", "Ha.shape[1] == 0 or Ha.shape[2] == 0", "Ha.shape[1] == 0"),
+    ("simulation", "if a.ndim != 3 or a.shape[1] < 2 or a.shape[2] == 0:",
+     "if a.ndim != 3 or a.shape[1] < 2:"),
+    ("simulation", "if x.shape[:2] != y.shape[:2]:", "if x.shape[1] != y.shape[1]:"),
+    ("identification/lines", "edges = np.linspace(0, s, n_blocks + 1).round()",
+     "edges = np.floor(np.linspace(0, s, n_blocks + 1))"),
+    ("identification/lines",
+     "if isinstance(target, bool) or not isinstance(target, int | np.integer) or target < 16:",
+     "if target < 16:"),
+    ("pod", "or R.shape[0] != R.shape[1] or R.shape[0] == 0:", "or R.shape[0] != R.shape[1]:"),
 ]
 
 
