@@ -457,3 +457,17 @@ def test_h1_coherence_names_the_number_of_inputs():
             "h1_coherence takes one input (ordinary coherence), got 2; with several, give "
             "the noise variance instead")):
         h1_coherence(x, y, DT, nperseg=256)
+
+
+def test_h1_coherence_takes_the_band_it_is_given():
+    """fs = 100 Hz, 256-sample segments: lines every 100/256 Hz, those in 5–20 Hz are
+    k = 13 … 51 (5 · 2.56 = 12.8, 20 · 2.56 = 51.2) — the lines frf_h1 gives for the
+    same band, with a coherence for each."""
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal((4096, 1))
+    y = np.concatenate([2 * x, x + rng.standard_normal((4096, 1))], axis=1)
+    stats = h1_coherence(x, y, DT, nperseg=256, band_hz=(5.0, 20.0))
+    np.testing.assert_allclose(stats.omega / (2 * np.pi), np.arange(13, 52) / 2.56, rtol=1e-12)
+    np.testing.assert_array_equal(stats.omega, frf_h1(x, y, DT, nperseg=256,
+                                                      band_hz=(5.0, 20.0))[0])
+    assert stats.coherence.shape == (39, 2)
