@@ -471,3 +471,18 @@ def test_h1_coherence_takes_the_band_it_is_given():
     np.testing.assert_array_equal(stats.omega, frf_h1(x, y, DT, nperseg=256,
                                                       band_hz=(5.0, 20.0))[0])
     assert stats.coherence.shape == (39, 2)
+
+
+def test_h1_coherence_takes_the_window_it_is_given():
+    """A rectangular window ("boxcar") at half overlap: its neighbouring lines do not
+    correlate (Σ_n e^{2πiℓn/N} = 0 for ℓ = 1, 2), and consecutive segments share half
+    their samples, ρ₁ = 1/2, none beyond: K / (1 + 2 (1 − 1/K) ρ₁²) averages from K
+    segments (Hann's would be 4/9 and 1/36, and ρ₁ = 1/6)."""
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((4096, 1))
+    y = 2 * x + rng.standard_normal((4096, 1))
+    stats = h1_coherence(x, y, DT, nperseg=512, window="boxcar")
+    K = (4096 - 512) // 256 + 1  # 15 segments, a hop of 256
+    # the sums of unit phasors are zero to round-off (7e-33 and 8e-34 here)
+    assert stats.line_correlation == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert stats.averages == pytest.approx(K / (1 + 2 * (1 - 1 / K) * 0.25), rel=1e-12)
