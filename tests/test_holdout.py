@@ -650,3 +650,14 @@ def test_a_target_that_is_not_an_integer_is_refused():
         with pytest.raises(ValueError, match=re.escape(
                 f"target must be an integer of at least 16, got {target!r}")):
             informative_lines(U, target)
+
+
+def test_by_default_a_test_is_thinned_beyond_a_thousand_lines():
+    """The documented budget (README, guide-measured-data: the ~1000 lines that carry a
+    long test's information): by default 1000 lines are kept whole and 1001 thinned to
+    at most 1000."""
+    rng = np.random.default_rng(1)
+    U = rng.standard_normal((1001, 2, 1)) + 1j * rng.standard_normal((1001, 2, 1))
+    assert informative_lines(U[:1000]).all()
+    thinned = informative_lines(U)
+    assert 16 <= thinned.sum() <= 1000 and thinned[0] and thinned[-1]
