@@ -1083,6 +1083,13 @@ AUDIT = [
     ("simulation",
      "welch = _welch(forces, responses, dt, nperseg, band_hz, window)\n    if welch.x.shape",
      "welch = _welch(forces, responses, dt, nperseg, None, window)\n    if welch.x.shape"),
+    # the options less used: h1_coherence's window not passed on, informative_lines'
+    # default target and the sweep's line budget
+    ("simulation",
+     "welch = _welch(forces, responses, dt, nperseg, band_hz, window)\n    if welch.x.shape",
+     'welch = _welch(forces, responses, dt, nperseg, band_hz, "hann")\n    if welch.x.shape'),
+    ("identification/lines", "target: int = SWEEP_LINES)", "target: int = 4 * SWEEP_LINES)"),
+    ("identification/lines", "SWEEP_LINES = 1000\n", "SWEEP_LINES = 500\n"),
 ]
 
 
