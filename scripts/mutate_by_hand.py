@@ -29,7 +29,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 PKG = ROOT / "python" / "podid_rs"
 TESTS = {
     "pod": ["tests/test_pod.py", "tests/test_memory_guards.py"],
-    "simulation": ["tests/test_simulation.py"],
+    "simulation": ["tests/test_simulation.py", "tests/test_memory_guards.py"],
     "measured": ["tests/test_measured.py", "tests/test_measurements.py"],
     "physical": ["tests/test_physical.py"],
     "modes": ["tests/test_modes.py", "tests/test_uff_out.py", "tests/test_uff_modes.py"],
@@ -55,7 +55,9 @@ AUDIT_TESTS = {
     "simulation": ["tests/test_uncertainty.py",
                    # histories=False honoured for a small record (the rest of the file is
                    # slow: the one test)
-                   "tests/test_scale.py::test_simulation_without_histories_has_the_same_spectra"],
+                   "tests/test_scale.py::test_simulation_without_histories_has_the_same_spectra",
+                   # the spectrum's draws in numpy's order, bit for bit
+                   "tests/test_scale.py::test_white_noise_spectrum_is_the_plain_formula_bit_for_bit"],
     "measured": ["tests/test_holes.py"],  # MeasuredData's mask of measured entries
     # the pencil's eigenvalues and vectors as mode_shapes takes them (companion_modes)
     "physical": ["tests/test_modes.py"],
@@ -1067,6 +1069,60 @@ AUDIT = [
     ("stabilisation", "if prev is None or prev.eigenvalues.size == 0:", "if prev is None:"),
     ("modes", "Ua.shape[1] != shapes.shapes.shape[0] or", "False or"),
     ("modes", "if measured_entries.shape != Ua.shape[1:]:", "if False:"),
+    # hardening pass, pod, simulation, lines, holes: written with their tests (a check, not
+    # a measurement)
+    # pod: the FRF's message naming H's lines for omega's, basis's refusal naming the wrong
+    # m, the warning naming the last clipped DOF, pod_from_frf's side chosen on s·p complex
+    # rows
+    ("pod", "with s = {w.size} lines (len(omega))", "with s = {Ha.shape[0]} lines (len(omega))"),
+    ("pod", 'f"{self.n_modes}), m = {m} asked for"',
+     'f"{self.n_modes}), m = {m - 1} asked for"'),
+    ("pod", "j = int(np.flatnonzero(over)[0])", "j = int(np.flatnonzero(over)[-1])"),
+    ("pod", 'if _choose(method, 2 * s * p, n) == "correlation":\n        return pod_from_corr',
+     'if _choose(method, s * p, n) == "correlation":\n        return pod_from_corr'),
+    # simulation: messages quoting the checked array for the argument, the other shape, the
+    # responses' channels for the forces'; an empty x let through
+    ("simulation", 'in Hz, got {band_hz!r}")', 'in Hz, got {band!r}")'),
+    ("simulation", 'f"snr_db must be a number, got {snr_db!r}"',
+     'f"snr_db must be a number, got {snr!r}"'),
+    ("simulation", "if a.size == 0:", "if a.size < 0:"),
+    ("simulation", 'f"got {x.shape} and {y.shape}"', 'f"got {x.shape} and {x.shape}"'),
+    ("simulation", 'f"{welch.x.shape[2]}; with several', 'f"{welch.y.shape[2]}; with several'),
+    # lines: the level of the peak and dip without its magnitude or of the first entry only
+    ("identification/lines", "level = np.abs(flat).sum(axis=1)", "level = flat.real.sum(axis=1)"),
+    ("identification/lines", "level = np.abs(flat).sum(axis=1)", "level = np.abs(flat[:, 0])"),
+    # holes: the caller's mask handed back (not a copy), a constant of round-off below zero
+    ("identification/holes", "return None if mask.all() else mask.copy()",
+     "return None if mask.all() else mask"),
+    ("identification/holes", "return T.reshape(s * p, m * m), Y, max(const, 0.0)",
+     "return T.reshape(s * p, m * m), Y, const"),
+    # more layouts and input checks: H without inputs, histories without channels, forces
+    # and responses of different record counts, blocks cut by truncation, a float target,
+    # an empty correlation matrix
+    ("pod", "Ha.shape[1] == 0 or Ha.shape[2] == 0", "Ha.shape[1] == 0"),
+    ("simulation", "if a.ndim != 3 or a.shape[1] < 2 or a.shape[2] == 0:",
+     "if a.ndim != 3 or a.shape[1] < 2:"),
+    ("simulation", "if x.shape[:2] != y.shape[:2]:", "if x.shape[1] != y.shape[1]:"),
+    ("identification/lines", "edges = np.linspace(0, s, n_blocks + 1).round()",
+     "edges = np.floor(np.linspace(0, s, n_blocks + 1))"),
+    ("identification/lines",
+     "if isinstance(target, bool) or not isinstance(target, int | np.integer) or target < 16:",
+     "if target < 16:"),
+    ("pod", "or R.shape[0] != R.shape[1] or R.shape[0] == 0:", "or R.shape[0] != R.shape[1]:"),
+    # simulation: the imaginary parts drawn before the real, the simulation's memory check
+    # short of the solver's copy, h1_coherence's band not passed on
+    ("simulation", "for part in (out.real, out.imag):", "for part in (out.imag, out.real):"),
+    ("simulation", "spectra_bytes = 3 * 16 * lines.size", "spectra_bytes = 2 * 16 * lines.size"),
+    ("simulation",
+     "welch = _welch(forces, responses, dt, nperseg, band_hz, window)\n    if welch.x.shape",
+     "welch = _welch(forces, responses, dt, nperseg, None, window)\n    if welch.x.shape"),
+    # the options less used: h1_coherence's window not passed on, informative_lines'
+    # default target and the sweep's line budget
+    ("simulation",
+     "welch = _welch(forces, responses, dt, nperseg, band_hz, window)\n    if welch.x.shape",
+     'welch = _welch(forces, responses, dt, nperseg, band_hz, "hann")\n    if welch.x.shape'),
+    ("identification/lines", "target: int = SWEEP_LINES)", "target: int = 4 * SWEEP_LINES)"),
+    ("identification/lines", "SWEEP_LINES = 1000\n", "SWEEP_LINES = 500\n"),
 ]
 
 

@@ -614,3 +614,50 @@ def test_a_target_below_sixteen_lines_is_refused():
     for target in (15, 1, 0):
         with pytest.raises(ValueError, match=f"at least 16, got {target}"):
             informative_lines(U, target)
+
+
+@pytest.mark.parametrize("layout", ["sensors", "load cases"])
+def test_the_peak_and_dip_are_those_of_the_summed_magnitude_of_every_entry(layout):
+    """The peak test's active block with the peak (|U| = 1e3 at line 1777) in antiphase,
+    U = −1e3, and the dip at 1234, in a second entry — a second sensor or a second load
+    case — beside a first one of |U| = 1 everywhere: the level Σ|U| still peaks at 1777
+    and dips at 1234, so both are kept (by the real part the peak would be the least,
+    by the first entry alone the block would have neither)."""
+    active = np.ones(1000, dtype=complex)
+    active[234], active[777] = 1e-3, -1e3
+    flat = np.ones(1000, dtype=complex)
+    second = four_blocks(flat, active, flat, flat)[:, 0, 0]
+    both = np.stack([np.ones(4000, dtype=complex), second], axis=1)
+    U = both[:, :, None] if layout == "sensors" else both[:, None, :]
+    keep = informative_lines(U, target=16)
+    grid = np.linspace(1000, 1999, 13).round().astype(int)
+    assert np.array_equal(np.flatnonzero(keep[1000:2000]) + 1000,
+                          np.sort(np.concatenate([grid, [1234, 1777]])))
+
+
+def test_the_blocks_start_at_the_lines_nearest_equal_shares_of_the_band():
+    """17 lines of a flat response, target 16: four blocks, each keeping its first line
+    (no activity above the median anywhere). Their edges are the lines nearest
+    17·k/4 = 4.25, 8.5, 12.75 (ties to even): blocks of 4, 4, 5 and 4 lines starting at
+    0, 4, 8 and 13, and the band's last line 16."""
+    keep = informative_lines(np.ones((17, 1, 1), dtype=complex), 16)
+    assert np.flatnonzero(keep).tolist() == [0, 4, 8, 13, 16]
+
+
+def test_a_target_that_is_not_an_integer_is_refused():
+    U = np.ones((100, 1, 1), dtype=complex)
+    for target in (16.0, 32.5, True, "20"):
+        with pytest.raises(ValueError, match=re.escape(
+                f"target must be an integer of at least 16, got {target!r}")):
+            informative_lines(U, target)
+
+
+def test_by_default_a_test_is_thinned_beyond_a_thousand_lines():
+    """The documented budget (README, guide-measured-data: the ~1000 lines that carry a
+    long test's information): by default 1000 lines are kept whole and 1001 thinned to
+    at most 1000."""
+    rng = np.random.default_rng(1)
+    U = rng.standard_normal((1001, 2, 1)) + 1j * rng.standard_normal((1001, 2, 1))
+    assert informative_lines(U[:1000]).all()
+    thinned = informative_lines(U)
+    assert 16 <= thinned.sum() <= 1000 and thinned[0] and thinned[-1]

@@ -172,6 +172,9 @@ def test_the_constant_is_the_misfit_of_the_measured_entries_at_the_targets():
     # data in the range of the basis on the measured entries leave nothing: 0 up to round-off
     _, _, zero = measured_metric(w, R, np.einsum("nm,smp->snp", R, Y) * mask[None], mask)
     assert zero < 1e-12 * direct
+    # and never below it: a sum of squares, whatever the sign of the round-off (the
+    # difference of the two sums it is formed from is negative for these data)
+    assert zero >= 0.0
 
 
 def test_db_errors_count_measured_entries_only():
@@ -314,6 +317,16 @@ def test_a_load_case_with_no_measured_entry_is_named():
                        r"load case: leave them out of the data$"):
         check_measured(mask, 4, 3)
     assert check_measured(np.ones((4, 3), dtype=bool), 4, 3) is None
+
+
+def test_the_mask_checked_is_a_copy_of_the_callers():
+    # the fitters keep the mask they were given; the caller's array may change after
+    mask = np.ones((4, 2), dtype=bool)
+    mask[0, 1] = False
+    checked = check_measured(mask, 4, 2)
+    assert checked is not mask and np.array_equal(checked, mask)
+    mask[1, 0] = False
+    assert checked[1, 0] and not checked[0, 1]
 
 
 def test_the_order_sweep_fits_every_load_case_and_predicts_the_holes():

@@ -633,3 +633,57 @@ def test_pod_from_correlation_names_its_argument():
         pod_from_correlation(np.zeros((3, 3)))
     with pytest.raises(ValueError, match=r"^Ruu "):
         pod_from_correlation(np.full((3, 3), np.nan))
+
+
+# --- the refusals' and the warning's numbers, and pod_from_frf's side --------------------
+
+
+def test_an_frf_refusal_gives_omegas_line_count_and_hs_shape():
+    """H of 3 lines against 2 frequencies: the message gives s as the lines of omega (2)
+    and H's shape as it is; an H without responses or without inputs is refused the same
+    way (nothing to correlate), not decomposed as a zero correlation."""
+    for bad in (np.ones((3, 2, 2)), np.ones((2, 0, 1)), np.ones((2, 2, 0))):
+        message = f"H must have shape (s, n, n_in) with s = 2 lines (len(omega)), got {bad.shape}"
+        for f in (correlation_from_frf, pod_from_frf):
+            with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+                f(bad, [1.0, 2.0])
+
+
+def test_an_empty_correlation_matrix_is_refused_by_its_shape():
+    for bad in (np.zeros((0, 0)), np.ones((2, 3))):
+        message = f"Ruu must be a non-empty square matrix, got shape {bad.shape}"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            pod_from_correlation(bad)
+
+
+def test_basis_beyond_the_snapshots_rank_names_the_m_asked_for():
+    # 20 multiples of one vector: rank 1, so m = 2 is one mode too many
+    v = np.random.default_rng(1).standard_normal(40)
+    P = pod(np.outer(np.arange(1.0, 21.0), v), method="snapshots")
+    message = "only 1 POD modes carry energy (the snapshots have rank 1), m = 2 asked for"
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        P.basis(2)
+
+
+def test_the_warning_counts_every_clipped_dof_and_names_the_first():
+    """Mean squares 4, 1, 2 and variances 8, 0, 3: DOFs 0 and 2 exceed their channel's
+    (each within twice it), both are clipped to it, and the warning names the first."""
+    P = diagonal_pod([4.0, 1.0, 2.0])
+    with pytest.warns(UserWarning) as caught:
+        clipped = P.without_noise([8.0, 0.0, 3.0])
+    assert str(caught[0].message) == (
+        "noise_variance reaches the measured mean square on 2 DOF(s) (DOF 0: 8 against 4; "
+        "sampling error in a channel with little signal): taken as all noise there"
+    )
+    assert clipped.noise_variance.tolist() == [4.0, 0.0, 2.0]
+    assert clipped.eigenvalues.tolist() == [1.0, 0.0, 0.0]  # DOF 1 keeps its 1 − 0
+
+
+def test_pod_from_frf_takes_the_snapshot_side_by_its_real_rows():
+    """Each complex FRF column gives two real rows (real and imaginary parts): 2 lines ×
+    1 input are 4 rows, so 4 DOFs take the correlation side and 5 the snapshot side."""
+    rng = np.random.default_rng(5)
+    omega = [1.0, 2.0]
+    for n, side in ((4, "correlation"), (5, "snapshots")):
+        H = rng.standard_normal((2, n, 1)) + 1j * rng.standard_normal((2, n, 1))
+        assert pod_from_frf(H, omega).method == side

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from podid_rs.simulation import add_noise, frf_h1, simulate_white_noise, spectra
+from podid_rs.simulation import add_noise, frf_h1, h1_coherence, simulate_white_noise, spectra
 from podid_rs.systems import SecondOrderSystem, mass_spring_chain
 
 # A soft, well-damped 4-DOF chain: modes at 7.7, 16.4, 32.7 and 55.3 Hz.
@@ -419,3 +419,70 @@ def test_band_ends_are_inclusive_and_its_limits_exclusive():
         simulate_white_noise(SYSTEM, (5.01, 5.09), DT, 10.0)
     with pytest.raises(ValueError, match="^band_hz must be real"):
         simulate_white_noise(SYSTEM, (5.0 + 0j, 7.0), DT, 10.0)
+
+
+def test_refusals_quote_the_argument_as_given_and_both_shapes():
+    # the band and the SNR as the caller wrote them, not as the arrays they were read into
+    with pytest.raises(ValueError, match=exactly("band_hz must be a pair (lo, hi) in Hz, "
+                                                 "got (1.0,)")):
+        simulate_white_noise(SYSTEM, (1.0,), DT, 10.0)
+    with pytest.raises(ValueError, match=exactly("snr_db must be a number, got [5.0, 6.0]")):
+        add_noise(np.arange(10.0), [5.0, 6.0])
+    # forces and responses that differ in samples, or in records: both shapes named
+    x = np.random.default_rng(0).standard_normal((1000, 3))
+    for forces, responses, shapes in ((x, x[:999], "(1, 1000, 3) and (1, 999, 3)"),
+                                      (np.stack([x, x]), x, "(2, 1000, 3) and (1, 1000, 3)")):
+        with pytest.raises(ValueError, match=exactly(
+                "forces and responses must have the same number of records and samples, "
+                f"got {shapes}")):
+            frf_h1(forces, responses, DT)
+
+
+def test_an_empty_signal_or_history_without_channels_is_refused():
+    with pytest.raises(ValueError, match=exactly(
+            "x is empty (shape (0, 3)): no signal variance to scale noise to")):
+        add_noise(np.zeros((0, 3)), 10.0)
+    for name, args in (("forces", (np.ones((10, 0)), np.ones((10, 2)))),
+                       ("responses", (np.ones((10, 2)), np.ones((10, 0))))):
+        with pytest.raises(ValueError, match=exactly(
+                f"{name} must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, "
+                "got (1, 10, 0)")):
+            frf_h1(*args, DT)
+
+
+def test_h1_coherence_names_the_number_of_inputs():
+    rng = np.random.default_rng(1)
+    x, y = rng.standard_normal((1024, 2)), rng.standard_normal((1024, 3))
+    with pytest.raises(ValueError, match=exactly(
+            "h1_coherence takes one input (ordinary coherence), got 2; with several, give "
+            "the noise variance instead")):
+        h1_coherence(x, y, DT, nperseg=256)
+
+
+def test_h1_coherence_takes_the_band_it_is_given():
+    """fs = 100 Hz, 256-sample segments: lines every 100/256 Hz, those in 5–20 Hz are
+    k = 13 … 51 (5 · 2.56 = 12.8, 20 · 2.56 = 51.2) — the lines frf_h1 gives for the
+    same band, with a coherence for each."""
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal((4096, 1))
+    y = np.concatenate([2 * x, x + rng.standard_normal((4096, 1))], axis=1)
+    stats = h1_coherence(x, y, DT, nperseg=256, band_hz=(5.0, 20.0))
+    np.testing.assert_allclose(stats.omega / (2 * np.pi), np.arange(13, 52) / 2.56, rtol=1e-12)
+    np.testing.assert_array_equal(stats.omega, frf_h1(x, y, DT, nperseg=256,
+                                                      band_hz=(5.0, 20.0))[0])
+    assert stats.coherence.shape == (39, 2)
+
+
+def test_h1_coherence_takes_the_window_it_is_given():
+    """A rectangular window ("boxcar") at half overlap: its neighbouring lines do not
+    correlate (Σ_n e^{2πiℓn/N} = 0 for ℓ = 1, 2), and consecutive segments share half
+    their samples, ρ₁ = 1/2, none beyond: K / (1 + 2 (1 − 1/K) ρ₁²) averages from K
+    segments (Hann's would be 4/9 and 1/36, and ρ₁ = 1/6)."""
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((4096, 1))
+    y = 2 * x + rng.standard_normal((4096, 1))
+    stats = h1_coherence(x, y, DT, nperseg=512, window="boxcar")
+    K = (4096 - 512) // 256 + 1  # 15 segments, a hop of 256
+    # the sums of unit phasors are zero to round-off (7e-33 and 8e-34 here)
+    assert stats.line_correlation == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert stats.averages == pytest.approx(K / (1 + 2 * (1 - 1 / K) * 0.25), rel=1e-12)
