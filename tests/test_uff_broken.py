@@ -598,6 +598,22 @@ def test_an_exact_zero_at_one_line_is_warned_about(tmp_path):
     assert data.complete and data.U[41, 1, 1] == 0  # line 42 Hz (the 0 Hz line is dropped)
 
 
+def test_exact_zeros_at_two_lines_are_counted_and_the_first_is_named(tmp_path):
+    """NaNs written at 42 and 50 Hz (pyuff writes them as 0): the warning counts 2 lines
+    and names the lower, 42 Hz."""
+
+    def two_nans(o, r, v):
+        if (o, r) == (1, 1):
+            v = v.copy()
+            v[[42, 50]] = np.nan
+        return v
+
+    path, _, _ = write_chain(tmp_path / "zeros.uff", change=two_nans)
+    with pytest.warns(DataWarning, match=r"FRF record 5 \(response 2:3 / reference 2:3\) is "
+                                         r"exactly 0 at 2 line\(s\), the first at 42 Hz: "):
+        read_uff(path)
+
+
 def test_every_channel_dead_is_refused(tmp_path):
     path, _, _ = write_chain(tmp_path / "all.uff", change=lambda o, r, v: 0 * v)
     with pytest.raises(ValueError, match="every FRF record is zero at every line"):
@@ -784,7 +800,8 @@ def test_a_field_of_the_wrong_type_is_refused_naming_the_file_and_record(
 
 
 @pytest.mark.parametrize("change", ["x one line short", "both 2-D", "no abscissa type",
-                                    "no denominator type", "a displacement denominator"])
+                                    "no denominator type", "a displacement denominator",
+                                    "one line"])
 def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         tmp_path, monkeypatch, change):
     """Behind the check of the file's text: record 2 returned with an abscissa one line
@@ -800,6 +817,8 @@ def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         if d.get("type") == 58 and d.get("rsp_node") == 1 and d.get("ref_node") == 2:
             if change == "x one line short":
                 d = dict(d, x=d["x"][:-1])
+            elif change == "one line":  # one line, as its header says, is no FRF
+                d = dict(d, x=d["x"][:1], data=d["data"][:1], num_pts=1)
             elif change == "both 2-D":
                 d = dict(d, x=d["x"][:, None], data=d["data"][:, None])
             elif change == "a displacement denominator":
@@ -823,6 +842,26 @@ def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         return
     with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: abscissa "
                                          r"and ordinate must be 1-D of equal length >= 2$"):
+        read_uff(path)
+
+
+def test_a_frequency_line_given_twice_is_refused(tmp_path, monkeypatch):
+    """Every record with 5 Hz written as 4 Hz again: the records agree with each other, but
+    a line twice has no width for the POD's trapezoid rule; refused by the file's name."""
+    path, _, _ = write_chain(tmp_path / "twice.uff")
+    read = pyuff.UFF.read_sets
+
+    def repeated(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58:
+            x = np.array(d["x"], dtype=float)
+            x[5] = x[4]
+            d = dict(d, x=x)
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", repeated)
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/twice\.uff: the frequency lines are "
+                                         r"not strictly increasing$"):
         read_uff(path)
 
 

@@ -188,6 +188,24 @@ def test_two_measurements_of_one_entry_that_disagree_are_refused(tmp_path):
         read_uff(path)
 
 
+def test_two_measurements_exactly_the_limit_apart_are_averaged(tmp_path, monkeypatch):
+    """The limit is inclusive: H(3, 2) measured twice, the second twice the first, is
+    |20 log10(1/2)| dB apart at every line; with the limit set to exactly that the two
+    are averaged (1.5 × the FRF), and with the limit a hair below it they are refused."""
+    from podid_rs.io import uff
+
+    shaker = [(o, 2) for o in range(1, 5)]
+    path = write(tmp_path / "edge.uff", shaker + [(3, 2)], scale={4: 2.0})
+    apart = abs(20 * np.log10(0.5))  # |a| / |b| = 1/2 exactly: scaling by 2 is exact
+    monkeypatch.setattr(uff, "DUPLICATE_DB", apart)
+    with pytest.warns(DataWarning, match="measured 2 times"):
+        data = read_uff(path)
+    assert np.allclose(entry(data, 3, 2), 1.5 * H[1:, 2, 1], rtol=1e-10)
+    monkeypatch.setattr(uff, "DUPLICATE_DB", np.nextafter(apart, 0.0))
+    with pytest.raises(ValueError, match=r"differ by a median 6\.0 dB"):
+        read_uff(path)
+
+
 def test_a_force_no_frf_measures_as_a_response_is_refused(tmp_path):
     # a hammer row at response 3 that never hit DOF 3 itself
     pairs = [(3, r) for r in (1, 2, 4)]
