@@ -1076,6 +1076,19 @@ AUDIT = [
     ("io/uff", "path.unlink(missing_ok=True)", "pass"),
     ("io/uff", 'modal_damp_vis", 0.0))', 'modal_damp_vis", 0.05))'),
     ("io/uff", "if np.any(np.diff(freq) <= 0):", "if np.any(np.diff(freq) < 0):"),
+    ("io/npz", "if not path.is_file():", "if not path.exists():"),
+    ("io/npz", 'if path.suffix.lower() != ".npz":', 'if path.suffix != ".npz":'),
+    ("io/npz", "notes=np.array(data.notes, dtype=str),",
+     "notes=np.array(data.notes[:1], dtype=str),"),
+    ("io/uff", "forced = {a for a, b in pairs if a == b}", "forced = set()"),
+    ("io/uff", "holes = [(o, r) for r in columns for o in rows if (o, r) not in entries]",
+     "holes = [(o, r) for o in rows for r in columns if (o, r) not in entries]"),
+    ("io/uff", 'found = {UFF_QUANTITY.get(d.get("ordinate_spec_data_type")) for d in sets'
+              '\n             if d.get("func_type") == UFF_FRF}',
+     'found = {UFF_QUANTITY.get(d.get("ordinate_spec_data_type")) for d in sets}'),
+    ("io/uff", "if None not in rsp + ref:", "if None not in rsp:"),
+    ("measured", 'a = as_array(inputs, "inputs", real=True).reshape(-1)',
+     'a = as_array(inputs, "inputs", real=True).reshape(-1)[:n_in]'),
 ]
 
 

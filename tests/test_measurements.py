@@ -471,6 +471,8 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
                                r"got \[0.5, 1\]$"),
         ({"inputs": [0]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
                           r"got \[0\]$"),
+        ({"inputs": [0, 2, 1]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
+                                r"got \[0, 2, 1\]$"),
         ({"F": np.ones((3, 2, 1))}, r"^U and F must have the same number of load cases p, "
                                     r"got 2 and 1$"),
         # U of 4 lines against omega's 3, and U of no load case at all
@@ -637,3 +639,19 @@ def test_load_data_names_a_file_of_another_format(tmp_path):
     with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: unknown data format "
                                          r"\(expected \.uff, \.unv or \.npz\)$"):
         load_data(path)
+
+
+def test_npz_files_keep_every_note_and_any_case_of_suffix_and_need_a_file(tmp_path, chain6):
+    """Every note survives save_data / load_data (not the first only); DATA.NPZ is an
+    .npz file; a directory named like one is no file."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :1], 2 * np.pi * freq[1:], inputs=[2])
+    noted = MeasuredData(data.omega, data.U, data.F, None, [2],
+                         notes=("first: read by reciprocity", "second: a dead channel"))
+    back = load_data(save_data(tmp_path / "DATA.NPZ", noted))
+    assert back.notes == ("first: read by reciprocity", "second: a dead channel")
+    assert np.array_equal(back.U, noted.U)
+    folder = tmp_path / "folder.npz"
+    folder.mkdir()
+    with pytest.raises(FileNotFoundError, match=f"^no such file: {re.escape(str(folder))}$"):
+        load_data(folder)

@@ -243,6 +243,26 @@ def test_a_file_cut_in_a_records_header_names_what_it_holds(tmp_path, lines_kept
         read_uff(path)
 
 
+def test_a_file_cut_between_the_response_and_the_reference_names_neither(tmp_path):
+    """Cut inside the DOFs' line after its 60th column: the response's fields (columns
+    42–55) are whole, the reference's (67–80) absent; the message names no DOF rather
+    than half a pair."""
+    freq = np.arange(1.0, 11.0)
+    path = tmp_path / "half.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record((7, 3), (k, -2), freq, np.full(10, k + 1j)) for k in (1, 2)], "add")
+    raw = path.read_bytes()
+    opened = delimiters(raw)[2]  # record 2's opening delimiter
+    end = opened + len(b"    -1")
+    for _ in range(6):
+        end = raw.index(b"\n", end + 1)
+    path.write_bytes(raw[:end + 1 + 60])  # 60 columns of the DOFs' line
+    line = raw[:opened].count(b"\n") + 1
+    with pytest.raises(ValueError, match=rf"half\.uff: record 2 of the file \(dataset 58, from "
+                                         rf"line {line}\) has no closing '    -1'"):
+        read_uff(path)
+
+
 def test_unevenly_spaced_records_are_counted_with_their_abscissae(tmp_path):
     """Abscissa spacing 0: each point holds its frequency beside the value (ASCII: 3
     fields of a complex point, binary: 3 numbers). Whole records are read (binary to

@@ -151,6 +151,11 @@ def test_uff_quantity_only_when_the_records_agree(tmp_path):
     assert uff_quantity(mixed) is None
     none = write(tmp_path / "none.uff", normal_mode(1, 10.0, 0.01, [1.0], [0.0], [5]))
     assert uff_quantity(none) is None
+    # a time response (func_type 1) in displacement beside velocity FRFs is no FRF: the
+    # FRFs' ordinate is the file's
+    response = dict(frf_record(3, 8), func_type=1)
+    beside = write(tmp_path / "beside.uff", frf_record(1, 11), response, frf_record(2, 11))
+    assert uff_quantity(beside) == "velocity"
 
 
 def test_a_single_array_is_not_a_data_file(tmp_path):
