@@ -85,8 +85,10 @@ def test_fit_is_the_order_sweep_and_the_final_fit(chain_frf, monkeypatch, capfd)
     assert capfd.readouterr().err == ""  # no progress bar unless asked
 
     sweeps.clear()
-    chain_frf.fit(m_max=1)
+    finals.clear()
+    chain_frf.fit(m_max=1, progress=True)
     assert sweeps[0][1] == {"m": None, "m_max": 1, "threads": None}
+    assert finals[0][1] == {"threads": None, "progress": True}  # the progress asked for
 
 
 def test_fit_reproduces_exact_data_like_a_direct_sweep(chain_frf):
@@ -206,3 +208,20 @@ def test_projection_names_a_basis_that_is_not_real():
     data = from_frf(chain.frf(omega)[:, :, [0]], omega, inputs=[0])
     with pytest.raises(ValueError, match=r"^R must be real"):
         data.project(np.eye(3, 2) * 1j)
+    # an empty basis, and one of 4 rows for the 3 measured DOFs, are named with their shapes
+    with pytest.raises(ValueError, match=r"^R must have shape \(n, m\) with n = 3 measured "
+                                         r"DOFs, got \(3,\)$"):
+        data.project(np.ones(3))  # a vector is no basis
+    for R in (np.zeros((3, 0)), np.eye(4, 2)):
+        with pytest.raises(ValueError, match=r"^R must have shape \(n, m\) with n = 3 measured "
+                                             rf"DOFs, got \({R.shape[0]}, {R.shape[1]}\)$"):
+            data.project(R)
+
+
+def test_a_band_keeps_the_notes_of_the_data(chain_frf):
+    """What reading the data assumed still holds for the lines of a band."""
+    noted = measured.MeasuredData(chain_frf.omega, chain_frf.U, chain_frf.F, None, [0, 3],
+                                  notes=("read by reciprocity",))
+    band = noted.band((100.0, 200.0))
+    assert band.notes == ("read by reciprocity",)
+    assert 100.0 <= band.freq_hz[0] and band.freq_hz[-1] <= 200.0 and band.s < noted.s

@@ -185,6 +185,12 @@ def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
     assert data.notes and "reciprocity" in data.notes[0]
     assert "(a roving-hammer test): read by reciprocity, H(j, k) = H(k, j), as the FRFs of " \
         "the hit DOFs for a force at the response DOF(s)" in data.notes[0]
+    # the whole note: 6 hit DOFs (the references), 1 fixed response, named by its DOF
+    assert data.notes[0] == (
+        "roving.uff: the 6 reference DOFs are not all among the 1 response DOF(s) (a "
+        "roving-hammer test): read by reciprocity, H(j, k) = H(k, j), as the FRFs of the hit "
+        "DOFs for a force at the response DOF(s) [(3, 3)]"
+    )
     # the column of a force at the fixed DOF, in the positive direction whatever the sign code
     assert rel(data.U[:, :, 0], H[1:, :, fixed]) < 1e-10
     # the note survives a round trip through save_data / load_data
@@ -458,6 +464,28 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
                                      r"frequency lines$"),
         ({"U": np.zeros((3, 3, 2))}, "identically zero"),
         ({"F": np.ones((3, 2, 1))}, "load cases"),
+        # the counts in the messages: U is (3 lines, n = 3 DOFs, p = 2), F has n_in = 2
+        ({"inputs": None}, r"^inputs \(the indices of the 2 driven DOFs among the 3 measured "
+                           r"responses\) must be given when they are not all of them$"),
+        ({"inputs": [0.5, 1]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
+                               r"got \[0.5, 1\]$"),
+        ({"inputs": [0]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
+                          r"got \[0\]$"),
+        ({"inputs": [0, 2, 1]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
+                                r"got \[0, 2, 1\]$"),
+        ({"F": np.ones((3, 2, 1))}, r"^U and F must have the same number of load cases p, "
+                                    r"got 2 and 1$"),
+        # U of 4 lines against omega's 3, and U of no load case at all
+        ({"U": np.ones((4, 3, 2))}, r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
+                                    r"lines, got \(4, 3, 2\)$"),
+        ({"U": np.ones((3, 3, 0)), "F": np.ones((3, 2, 0))},
+         r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 lines, got \(3, 3, 0\)$"),
+        # U of four dimensions is no (s, n, p)
+        ({"U": np.ones((3, 3, 2, 1))}, r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
+                                       r"lines, got \(3, 3, 2, 1\)$"),
+        # one line is no spectrum: the POD's trapezoid rule needs a width
+        ({"omega": [1.0], "U": np.ones((1, 3, 2)), "F": np.ones((1, 2, 2))},
+         r"^omega must hold at least 2 strictly increasing frequency lines$"),
     ],
 )
 def test_measured_data_refuses_inconsistent_input(kwargs, match):
@@ -485,6 +513,10 @@ def test_two_lines_are_data_and_frf_arrays_must_be_three_dimensional():
     assert noted.notes == ("read from a.uff", "7")
     with pytest.raises(ValueError, match=r"H must have shape \(s, n_out, n_in\), got \(2, 3\)"):
         from_frf(np.ones((2, 3)), [1.0, 2.0])
+    # FRFs of no driven DOF are refused as H, with H's whole shape
+    with pytest.raises(ValueError, match=r"^H must have shape \(s, n_out, n_in\), "
+                                         r"got \(2, 3, 0\)$"):
+        from_frf(np.ones((2, 3, 0)), [1.0, 2.0])
 
 
 @pytest.mark.parametrize("quantity", ["displacement", "velocity", "acceleration"])
@@ -497,6 +529,12 @@ def test_to_receptance_refuses_spectra_of_another_number_of_lines(quantity, line
     match = rf"^X must be frequency-first with 4 lines, got shape \({lines}, 2\)$"
     with pytest.raises(ValueError, match=match):
         to_receptance(X, [1.0, 2.0, 3.0, 4.0], quantity)
+
+
+def test_to_receptance_names_an_unknown_quantity():
+    with pytest.raises(ValueError, match=r"^quantity must be one of \('displacement', "
+                                         r"'velocity', 'acceleration'\), got 'strain'$"):
+        to_receptance(np.ones((2, 1)), [1.0, 2.0], "strain")
 
 
 def test_load_data_reads_a_uff_file_whatever_the_case_of_its_suffix(tmp_path, chain6):
@@ -574,3 +612,46 @@ def test_save_model_refuses_other_objects(tmp_path):
     with pytest.raises(ValueError, match="^result must be an IdentificationResult, got "
                                          "SecondOrderSystem$"):
         save_model(tmp_path / "m.npz", mass_spring_chain(3))
+
+
+def test_numpy_scalars_in_a_models_info_are_saved_as_numbers(tmp_path, chain6):
+    """A fitter's report holds numpy scalars (counts as int64, flags as bool_) and arrays:
+    JSON cannot hold them as they are, so save_model writes them as Python numbers and
+    lists, and they load equal (the lists as tuples)."""
+    from dataclasses import replace
+
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    info = {"steps": np.int64(7), "converged": np.bool_(True), "cost": np.float32(0.5),
+            "nested": {"lines": [np.int64(3), np.int64(4)]}, "weights": np.array([1.0, 2.5])}
+    path = save_model(tmp_path / "model.npz", replace(result, info=info), basis=R)
+    loaded, _ = load_model(path)
+    # 0.5 is exact in float32; JSON's lists come back as tuples
+    assert loaded.info == {"steps": 7, "converged": True, "cost": 0.5,
+                           "nested": {"lines": (3, 4)}, "weights": (1.0, 2.5)}
+    assert type(loaded.info["steps"]) is int and type(loaded.info["converged"]) is bool
+
+
+def test_load_data_names_a_file_of_another_format(tmp_path):
+    path = tmp_path / "frf.csv"
+    path.write_text("1,2\n")
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: unknown data format "
+                                         r"\(expected \.uff, \.unv or \.npz\)$"):
+        load_data(path)
+
+
+def test_npz_files_keep_every_note_and_any_case_of_suffix_and_need_a_file(tmp_path, chain6):
+    """Every note survives save_data / load_data (not the first only); DATA.NPZ is an
+    .npz file; a directory named like one is no file."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :1], 2 * np.pi * freq[1:], inputs=[2])
+    noted = MeasuredData(data.omega, data.U, data.F, None, [2],
+                         notes=("first: read by reciprocity", "second: a dead channel"))
+    back = load_data(save_data(tmp_path / "DATA.NPZ", noted))
+    assert back.notes == ("first: read by reciprocity", "second: a dead channel")
+    assert np.array_equal(back.U, noted.U)
+    folder = tmp_path / "folder.npz"
+    folder.mkdir()
+    with pytest.raises(FileNotFoundError, match=f"^no such file: {re.escape(str(folder))}$"):
+        load_data(folder)

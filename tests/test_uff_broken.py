@@ -243,6 +243,26 @@ def test_a_file_cut_in_a_records_header_names_what_it_holds(tmp_path, lines_kept
         read_uff(path)
 
 
+def test_a_file_cut_between_the_response_and_the_reference_names_neither(tmp_path):
+    """Cut inside the DOFs' line after its 60th column: the response's fields (columns
+    42–55) are whole, the reference's (67–80) absent; the message names no DOF rather
+    than half a pair."""
+    freq = np.arange(1.0, 11.0)
+    path = tmp_path / "half.uff"
+    pyuff.UFF(str(path)).write_sets(
+        [frf_record((7, 3), (k, -2), freq, np.full(10, k + 1j)) for k in (1, 2)], "add")
+    raw = path.read_bytes()
+    opened = delimiters(raw)[2]  # record 2's opening delimiter
+    end = opened + len(b"    -1")
+    for _ in range(6):
+        end = raw.index(b"\n", end + 1)
+    path.write_bytes(raw[:end + 1 + 60])  # 60 columns of the DOFs' line
+    line = raw[:opened].count(b"\n") + 1
+    with pytest.raises(ValueError, match=rf"half\.uff: record 2 of the file \(dataset 58, from "
+                                         rf"line {line}\) has no closing '    -1'"):
+        read_uff(path)
+
+
 def test_unevenly_spaced_records_are_counted_with_their_abscissae(tmp_path):
     """Abscissa spacing 0: each point holds its frequency beside the value (ASCII: 3
     fields of a complex point, binary: 3 numbers). Whole records are read (binary to
@@ -598,6 +618,22 @@ def test_an_exact_zero_at_one_line_is_warned_about(tmp_path):
     assert data.complete and data.U[41, 1, 1] == 0  # line 42 Hz (the 0 Hz line is dropped)
 
 
+def test_exact_zeros_at_two_lines_are_counted_and_the_first_is_named(tmp_path):
+    """NaNs written at 42 and 50 Hz (pyuff writes them as 0): the warning counts 2 lines
+    and names the lower, 42 Hz."""
+
+    def two_nans(o, r, v):
+        if (o, r) == (1, 1):
+            v = v.copy()
+            v[[42, 50]] = np.nan
+        return v
+
+    path, _, _ = write_chain(tmp_path / "zeros.uff", change=two_nans)
+    with pytest.warns(DataWarning, match=r"FRF record 5 \(response 2:3 / reference 2:3\) is "
+                                         r"exactly 0 at 2 line\(s\), the first at 42 Hz: "):
+        read_uff(path)
+
+
 def test_every_channel_dead_is_refused(tmp_path):
     path, _, _ = write_chain(tmp_path / "all.uff", change=lambda o, r, v: 0 * v)
     with pytest.raises(ValueError, match="every FRF record is zero at every line"):
@@ -784,7 +820,8 @@ def test_a_field_of_the_wrong_type_is_refused_naming_the_file_and_record(
 
 
 @pytest.mark.parametrize("change", ["x one line short", "both 2-D", "no abscissa type",
-                                    "no denominator type", "a displacement denominator"])
+                                    "no denominator type", "a displacement denominator",
+                                    "one line"])
 def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         tmp_path, monkeypatch, change):
     """Behind the check of the file's text: record 2 returned with an abscissa one line
@@ -800,6 +837,8 @@ def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         if d.get("type") == 58 and d.get("rsp_node") == 1 and d.get("ref_node") == 2:
             if change == "x one line short":
                 d = dict(d, x=d["x"][:-1])
+            elif change == "one line":  # one line, as its header says, is no FRF
+                d = dict(d, x=d["x"][:1], data=d["data"][:1], num_pts=1)
             elif change == "both 2-D":
                 d = dict(d, x=d["x"][:, None], data=d["data"][:, None])
             elif change == "a displacement denominator":
@@ -823,6 +862,26 @@ def test_abscissa_and_ordinate_of_a_set_pyuff_returns_are_checked(
         return
     with pytest.raises(ValueError, match=rf"^{tmp_path}/chain\.uff: FRF record 2: abscissa "
                                          r"and ordinate must be 1-D of equal length >= 2$"):
+        read_uff(path)
+
+
+def test_a_frequency_line_given_twice_is_refused(tmp_path, monkeypatch):
+    """Every record with 5 Hz written as 4 Hz again: the records agree with each other, but
+    a line twice has no width for the POD's trapezoid rule; refused by the file's name."""
+    path, _, _ = write_chain(tmp_path / "twice.uff")
+    read = pyuff.UFF.read_sets
+
+    def repeated(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        if d.get("type") == 58:
+            x = np.array(d["x"], dtype=float)
+            x[5] = x[4]
+            d = dict(d, x=x)
+        return d
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", repeated)
+    with pytest.raises(ValueError, match=rf"^{tmp_path}/twice\.uff: the frequency lines are "
+                                         r"not strictly increasing$"):
         read_uff(path)
 
 

@@ -89,6 +89,30 @@ def test_one_way_pairs_fill_by_reciprocity_and_the_rest_are_holes(tmp_path):
                for note in data.notes)
 
 
+def test_the_hole_note_names_the_first_hole_of_the_first_force_column(tmp_path):
+    """Forces at 1 and 3 over responses 1-4, without H(2, 3) and H(4, 1): the note counts
+    2 holes of 4 × 2 and names the first in the force columns' order, response 4 / force 1
+    (as the mask's columns, the load cases, are read), not H(2, 3) of the first row."""
+    pairs = [(o, r) for o in range(1, 5) for r in (1, 3) if (o, r) not in ((2, 3), (4, 1))]
+    data = read_uff(write(tmp_path / "two.uff", pairs))
+    assert columns(data) == [1, 3] and data.measured.sum() == 6
+    assert data.notes == (
+        "two.uff: 2 of the 4 × 2 entries (response × force) were not measured, e.g. response "
+        "(4, 3) / force at (1, 3): they weigh nothing in the fit and in every error",
+    )
+
+
+def test_a_driving_point_is_a_column_before_the_greedy_choice(tmp_path):
+    """H(1, 2), H(3, 3), H(3, 4), H(4, 1), H(4, 2): the driving point makes 3 a column
+    first; the pairs left, {1, 2}, {1, 4}, {2, 4}, tie at two each and go to the lower
+    DOFs, 1 then 2. Counted without the driving point first, 4 (in three pairs) would
+    be taken first, and the columns would be 1, 3, 4."""
+    pairs = [(1, 2), (3, 3), (3, 4), (4, 1), (4, 2)]
+    data = read_uff(write(tmp_path / "driving.uff", pairs))
+    assert columns(data) == [1, 2, 3]
+    assert np.allclose(entry(data, 3, 3), H[1:, 2, 2], rtol=1e-10)
+
+
 def test_two_entries_read_by_reciprocity_are_counted_in_words(tmp_path):
     # three shakers (1, 2, 3) without H(2, 1) and H(3, 1): both from their mirrors
     pairs = [(o, r) for o in range(1, 5) for r in (1, 2, 3) if (o, r) not in ((2, 1), (3, 1))]
@@ -185,6 +209,24 @@ def test_two_measurements_of_one_entry_that_disagree_are_refused(tmp_path):
                                          r"FRF record 6 \(response 3:3 / reference 2:3\) both "
                                          r"measure response \(3, 3\) / force at \(2, 3\).*"
                                          r"differ by a median 20\.0 dB"):
+        read_uff(path)
+
+
+def test_two_measurements_exactly_the_limit_apart_are_averaged(tmp_path, monkeypatch):
+    """The limit is inclusive: H(3, 2) measured twice, the second twice the first, is
+    |20 log10(1/2)| dB apart at every line; with the limit set to exactly that the two
+    are averaged (1.5 × the FRF), and with the limit a hair below it they are refused."""
+    from podid_rs.io import uff
+
+    shaker = [(o, 2) for o in range(1, 5)]
+    path = write(tmp_path / "edge.uff", shaker + [(3, 2)], scale={4: 2.0})
+    apart = abs(20 * np.log10(0.5))  # |a| / |b| = 1/2 exactly: scaling by 2 is exact
+    monkeypatch.setattr(uff, "DUPLICATE_DB", apart)
+    with pytest.warns(DataWarning, match="measured 2 times"):
+        data = read_uff(path)
+    assert np.allclose(entry(data, 3, 2), 1.5 * H[1:, 2, 1], rtol=1e-10)
+    monkeypatch.setattr(uff, "DUPLICATE_DB", np.nextafter(apart, 0.0))
+    with pytest.raises(ValueError, match=r"differ by a median 6\.0 dB"):
         read_uff(path)
 
 

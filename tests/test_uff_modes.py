@@ -54,6 +54,28 @@ def test_normal_modes_give_their_eigenvalue_number_and_dofs(tmp_path):
     np.testing.assert_array_equal(modes.shapes, [[1, 1, 0], [0, 0, 0.25], [0, -0.5, 0]])
 
 
+def test_modes_without_a_number_or_a_damping_ratio(tmp_path, monkeypatch):
+    """A set that carries no mode number (pyuff returns none) is numbered by its place
+    among the file's modes, 1, 2, … as a modal table counts them; a normal mode without
+    a viscous damping ratio is undamped, λ = iω."""
+    path = write(
+        tmp_path / "unnumbered.uff",
+        normal_mode(3, 12.5, 0.02, [1.0, 0.0], [0.0, 0.0], [5, 6]),
+        normal_mode(4, 40.0, 0.0, [1.0, 0.0], [0.0, -0.5], [5, 6]),
+    )
+    read = pyuff.UFF.read_sets
+
+    def without_numbers(self, *args, **kwargs):
+        d = read(self, *args, **kwargs)
+        return {k: v for k, v in d.items() if k not in ("mode_n", "modal_damp_vis")}
+
+    monkeypatch.setattr(pyuff.UFF, "read_sets", without_numbers)
+    modes = read_uff_modes(path)
+    assert modes.mode_numbers.tolist() == [1, 2]
+    np.testing.assert_allclose(modes.eigenvalues, 2j * np.pi * np.array([12.5, 40.0]),
+                               rtol=1e-14)
+
+
 def exactly(text: str) -> str:
     return "^" + re.escape(text) + "$"
 
@@ -129,6 +151,11 @@ def test_uff_quantity_only_when_the_records_agree(tmp_path):
     assert uff_quantity(mixed) is None
     none = write(tmp_path / "none.uff", normal_mode(1, 10.0, 0.01, [1.0], [0.0], [5]))
     assert uff_quantity(none) is None
+    # a time response (func_type 1) in displacement beside velocity FRFs is no FRF: the
+    # FRFs' ordinate is the file's
+    response = dict(frf_record(3, 8), func_type=1)
+    beside = write(tmp_path / "beside.uff", frf_record(1, 11), response, frf_record(2, 11))
+    assert uff_quantity(beside) == "velocity"
 
 
 def test_a_single_array_is_not_a_data_file(tmp_path):

@@ -216,6 +216,12 @@ def test_modes_only_without_frequency_lines(written, tmp_path):
     _, data, result, R, _, _ = written
     path = write_uff(tmp_path / "modes.uff", result, R, dofs=data.dofs)
     assert set(pyuff.UFF(str(path)).get_set_types()) == {55}
+    # written again over a file of FRFs, the file is replaced, not added to: one 55 per
+    # mode of the order-4 model (4 pairs: 8 modes at most) and no 58
+    write_uff(path, result, R, data)
+    write_uff(path, result, R, dofs=data.dofs)
+    kinds = pyuff.UFF(str(path)).get_set_types().tolist()
+    assert kinds == [55] * pr.mode_shapes(result, R, data.dofs).n_modes
 
 
 def test_bad_input_is_named(written, tmp_path):
