@@ -190,6 +190,8 @@ def test_identify_with_a_rule_equals_identify_at_the_chosen_lambda(backend):
     for X, Y in zip((res.M, res.C, res.K), (ref.M, ref.C, ref.K), strict=True):
         assert np.linalg.norm(X - Y) < 1e-10 * np.linalg.norm(Y)
     assert res.residual_norm == pytest.approx(ref.residual_norm, rel=1e-12)
+    # ‖X − Xᵀ‖ block by block (M's skew part is the truth's, C's and K's the noise's)
+    assert res.penalty_norms == pytest.approx(ref.penalty_norms, rel=1e-8)
     assert res.well_posed and res.method == ("spectral-sweep" if backend == "rust" else "cholesky")
 
 
@@ -245,6 +247,8 @@ def test_memory_guard_switches_to_repeated_solves(monkeypatch):
         ({"rule": "discrepancy"}, "needs the noise level"),
         ({"delta": 1.0, "noise": 1.0}, "at most one"),
         ({"noise": -1.0}, "finite number"),
+        ({"noise": 0.0}, "noise must be a finite number"),  # no noise: nothing to aim at
+        ({"delta": 0.0}, "delta must be a finite number"),
         ({"lams": [1.0, 2.0]}, "at least 3"),
         ({"lams": [0.0, 1.0, 2.0]}, "positive"),
         ({"n": 2}, "n must be"),
@@ -275,3 +279,87 @@ def test_plot_writes_a_png(tmp_path):
     fig = plot_lambda_curve(curve, path, title="skew-mass case")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert len(fig.axes) == 4  # L-curve, GCV, norms and their twin axis
+
+
+# ------------------------------------------------- what the curve reports
+
+
+def test_report_counts_and_default_grids():
+    """n_rows = 2·N·m real equations (N = s·p response vectors), n_unknowns = 3m², on both
+    paths; the default grid has 50 points on the spectral path and 12 on the repeated one
+    (the repeated curve adds the points its searches solved at)."""
+    _, U, F, omega, delta = skew_mass_case(6)  # s = 60, m = 6, p = 2
+    spec = quiet_curve(U, F, omega, delta=delta)
+    rep = quiet_curve(U, F, omega, method="repeated", delta=delta)
+    for curve in (spec, rep):
+        assert (curve.n_rows, curve.n_unknowns) == (2 * 60 * 2 * 6, 3 * 6 * 6)
+    assert spec.lams.size == 50
+    regular = np.geomspace(rep.lams[0], rep.lams[-1], 12)
+    assert all(np.isclose(rep.lams, lam, rtol=1e-12).any() for lam in regular)
+
+
+def test_spectral_default_range_spans_every_skew_direction():
+    """From 0.1/√ν_max to 10/√ν_min, ν the sweep's eigenvalues: λ²ν runs from 0.01 (the
+    stiffest skew direction still free) to 100 (the softest one damped)."""
+    _, U, F, omega, _ = skew_mass_case(6)
+    U3, F3 = U.transpose(0, 2, 1).reshape(-1, 6), F.transpose(0, 2, 1).reshape(-1, 6)
+    nu = np.asarray(_core.lambda_sweep(U3, F3, np.repeat(omega, 2)).eigenvalues)
+    curve = quiet_curve(U, F, omega)
+    assert curve.lams[0] ** 2 * nu.max() == pytest.approx(0.01, rel=1e-12)
+    assert curve.lams[-1] ** 2 * nu[nu > 1e-15 * nu.max()].min() == pytest.approx(100, rel=1e-12)
+
+
+def test_repeated_default_range_from_the_skew_diagonal_of_the_kronecker_normal_matrix():
+    """Three decades below the smallest, one above the largest √(d/4), d = vᵀ AᵀA v over the
+    unit skew directions v = (E_jk − E_kj)/√2 of the paper's stacked real system."""
+    _, U, F, omega, delta = skew_mass_case(6)
+    A, _ = kronecker_system(U, F, omega)
+    J = np.vstack([A.real, A.imag])
+    L = np.vstack(symmetry_constraints(6))
+    L = L[np.linalg.norm(L, axis=1) > 0]
+    d = np.einsum("ij,jk,ik->i", L, J.T @ J, L) / np.einsum("ij,ij->i", L, L)
+    rep = quiet_curve(U, F, omega, method="repeated", delta=delta)
+    assert rep.lams[0] == pytest.approx(1e-3 * np.sqrt(d.min() / 4), rel=1e-10)
+    assert rep.lams[-1] == pytest.approx(10 * np.sqrt(d.max() / 4), rel=1e-10)
+
+
+def test_repeated_corner_in_an_end_interval_is_flagged():
+    """A grid whose first interval holds the corner (the spectral corner λc sits 0.2 decades
+    above its first point, 0.7 below its second): the golden search finds it there (within
+    its 0.02-decade bracket and the 3-point curvature's offset) and says it lies in an end
+    interval, where the grid cannot show a maximum."""
+    _, U, F, omega, _ = skew_mass_case(6)
+    lc = quiet_curve(U, F, omega).choices["lcurve"]
+    grid = lc * 10.0 ** np.array([-0.2, 0.5, 1.0, 1.5, 2.0])
+    with pytest.warns(NoCornerWarning, match="in an end interval of the λ range"):
+        rep = lambda_curve(U, F, omega, grid, method="repeated")
+    assert grid[0] < rep.lam < grid[1]
+
+
+def test_rules_other_than_the_lcurve_warn_without_claiming_a_missing_corner():
+    """GCV's end-of-range problem is a LambdaSelectionWarning, not the L-curve's
+    NoCornerWarning (a subclass, which a filter on corners would catch by mistake)."""
+    _, U, F, omega, _ = chain_case()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        lambda_curve(U, F, omega, rule="gcv")
+    ours = [w for w in caught if issubclass(w.category, LambdaSelectionWarning)]
+    assert len(ours) == 1 and ours[0].category is LambdaSelectionWarning
+    assert str(ours[0].message).startswith("gcv: GCV is smallest at an end")
+
+
+def _number_after(text: str, words: str) -> float:
+    return float(text.split(words, 1)[1].split()[0])
+
+
+def test_unreachable_discrepancy_messages_quote_the_residual_at_that_end():
+    """The message "below the residual r at the smallest λ" quotes the curve's first
+    residual, "above the residual r at the largest λ" its last (4 digits: rel 1e-3)."""
+    _, U, F, omega, delta = skew_mass_case(4)
+    for factor, end in ((1e-3, 0), (1e3, -1)):
+        with pytest.warns(LambdaSelectionWarning) as caught:
+            curve = lambda_curve(U, F, omega, rule="discrepancy", delta=factor * delta)
+        text = str(caught[0].message)
+        assert _number_after(text, "δ =") == pytest.approx(factor * delta, rel=1e-3)
+        quoted = _number_after(text, "the residual")
+        assert quoted == pytest.approx(curve.residual_norms[end], rel=1e-3)
