@@ -1143,6 +1143,63 @@ AUDIT = [
         'f"omega must be 1-D with one entry per frequency line (s = {w.shape[0]}); "',
     ),
     ("_arrays", "(hi is not None and x > hi)", "(hi is not None and x >= hi)"),
+    # hardening pass, the λ rules and the fixed-λ solve: written with their tests (a check,
+    # not a measurement)
+    # the Menger curvature's factor and sign, the corner message's number, the noise levels
+    # named, n an integer, a given grid's ends bound the rules' search, a cached solve
+    (
+        "identification/regularisation",
+        "return 2.0 * cross / den if den > 0 else math.nan",
+        "return cross / den if den > 0 else math.nan",
+    ),
+    (
+        "identification/regularisation",
+        "cross = a[0] * b[1] - a[1] * b[0]",
+        "cross = a[1] * b[0] - a[0] * b[1]",
+    ),
+    (
+        "identification/regularisation",
+        'f"its largest curvature {k:.3g} is below {CORNER_MIN_CURVATURE:.3g} (natural-log "\n'
+        '            "axes); the residual hardly depends on λ, as when',
+        'f"its largest curvature {CORNER_MIN_CURVATURE:.3g} is below {k:.3g} (natural-log "\n'
+        '            "axes); the residual hardly depends on λ, as when',
+    ),
+    (
+        "identification/regularisation",
+        "got {', '.join(given)}\")",
+        "got {', '.join(values)}\")",
+    ),
+    (
+        "identification/regularisation",
+        "not isinstance(n, int | np.integer) or n < 3",
+        "not isinstance(n, int | np.integer | float) or n < 3",
+    ),
+    (
+        "identification/regularisation",
+        "lo, hi = float(grid[0]), float(grid[-1])",
+        "lo, hi = ev.default_range()",
+    ),
+    ("identification/regularisation", "if lam not in self.cache:", "if True:"),
+    # the rank warning's numbers, the hint when not every block is penalised, the
+    # unregularised rank on the NumPy path, the min-norm cut-off relative to the largest
+    # eigenvalue, the CG bar's fraction done
+    (
+        "identification/solvers",
+        'f"the normal equations are numerically singular (rank {out.rank} of "',
+        'f"the normal equations are numerically singular (rank {out.n_unknowns} of "',
+    ),
+    ("identification/solvers", "if symmetric or all(lam_t)", "if symmetric or any(lam_t)"),
+    ("identification/solvers", "        rank *= m\n", ""),
+    (
+        "identification/solvers",
+        "keep = s > tol * max(float(s.max()), 0.0)",
+        "keep = s > tol",
+    ),
+    (
+        "identification/solvers",
+        "done = min(max(math.log(residual) / math.log(self.tol), 0.0), 1.0)",
+        "done = min(max(math.log(self.tol) / math.log(residual), 0.0), 1.0)",
+    ),
 ]
 
 

@@ -20,6 +20,7 @@ from podid_rs.identification.solvers import (
     AUTO_DIRECT_MAX_UNKNOWNS,
     CG_MAX_ITER,
     CG_TOL,
+    _ProgressBar,
     choose_solver,
 )
 
@@ -234,3 +235,12 @@ def test_cg_at_its_iteration_cap_is_not_redone_as_stalled():
         res = identify(U, F, omega, symmetric=True, max_iter=3)
     assert res.method == "cg" and res.iterations == 3 and "stalled_cg" not in res.info
     assert f"{res.relative_residual:.2e}" in str(caught[0].message)
+
+
+def test_progress_bar_fraction_is_the_residuals_decades_over_the_tolerances():
+    """log(residual)/log(tol), clipped to [0, 1]: 1e-4 of a 1e-8 target is half way."""
+    bar = _ProgressBar(1e-8)
+    for residual, percent in ((1e-4, 50), (1.0, 0), (10.0, 0), (1e-2, 25), (1e-9, 100)):
+        bar(1, residual)
+        assert bar.bar.n == percent, residual
+    bar.close(1, 1e-9)

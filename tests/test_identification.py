@@ -250,9 +250,13 @@ def test_rank_deficient_data_warns_and_returns_min_norm(backend):
     U = np.repeat(U[:1], 10, axis=0)
     F = np.repeat(F[:1], 10, axis=0)
     w = np.repeat(w[:1], 10)
-    with pytest.warns(RankDeficientWarning, match="rank"):
+    with pytest.warns(RankDeficientWarning, match="rank") as caught:
         res = identify(U, F, w, backend=backend)
     assert not res.well_posed and res.method == "eigen-min-norm"
+    # H = Re(v vᴴ) of one complex vector v has rank 2, and the unregularised 3m × 3m system
+    # is shared by the m rows of Z = [M C K]: rank 2m = 6 of 3m² = 27 unknowns
+    assert (res.rank, res.n_unknowns) == (6, 27)
+    assert "(rank 6 of 27 unknowns)" in str(caught[0].message)
     # the min-norm answer still fits the data it was given
     assert res.residual_norm < 1e-8 * np.linalg.norm(F)
     assert np.all(np.isfinite(res.M))
@@ -335,3 +339,14 @@ def test_backends_report_the_same_rank_and_pivot_ratio():
         assert (a.method, a.rank, a.n_unknowns) == (b.method, b.rank, b.n_unknowns)
         assert 0 < b.min_pivot_ratio < 1
         assert a.min_pivot_ratio == pytest.approx(b.min_pivot_ratio, rel=1e-8)
+
+
+def test_the_hint_to_penalise_every_block_only_where_one_is_not():
+    """At m = 3 (27 unknowns) and s·p = 3 (18 equations), λ on one block adds 3: refused,
+    with the hint to penalise every block; with every block penalised and s·p = 2
+    (12 + 9 = 21 < 27) refused without it."""
+    (_, _, _), U, F, omega = random_system_data(3, 3, 1, 0, 0.0)
+    with pytest.raises(ValueError, match=r"give 21 real .* \(a positive lam on every block"):
+        identify(U, F, omega, (0.0, 1.0, 0.0))
+    with pytest.raises(ValueError, match=r"give 21 real equations for 27 unknowns at order m = 3$"):
+        identify(U[:2], F[:2], omega[:2], 1.0)

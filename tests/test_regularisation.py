@@ -210,6 +210,7 @@ def test_repeated_solves_find_the_same_corner_and_discrepancy():
     rep = lambda_curve(U, F, omega, spec.lams[::4], method="repeated", solve=solve, delta=delta)
     assert rep.method == "repeated" and np.all(np.isnan(rep.gcv))
     assert len(set(calls)) == rep.lams.size == rep.info["solves"] <= 40
+    assert len(calls) == len(set(calls))  # each λ solved once, then read from the cache
     # golden section stops at a bracket of CORNER_XTOL_DECADES
     assert abs(np.log10(rep.choices["lcurve"] / spec.choices["lcurve"])) < 0.05
     assert rep.choices["discrepancy"] == pytest.approx(spec.choices["discrepancy"], rel=1e-6)
@@ -246,12 +247,14 @@ def test_memory_guard_switches_to_repeated_solves(monkeypatch):
         ({"rule": "aic"}, "not a selection rule"),
         ({"rule": "discrepancy"}, "needs the noise level"),
         ({"delta": 1.0, "noise": 1.0}, "at most one"),
+        ({"delta": 1.0, "snr_db": 20.0}, "and snr_db, got delta, snr_db$"),
         ({"noise": -1.0}, "finite number"),
         ({"noise": 0.0}, "noise must be a finite number"),  # no noise: nothing to aim at
         ({"delta": 0.0}, "delta must be a finite number"),
         ({"lams": [1.0, 2.0]}, "at least 3"),
         ({"lams": [0.0, 1.0, 2.0]}, "positive"),
         ({"n": 2}, "n must be"),
+        ({"n": 3.5}, "n must be an integer >= 3, got 3.5"),
         ({"method": "cg"}, "method must be"),
         ({"threads": -1}, "threads"),
     ],
@@ -363,3 +366,39 @@ def test_unreachable_discrepancy_messages_quote_the_residual_at_that_end():
         assert _number_after(text, "δ =") == pytest.approx(factor * delta, rel=1e-3)
         quoted = _number_after(text, "the residual")
         assert quoted == pytest.approx(curve.residual_norms[end], rel=1e-3)
+
+
+def test_menger_curvature_of_three_points_on_a_circle():
+    """1/r for three points on a circle of radius r, positive turning left (counter-
+    clockwise), negative turning right, 0 on a line, NaN for coincident points."""
+    p, q, r = np.array([2.0, 0.0]), np.array([0.0, 2.0]), np.array([-2.0, 0.0])
+    assert reg._menger(p, q, r) == pytest.approx(0.5, rel=1e-15)
+    assert reg._menger(r, q, p) == pytest.approx(-0.5, rel=1e-15)
+    assert reg._menger(p, np.array([1.0, 0.0]), np.array([0.0, 0.0])) == 0.0
+    assert np.isnan(reg._menger(p, p, q))
+
+
+def test_no_corner_message_quotes_the_corners_curvature_and_the_threshold():
+    _, U, F, omega, _ = chain_case()
+    with pytest.warns(NoCornerWarning) as caught:
+        curve = lambda_curve(U, F, omega)
+    text = str(caught[0].message)
+    # 3 significant digits: rel 5e-3
+    assert _number_after(text, "largest curvature") == pytest.approx(
+        curve.corner_curvature, rel=5e-3
+    )
+    assert _number_after(text, "is below") == pytest.approx(reg.CORNER_MIN_CURVATURE, rel=5e-3)
+
+
+def test_a_given_grid_bounds_the_rules_search():
+    """The rules search the continuous curve between the given grid's ends: on a grid a
+    decade and more above the corner the L-curve and GCV can only answer inside it, and the
+    L-curve's largest curvature there is at an end, which it says."""
+    _, U, F, omega, _ = skew_mass_case(6)
+    lc = quiet_curve(U, F, omega).choices["lcurve"]
+    grid = lc * 10.0 ** np.array([1.0, 1.5, 2.0])
+    curve = quiet_curve(U, F, omega, grid)
+    for rule in ("lcurve", "gcv"):
+        assert grid[0] <= curve.choices[rule] <= grid[-1], rule
+    assert curve.lam in (grid[0], grid[-1])
+    assert "an end of the λ range" in curve.problems["lcurve"][0]
