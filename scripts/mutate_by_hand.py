@@ -45,6 +45,12 @@ TESTS = {
     "identification/holes": ["tests/test_holes.py"],
     "identification/modal_start": ["tests/test_modal_start.py"],
     "io/npz": ["tests/test_measurements.py", "tests/test_holes.py", "tests/test_uff_modes.py"],
+    "identification/regularisation": ["tests/test_regularisation.py",
+                                      "tests/test_identification.py"],
+    "identification/solvers": ["tests/test_identification.py", "tests/test_cg.py",
+                               "tests/test_hardening.py"],
+    "_validation": ["tests/test_identification.py", "tests/test_hardening.py", "tests/test_cg.py"],
+    "_arrays": ["tests/test_hardening.py", "tests/test_identification.py", "tests/test_api.py"],
 }
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
@@ -1178,6 +1184,166 @@ AUDIT = [
     ("io/uff", "if None not in rsp + ref:", "if None not in rsp:"),
     ("measured", 'a = as_array(inputs, "inputs", real=True).reshape(-1)',
      'a = as_array(inputs, "inputs", real=True).reshape(-1)[:n_in]'),
+    # seventh audit, written from the sources of the λ rules, the fixed-λ solve and the input
+    # checks alone (modules no earlier entry touched), before any run
+    # the discrepancy δ: every load case counted, the SNR in power dB, the message's residual
+    (
+        "identification/regularisation",
+        "return sigma * math.sqrt(data.p * float(np.sum(np.abs(D) ** 2)))",
+        "return sigma * math.sqrt(float(np.sum(np.abs(D) ** 2)))",
+    ),
+    ("identification/regularisation", "10.0 ** (-value / 10.0)", "10.0 ** (-value / 20.0)"),
+    (
+        "identification/regularisation",
+        'f"the target residual δ = {delta:.4g} is below the residual {r[0]:.4g} at the "',
+        'f"the target residual δ = {delta:.4g} is below the residual {r[-1]:.4g} at the "',
+    ),
+    # the repeated path's row count and default grid, the grid's and n's lower bounds
+    (
+        "identification/regularisation",
+        "self.n_rows = 2 * data.n_columns * data.m",
+        "self.n_rows = data.n_columns * data.m",
+    ),
+    (
+        "identification/regularisation",
+        'n or (50 if ev.method == "spectral" else 12)',
+        'n or (50 if ev.method == "spectral" else 50)',
+    ),
+    ("identification/regularisation", "or n < 3):", "or n < 2):"),
+    ("identification/regularisation", "a.size < 3 or", "a.size < 2 or"),
+    # the golden search's end-interval problem, the spectral range's top, the warning's class,
+    # a zero noise level, the sweep result's penalty norms in the wrong order, the repeated range
+    (
+        "identification/regularisation",
+        "if not t[1] <= tc <= t[-2]:",
+        "if not t[0] <= tc <= t[-1]:",
+    ),
+    (
+        "identification/regularisation",
+        "return 0.1 / math.sqrt(top), 10.0 / math.sqrt(low)",
+        "return 0.1 / math.sqrt(top), 1.0 / math.sqrt(low)",
+    ),
+    (
+        "identification/regularisation",
+        'cls = NoCornerWarning if rule == "lcurve" else LambdaSelectionWarning',
+        'cls = NoCornerWarning if rule != "discrepancy" else LambdaSelectionWarning',
+    ),
+    (
+        "identification/regularisation",
+        '(name != "snr_db" and value <= 0)',
+        '(name != "snr_db" and value < 0)',
+    ),
+    (
+        "identification/regularisation",
+        "pen = tuple(float(np.linalg.norm(X - X.T)) for X in (M, C, K))",
+        "pen = tuple(float(np.linalg.norm(X - X.T)) for X in (M, K, C))",
+    ),
+    (
+        "identification/regularisation",
+        "diag = (d[:, j] + d[:, k]).ravel() / 8.0",
+        "diag = (d[:, j] + d[:, k]).ravel() / 4.0",
+    ),
+    # the fixed-λ solve: the pivot ratio, the message's counts, the symmetric unknowns, the
+    # stalled-CG test, the CG warning's number, λ's scale on the NumPy path
+    (
+        "identification/solvers",
+        "ratio = float(np.min(np.diag(L) ** 2 / d))",
+        "ratio = float(np.min(np.diag(L) / d))",
+    ),
+    (
+        "identification/solvers",
+        'f"too few equations: {data.s} frequency line(s) × {data.p} load case(s) give "',
+        'f"too few equations: {data.p} frequency line(s) × {data.s} load case(s) give "',
+    ),
+    (
+        "identification/solvers",
+        "n_unknowns=3 * m * m if not symmetric else 3 * m * (m + 1) // 2,",
+        "n_unknowns=3 * m * m if not symmetric else 3 * m * (m - 1) // 2,",
+    ),
+    (
+        "identification/solvers",
+        "stalled = not out.converged and out.iterations < max_iter",
+        "stalled = not out.converged and out.iterations <= max_iter",
+    ),
+    (
+        "identification/solvers",
+        'f"CG stopped after {out.iterations} iterations at relative residual "',
+        'f"CG stopped after {max_iter} iterations at relative residual "',
+    ),
+    (
+        "identification/solvers",
+        "lam_s = np.asarray(lam) * factors / sf",
+        "lam_s = np.asarray(lam) * factors",
+    ),
+    # the equation count with λ = 0 on a block, omega's message, as_count's upper bound
+    (
+        "_validation",
+        "eq += sum(m * (m - 1) // 2 for v in lam if v > 0)",
+        "eq += sum(m * (m - 1) // 2 for v in lam if v >= 0)",
+    ),
+    (
+        "_validation",
+        'f"omega must be 1-D with one entry per frequency line (s = {Ua.shape[0]}); "',
+        'f"omega must be 1-D with one entry per frequency line (s = {w.shape[0]}); "',
+    ),
+    ("_arrays", "(hi is not None and x > hi)", "(hi is not None and x >= hi)"),
+    # hardening pass, the λ rules and the fixed-λ solve: written with their tests (a check,
+    # not a measurement)
+    # the Menger curvature's factor and sign, the corner message's number, the noise levels
+    # named, n an integer, a given grid's ends bound the rules' search, a cached solve
+    (
+        "identification/regularisation",
+        "return 2.0 * cross / den if den > 0 else math.nan",
+        "return cross / den if den > 0 else math.nan",
+    ),
+    (
+        "identification/regularisation",
+        "cross = a[0] * b[1] - a[1] * b[0]",
+        "cross = a[1] * b[0] - a[0] * b[1]",
+    ),
+    (
+        "identification/regularisation",
+        'f"its largest curvature {k:.3g} is below {CORNER_MIN_CURVATURE:.3g} (natural-log "\n'
+        '            "axes); the residual hardly depends on λ, as when',
+        'f"its largest curvature {CORNER_MIN_CURVATURE:.3g} is below {k:.3g} (natural-log "\n'
+        '            "axes); the residual hardly depends on λ, as when',
+    ),
+    (
+        "identification/regularisation",
+        "got {', '.join(given)}\")",
+        "got {', '.join(values)}\")",
+    ),
+    (
+        "identification/regularisation",
+        "not isinstance(n, int | np.integer) or n < 3",
+        "not isinstance(n, int | np.integer | float) or n < 3",
+    ),
+    (
+        "identification/regularisation",
+        "lo, hi = float(grid[0]), float(grid[-1])",
+        "lo, hi = ev.default_range()",
+    ),
+    ("identification/regularisation", "if lam not in self.cache:", "if True:"),
+    # the rank warning's numbers, the hint when not every block is penalised, the
+    # unregularised rank on the NumPy path, the min-norm cut-off relative to the largest
+    # eigenvalue, the CG bar's fraction done
+    (
+        "identification/solvers",
+        'f"the normal equations are numerically singular (rank {out.rank} of "',
+        'f"the normal equations are numerically singular (rank {out.n_unknowns} of "',
+    ),
+    ("identification/solvers", "if symmetric or all(lam_t)", "if symmetric or any(lam_t)"),
+    ("identification/solvers", "        rank *= m\n", ""),
+    (
+        "identification/solvers",
+        "keep = s > tol * max(float(s.max()), 0.0)",
+        "keep = s > tol",
+    ),
+    (
+        "identification/solvers",
+        "done = min(max(math.log(residual) / math.log(self.tol), 0.0), 1.0)",
+        "done = min(max(math.log(self.tol) / math.log(residual), 0.0), 1.0)",
+    ),
 ]
 
 

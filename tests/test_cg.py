@@ -16,7 +16,13 @@ import numpy as np
 import pytest
 
 from podid_rs import ConvergenceWarning, identify, mass_spring_chain
-from podid_rs.identification.solvers import AUTO_DIRECT_MAX_UNKNOWNS, CG_TOL, choose_solver
+from podid_rs.identification.solvers import (
+    AUTO_DIRECT_MAX_UNKNOWNS,
+    CG_MAX_ITER,
+    CG_TOL,
+    _ProgressBar,
+    choose_solver,
+)
 
 BANDS = {"narrow": (102.8, 122.8), "wide": (50.0, 150.0)}
 
@@ -151,9 +157,12 @@ def test_auto_redoes_a_stalled_cg_by_the_direct_path():
     F[:, [3, 9]] = np.random.default_rng(1).standard_normal((64, 2))
     U = sys_.response(omega, F)
     assert choose_solver(16, (0.0, 0.0, 0.0), True) == "cg"
-    with pytest.warns(ConvergenceWarning):
+    with pytest.warns(ConvergenceWarning) as caught:
         cg = identify(U, F, omega, symmetric=True, solver="cg")
     assert cg.relative_residual > 1e-6
+    # the warning counts the iterations CG took, far fewer than it was allowed
+    assert cg.iterations < CG_MAX_ITER
+    assert f"CG stopped after {cg.iterations} iterations" in str(caught[0].message)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         auto = identify(U, F, omega, symmetric=True)
@@ -216,3 +225,22 @@ def test_unattainable_tol_stops_at_the_attainable_accuracy(m, band, symmetric, l
     assert res.iterations < 2000 and res.relative_residual < 1e-12
     converged = identify(U, F, omega, lam, symmetric, solver="cg")
     assert res.relative_residual <= converged.relative_residual
+
+
+def test_cg_at_its_iteration_cap_is_not_redone_as_stalled():
+    """CG that used every allowed iteration did not stall (it was stopped): auto keeps its
+    answer and warns, naming the iterations it took and the residual it reached."""
+    _, U, F, omega = chain(16, "narrow")
+    with pytest.warns(ConvergenceWarning, match=r"CG stopped after 3 iterations") as caught:
+        res = identify(U, F, omega, symmetric=True, max_iter=3)
+    assert res.method == "cg" and res.iterations == 3 and "stalled_cg" not in res.info
+    assert f"{res.relative_residual:.2e}" in str(caught[0].message)
+
+
+def test_progress_bar_fraction_is_the_residuals_decades_over_the_tolerances():
+    """log(residual)/log(tol), clipped to [0, 1]: 1e-4 of a 1e-8 target is half way."""
+    bar = _ProgressBar(1e-8)
+    for residual, percent in ((1e-4, 50), (1.0, 0), (10.0, 0), (1e-2, 25), (1e-9, 100)):
+        bar(1, residual)
+        assert bar.bar.n == percent, residual
+    bar.close(1, 1e-9)

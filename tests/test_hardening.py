@@ -32,6 +32,7 @@ from podid_rs import (
     pod_from_correlation,
     spectra,
 )
+from podid_rs._arrays import as_count
 from podid_rs.identification.reference import identify_kronecker
 from podid_rs.measured import MeasuredData, from_frf, to_receptance
 from podid_rs.physical import modal_parameters, nearest_psd
@@ -362,6 +363,22 @@ def test_pod_entry_points(X, draw):
     out = checked(correlation_from_frf, H, w)
     if isinstance(out, ValueError):
         refused(out, "H must|omega|non-finite|at least 2")
+
+
+def test_counts_are_taken_at_both_bounds_and_refused_one_past_them():
+    """The shared count check is inclusive at both ends: a POD basis of every mode (m = n)
+    is a basis, m = n + 1 is refused naming the range."""
+    assert as_count(1, "m", 1, 5) == 1 and as_count(5, "m", 1, 5) == 5
+    for bad, text in ((0, r"m must be in \[1, 5\], got 0"), (6, r"m must be in \[1, 5\], got 6")):
+        with pytest.raises(ValueError, match=text):
+            as_count(bad, "m", 1, 5)
+    with pytest.raises(ValueError, match="n must be >= 2, got 1"):
+        as_count(1, "n", 2)
+    X = np.random.default_rng(0).standard_normal((9, 4))  # 9 snapshots of 4 DOFs: rank 4
+    pod = pod_from_correlation(correlation_from_snapshots(X))
+    assert np.allclose(pod.basis(4).T @ pod.basis(4), np.eye(4), atol=1e-12)
+    with pytest.raises(ValueError, match=r"m must be in \[1, 4\], got 5"):
+        pod.basis(5)
 
 
 @SETTINGS

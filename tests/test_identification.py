@@ -250,9 +250,13 @@ def test_rank_deficient_data_warns_and_returns_min_norm(backend):
     U = np.repeat(U[:1], 10, axis=0)
     F = np.repeat(F[:1], 10, axis=0)
     w = np.repeat(w[:1], 10)
-    with pytest.warns(RankDeficientWarning, match="rank"):
+    with pytest.warns(RankDeficientWarning, match="rank") as caught:
         res = identify(U, F, w, backend=backend)
     assert not res.well_posed and res.method == "eigen-min-norm"
+    # H = Re(v vᴴ) of one complex vector v has rank 2, and the unregularised 3m × 3m system
+    # is shared by the m rows of Z = [M C K]: rank 2m = 6 of 3m² = 27 unknowns
+    assert (res.rank, res.n_unknowns) == (6, 27)
+    assert "(rank 6 of 27 unknowns)" in str(caught[0].message)
     # the min-norm answer still fits the data it was given
     assert res.residual_norm < 1e-8 * np.linalg.norm(F)
     assert np.all(np.isfinite(res.M))
@@ -300,3 +304,49 @@ def test_validated_data_are_read_only_views_and_the_input_stays_writeable():
     before = U.copy()
     identify(U, F, omega, 1.0, solver="cg")
     assert U.flags.writeable and F.flags.writeable and np.array_equal(U, before)
+
+
+def test_too_few_equations_counts_lines_load_cases_and_the_penalised_blocks():
+    """2m real equations per complex response vector (s·p of them), m(m−1)/2 more for
+    each block with a positive λ, against 3m² unknowns (paper eqs. 28–30): at m = 3 and
+    s·p = 4, 24 < 27 is refused, and two penalised blocks make it 30 ≥ 27."""
+    (_, _, _), U, F, omega = random_system_data(3, 4, 1, 0, 0.0)
+    with pytest.raises(
+        ValueError,
+        match=r"4 frequency line\(s\) × 1 load case\(s\) give 24 real equations for 27 "
+        r"unknowns at order m = 3",
+    ):
+        identify(U, F, omega, (0.0, 0.0, 0.0))
+    assert identify(U, F, omega, (0.0, 1.0, 1.0)).well_posed
+    (_, _, _), U, F, omega = random_system_data(3, 1, 3, 0, 0.0)
+    with pytest.raises(ValueError, match=r"1 frequency line\(s\) × 3 load case\(s\) give 18"):
+        identify(U, F, omega)
+
+
+def test_omega_of_the_wrong_length_names_both_lengths():
+    U, F, w = good_data()  # s = 10
+    with pytest.raises(ValueError, match=r"\(s = 10\); got shape \(9,\)"):
+        identify(U, F, w[:-1])
+
+
+def test_backends_report_the_same_rank_and_pivot_ratio():
+    """min_pivot_ratio = min_i L_ii² / G_ii of the scaled normal matrix's Cholesky factor,
+    computed by NumPy and by the Rust core on the same matrix: equal to round-off."""
+    _, U, F, omega = random_system_data(8, 40, 2, 3, 0.05)
+    for lam, sym in [(0.0, False), (2.0, False), (0.0, True)]:
+        a = identify(U, F, omega, lam, sym, backend="rust", solver="direct")
+        b = identify(U, F, omega, lam, sym, backend="numpy")
+        assert (a.method, a.rank, a.n_unknowns) == (b.method, b.rank, b.n_unknowns)
+        assert 0 < b.min_pivot_ratio < 1
+        assert a.min_pivot_ratio == pytest.approx(b.min_pivot_ratio, rel=1e-8)
+
+
+def test_the_hint_to_penalise_every_block_only_where_one_is_not():
+    """At m = 3 (27 unknowns) and s·p = 3 (18 equations), λ on one block adds 3: refused,
+    with the hint to penalise every block; with every block penalised and s·p = 2
+    (12 + 9 = 21 < 27) refused without it."""
+    (_, _, _), U, F, omega = random_system_data(3, 3, 1, 0, 0.0)
+    with pytest.raises(ValueError, match=r"give 21 real .* \(a positive lam on every block"):
+        identify(U, F, omega, (0.0, 1.0, 0.0))
+    with pytest.raises(ValueError, match=r"give 21 real equations for 27 unknowns at order m = 3$"):
+        identify(U[:2], F[:2], omega[:2], 1.0)

@@ -190,6 +190,8 @@ def test_identify_with_a_rule_equals_identify_at_the_chosen_lambda(backend):
     for X, Y in zip((res.M, res.C, res.K), (ref.M, ref.C, ref.K), strict=True):
         assert np.linalg.norm(X - Y) < 1e-10 * np.linalg.norm(Y)
     assert res.residual_norm == pytest.approx(ref.residual_norm, rel=1e-12)
+    # ‖X − Xᵀ‖ block by block (M's skew part is the truth's, C's and K's the noise's)
+    assert res.penalty_norms == pytest.approx(ref.penalty_norms, rel=1e-8)
     assert res.well_posed and res.method == ("spectral-sweep" if backend == "rust" else "cholesky")
 
 
@@ -208,6 +210,7 @@ def test_repeated_solves_find_the_same_corner_and_discrepancy():
     rep = lambda_curve(U, F, omega, spec.lams[::4], method="repeated", solve=solve, delta=delta)
     assert rep.method == "repeated" and np.all(np.isnan(rep.gcv))
     assert len(set(calls)) == rep.lams.size == rep.info["solves"] <= 40
+    assert len(calls) == len(set(calls))  # each λ solved once, then read from the cache
     # golden section stops at a bracket of CORNER_XTOL_DECADES
     assert abs(np.log10(rep.choices["lcurve"] / spec.choices["lcurve"])) < 0.05
     assert rep.choices["discrepancy"] == pytest.approx(spec.choices["discrepancy"], rel=1e-6)
@@ -244,10 +247,14 @@ def test_memory_guard_switches_to_repeated_solves(monkeypatch):
         ({"rule": "aic"}, "not a selection rule"),
         ({"rule": "discrepancy"}, "needs the noise level"),
         ({"delta": 1.0, "noise": 1.0}, "at most one"),
+        ({"delta": 1.0, "snr_db": 20.0}, "and snr_db, got delta, snr_db$"),
         ({"noise": -1.0}, "finite number"),
+        ({"noise": 0.0}, "noise must be a finite number"),  # no noise: nothing to aim at
+        ({"delta": 0.0}, "delta must be a finite number"),
         ({"lams": [1.0, 2.0]}, "at least 3"),
         ({"lams": [0.0, 1.0, 2.0]}, "positive"),
         ({"n": 2}, "n must be"),
+        ({"n": 3.5}, "n must be an integer >= 3, got 3.5"),
         ({"method": "cg"}, "method must be"),
         ({"threads": -1}, "threads"),
     ],
@@ -275,3 +282,123 @@ def test_plot_writes_a_png(tmp_path):
     fig = plot_lambda_curve(curve, path, title="skew-mass case")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert len(fig.axes) == 4  # L-curve, GCV, norms and their twin axis
+
+
+# ------------------------------------------------- what the curve reports
+
+
+def test_report_counts_and_default_grids():
+    """n_rows = 2·N·m real equations (N = s·p response vectors), n_unknowns = 3m², on both
+    paths; the default grid has 50 points on the spectral path and 12 on the repeated one
+    (the repeated curve adds the points its searches solved at)."""
+    _, U, F, omega, delta = skew_mass_case(6)  # s = 60, m = 6, p = 2
+    spec = quiet_curve(U, F, omega, delta=delta)
+    rep = quiet_curve(U, F, omega, method="repeated", delta=delta)
+    for curve in (spec, rep):
+        assert (curve.n_rows, curve.n_unknowns) == (2 * 60 * 2 * 6, 3 * 6 * 6)
+    assert spec.lams.size == 50
+    regular = np.geomspace(rep.lams[0], rep.lams[-1], 12)
+    assert all(np.isclose(rep.lams, lam, rtol=1e-12).any() for lam in regular)
+
+
+def test_spectral_default_range_spans_every_skew_direction():
+    """From 0.1/√ν_max to 10/√ν_min, ν the sweep's eigenvalues: λ²ν runs from 0.01 (the
+    stiffest skew direction still free) to 100 (the softest one damped)."""
+    _, U, F, omega, _ = skew_mass_case(6)
+    U3, F3 = U.transpose(0, 2, 1).reshape(-1, 6), F.transpose(0, 2, 1).reshape(-1, 6)
+    nu = np.asarray(_core.lambda_sweep(U3, F3, np.repeat(omega, 2)).eigenvalues)
+    curve = quiet_curve(U, F, omega)
+    assert curve.lams[0] ** 2 * nu.max() == pytest.approx(0.01, rel=1e-12)
+    assert curve.lams[-1] ** 2 * nu[nu > 1e-15 * nu.max()].min() == pytest.approx(100, rel=1e-12)
+
+
+def test_repeated_default_range_from_the_skew_diagonal_of_the_kronecker_normal_matrix():
+    """Three decades below the smallest, one above the largest √(d/4), d = vᵀ AᵀA v over the
+    unit skew directions v = (E_jk − E_kj)/√2 of the paper's stacked real system."""
+    _, U, F, omega, delta = skew_mass_case(6)
+    A, _ = kronecker_system(U, F, omega)
+    J = np.vstack([A.real, A.imag])
+    L = np.vstack(symmetry_constraints(6))
+    L = L[np.linalg.norm(L, axis=1) > 0]
+    d = np.einsum("ij,jk,ik->i", L, J.T @ J, L) / np.einsum("ij,ij->i", L, L)
+    rep = quiet_curve(U, F, omega, method="repeated", delta=delta)
+    assert rep.lams[0] == pytest.approx(1e-3 * np.sqrt(d.min() / 4), rel=1e-10)
+    assert rep.lams[-1] == pytest.approx(10 * np.sqrt(d.max() / 4), rel=1e-10)
+
+
+def test_repeated_corner_in_an_end_interval_is_flagged():
+    """A grid whose first interval holds the corner (the spectral corner λc sits 0.2 decades
+    above its first point, 0.7 below its second): the golden search finds it there (within
+    its 0.02-decade bracket and the 3-point curvature's offset) and says it lies in an end
+    interval, where the grid cannot show a maximum."""
+    _, U, F, omega, _ = skew_mass_case(6)
+    lc = quiet_curve(U, F, omega).choices["lcurve"]
+    grid = lc * 10.0 ** np.array([-0.2, 0.5, 1.0, 1.5, 2.0])
+    with pytest.warns(NoCornerWarning, match="in an end interval of the λ range"):
+        rep = lambda_curve(U, F, omega, grid, method="repeated")
+    assert grid[0] < rep.lam < grid[1]
+
+
+def test_rules_other_than_the_lcurve_warn_without_claiming_a_missing_corner():
+    """GCV's end-of-range problem is a LambdaSelectionWarning, not the L-curve's
+    NoCornerWarning (a subclass, which a filter on corners would catch by mistake)."""
+    _, U, F, omega, _ = chain_case()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        lambda_curve(U, F, omega, rule="gcv")
+    ours = [w for w in caught if issubclass(w.category, LambdaSelectionWarning)]
+    assert len(ours) == 1 and ours[0].category is LambdaSelectionWarning
+    assert str(ours[0].message).startswith("gcv: GCV is smallest at an end")
+
+
+def _number_after(text: str, words: str) -> float:
+    return float(text.split(words, 1)[1].split()[0])
+
+
+def test_unreachable_discrepancy_messages_quote_the_residual_at_that_end():
+    """The message "below the residual r at the smallest λ" quotes the curve's first
+    residual, "above the residual r at the largest λ" its last (4 digits: rel 1e-3)."""
+    _, U, F, omega, delta = skew_mass_case(4)
+    for factor, end in ((1e-3, 0), (1e3, -1)):
+        with pytest.warns(LambdaSelectionWarning) as caught:
+            curve = lambda_curve(U, F, omega, rule="discrepancy", delta=factor * delta)
+        text = str(caught[0].message)
+        assert _number_after(text, "δ =") == pytest.approx(factor * delta, rel=1e-3)
+        quoted = _number_after(text, "the residual")
+        assert quoted == pytest.approx(curve.residual_norms[end], rel=1e-3)
+
+
+def test_menger_curvature_of_three_points_on_a_circle():
+    """1/r for three points on a circle of radius r, positive turning left (counter-
+    clockwise), negative turning right, 0 on a line, NaN for coincident points."""
+    p, q, r = np.array([2.0, 0.0]), np.array([0.0, 2.0]), np.array([-2.0, 0.0])
+    assert reg._menger(p, q, r) == pytest.approx(0.5, rel=1e-15)
+    assert reg._menger(r, q, p) == pytest.approx(-0.5, rel=1e-15)
+    assert reg._menger(p, np.array([1.0, 0.0]), np.array([0.0, 0.0])) == 0.0
+    assert np.isnan(reg._menger(p, p, q))
+
+
+def test_no_corner_message_quotes_the_corners_curvature_and_the_threshold():
+    _, U, F, omega, _ = chain_case()
+    with pytest.warns(NoCornerWarning) as caught:
+        curve = lambda_curve(U, F, omega)
+    text = str(caught[0].message)
+    # 3 significant digits: rel 5e-3
+    assert _number_after(text, "largest curvature") == pytest.approx(
+        curve.corner_curvature, rel=5e-3
+    )
+    assert _number_after(text, "is below") == pytest.approx(reg.CORNER_MIN_CURVATURE, rel=5e-3)
+
+
+def test_a_given_grid_bounds_the_rules_search():
+    """The rules search the continuous curve between the given grid's ends: on a grid a
+    decade and more above the corner the L-curve and GCV can only answer inside it, and the
+    L-curve's largest curvature there is at an end, which it says."""
+    _, U, F, omega, _ = skew_mass_case(6)
+    lc = quiet_curve(U, F, omega).choices["lcurve"]
+    grid = lc * 10.0 ** np.array([1.0, 1.5, 2.0])
+    curve = quiet_curve(U, F, omega, grid)
+    for rule in ("lcurve", "gcv"):
+        assert grid[0] <= curve.choices[rule] <= grid[-1], rule
+    assert curve.lam in (grid[0], grid[-1])
+    assert "an end of the λ range" in curve.problems["lcurve"][0]
