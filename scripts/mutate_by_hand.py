@@ -1344,6 +1344,40 @@ AUDIT = [
         "done = min(max(math.log(residual) / math.log(self.tol), 0.0), 1.0)",
         "done = min(max(math.log(self.tol) / math.log(residual), 0.0), 1.0)",
     ),
+    # seventh audit, pod: the trapezoid's right-hand half-weights on the left lines, the
+    # FRF snapshots' imaginary rows the real ones again, the order for an energy one too
+    # low, the modes left ascending against descending eigenvalues, all-zero snapshots let
+    # through, pod's noise_variance ignored
+    ("pod", "    q[1:] += d\n", "    q[:-1] += d\n"),
+    ("pod", "A[0], A[1] = Y.real, Y.imag", "A[0], A[1] = Y.real, Y.real"),
+    ("pod", 'int(np.searchsorted(self.energy_fraction, ka, side="left")) + 1',
+     'int(np.searchsorted(self.energy_fraction, ka, side="left"))'),
+    ("pod", "lam, phi = lam[::-1], phi[:, ::-1]", "lam, phi = lam[::-1], phi"),
+    ("pod", "if mu[0] <= 0:", "if mu[0] < 0:"),
+    ("pod", "        P = _pod_of_snapshots(u, 1.0 / u.shape[0])\n"
+     "    return P if noise_variance is None else P.without_noise(noise_variance)",
+     "        P = _pod_of_snapshots(u, 1.0 / u.shape[0])\n    return P"),
+    # simulation: Simulation.pod of the forces, the forces' inverse FFT without the record's
+    # length (an odd record one sample short), complex noise's imaginary part unscaled,
+    # Welch's segments not windowed, the empty band's message quoting Nyquist for the
+    # resolution
+    ("simulation", "return pod_from_spectra(self.response_spectrum, self.n_samples",
+     "return pod_from_spectra(self.force_spectrum, self.n_samples"),
+    ("simulation", "forces = np.fft.irfft(full, n=r, axis=0)",
+     "forces = np.fft.irfft(full, axis=0)"),
+    ("simulation", "        noise.imag *= c\n", ""),
+    ("simulation", "X = np.fft.rfft(seg * self.window, axis=-1)", "X = np.fft.rfft(seg, axis=-1)"),
+    ("simulation", "the resolution is {f[1]:g} Hz", "the resolution is {f[-1]:g} Hz"),
+    # lines: the phase unwrapped across the entries instead of along frequency, the budget's
+    # last line left unspent
+    ("identification/lines", "phase = np.unwrap(np.angle(flat), axis=0)",
+     "phase = np.unwrap(np.angle(flat), axis=1)"),
+    ("identification/lines", "while budget > 0 and", "while budget > 1 and"),
+    # holes: the constant's column weight not squared, the last load case's targets left zero
+    ("identification/holes", "const += float(np.sum(W[:, j] ** 2 * (full - fitted)))",
+     "const += float(np.sum(W[:, j] * (full - fitted)))"),
+    ("identification/holes", "    for j in range(p):\n        d, lam, V, keep = _column_solve",
+     "    for j in range(p - 1):\n        d, lam, V, keep = _column_solve"),
 ]
 
 

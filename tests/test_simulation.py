@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from podid_rs.pod import pod
 from podid_rs.simulation import add_noise, frf_h1, h1_coherence, simulate_white_noise, spectra
 from podid_rs.systems import SecondOrderSystem, mass_spring_chain
 
@@ -276,6 +277,19 @@ def test_simulation_pod_passes_the_method_on():
     snap = sim.pod(method="snapshots")
     assert snap.method == "snapshots"
     np.testing.assert_allclose(snap.eigenvalues[:4], sim.pod().eigenvalues, rtol=1e-10)
+
+
+def test_simulation_pod_is_the_pod_of_the_response_history(sim):
+    # Parseval (pod_from_spectra): the in-band response spectrum gives ⟨u uᵀ⟩ of the response
+    # history itself, so sim.pod() is pod(sim.response) — not a POD of the forces. Both are
+    # sums of r = 40 000 samples or 2·s lines: round-off ~ r·eps ≈ 1e-11 relative at most
+    P, direct = sim.pod(), pod(sim.response)
+    np.testing.assert_allclose(P.eigenvalues, direct.eigenvalues, rtol=1e-10)
+    # the total energy by hand: the sum of every channel's mean square
+    total = np.mean(sim.response**2, axis=0).sum()
+    assert P.eigenvalues.sum() == pytest.approx(total, rel=1e-10)
+    # the eigenvalues are at least 3.9× apart, so each mode is fixed to round-off too
+    np.testing.assert_allclose(np.abs(P.modes.T @ direct.modes), np.eye(4), atol=1e-10)
 
 
 def test_add_noise_axis_limits_and_refusals():
