@@ -1378,6 +1378,35 @@ AUDIT = [
      "const += float(np.sum(W[:, j] * (full - fitted)))"),
     ("identification/holes", "    for j in range(p):\n        d, lam, V, keep = _column_solve",
      "    for j in range(p - 1):\n        d, lam, V, keep = _column_solve"),
+    # seventh audit, stabilisation: the CSV without its header line, the frequency tolerance
+    # relative to the new pole instead of the previous order's, pod_fit's default not the
+    # symmetric limit, the chart stopping one order short of m_max
+    ("stabilisation", "            w.writeheader()\n", ""),
+    ("stabilisation", "abs(f - fp[j]) <= f_tol * fp[j]", "abs(f - fp[j]) <= f_tol * f"),
+    ("stabilisation", "symmetric: bool = True,", "symmetric: bool = False,"),
+    ("stabilisation", "for m in range(m_min, m_max + 1):", "for m in range(m_min, m_max):"),
+    # state space: state_space passing C and K swapped, complex matrices accepted
+    ("statespace", "scipy.signal.StateSpace(*state_space_matrices(M, C, K, basis))",
+     "scipy.signal.StateSpace(*state_space_matrices(M, K, C, basis))"),
+    ("statespace", "as_array(X, name, real=True) for X, name in",
+     "as_array(X, name) for X, name in"),
+    # modes: in_band comparing |λ| in rad/s with a band in Hz, a selection's numbers not
+    # selected, the DOF labels checked against the model's order instead of the basis's
+    # rows, the MAC without its square, the weak-term test's pole with the wrong sign
+    ("modes", "f = self.frequencies_hz\n", "f = np.abs(self.eigenvalues)\n"),
+    ("modes", "numbers=self.mode_numbers[keep],", "numbers=self.numbers,"),
+    ("modes", "as_dof_labels(dofs, phi.shape[0])", "as_dof_labels(dofs, m)"),
+    ("modes", "cross = np.abs((a / na).conj().T @ (b / nb)) ** 2",
+     "cross = np.abs((a / na).conj().T @ (b / nb))"),
+    ("modes", "(1j * w[j] - lam[k])", "(1j * w[j] + lam[k])"),
+    # physical: the modal table's truth columns from the model itself, the report's
+    # residual before the correction the one after, nearest_psd's result not symmetrised,
+    # compare_modes accepting a true mode at 0 Hz
+    ("physical", "compare_modes(modes, modal_parameters(truth))",
+     "compare_modes(modes, modal_parameters(model))"),
+    ("physical", '"residual_before": before,', '"residual_before": after,'),
+    ("physical", "    return 0.5 * (B + B.T)\n", "    return B\n"),
+    ("physical", "np.any(f_true <= 0)", "np.any(f_true < 0)"),
 ]
 
 

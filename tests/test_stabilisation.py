@@ -280,6 +280,23 @@ def test_a_pole_at_either_tolerance_exactly_is_consistent():
     assert cf.tolist() == [True] and c.tolist() == [False]
 
 
+def test_the_frequency_tolerance_is_relative_to_the_previous_orders_pole():
+    # |Δf| = 0.5 Hz both ways, f_tol = 0.4: 0.4 × 1 Hz = 0.4 < 0.5 (a pole moving up from
+    # 1 Hz to 1.5 Hz is not consistent) but 0.4 × 1.5 Hz = 0.6 > 0.5 (one moving down from
+    # 1.5 Hz to 1 Hz is); relative to the new pole the verdicts would swap. The margins
+    # (0.1 Hz) are far above rounding.
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    def modes(f):
+        return ModalParameters(np.array([-1.0 + 1.0j]), np.array([f]), np.array([0.5]), 0)
+
+    cf, c = _match_previous(modes(1.5), modes(1.0), 0.4, 0.5)
+    assert cf.tolist() == [False] and c.tolist() == [False]
+    cf, c = _match_previous(modes(1.0), modes(1.5), 0.4, 0.5)
+    assert cf.tolist() == [True] and c.tolist() == [True]
+
+
 def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_data):
     _, data = chain_data
     chart = stabilisation_chart(data, 2, progress=False, chosen_m=2)

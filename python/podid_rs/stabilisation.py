@@ -40,7 +40,8 @@ from .measured import MeasuredData
 from .physical import ModalParameters, modal_parameters
 from .pod import PODResult
 
-#: consistency between successive orders: |Δf| / f ≤ F_TOL, |Δζ| / ζ ≤ ZETA_TOL
+#: consistency between successive orders, relative to the previous order's pole:
+#: |f − f_prev| ≤ F_TOL · f_prev and |ζ − ζ_prev| ≤ ZETA_TOL · |ζ_prev|
 F_TOL = 0.01
 ZETA_TOL = 0.05
 #: a model is physical when M, K ≻ 0, C ⪰ 0 and each is symmetric to this relative defect;
