@@ -475,6 +475,11 @@ def test_a_latent_order_counts_only_where_it_gains_the_progress_step():
     assert [f.m for f in counted_orders(fits)] == [1, 2, 4]
     # an observed order counts even where it is worse
     assert [f.m for f in counted_orders([_order(1, 1.0, 3), _order(2, 1.5, 3)])] == [1, 2]
+    # a latent order that gains exactly the step does not count: it must lower the error
+    # by more (1.0 · (1 − step) is the bound itself, exactly)
+    assert [f.m for f in counted_orders([_order(1, 1.0, 1), _order(2, gain, 1)])] == [1]
+    assert [f.m for f in counted_orders([_order(1, 1.0, 1), _order(2, np.nextafter(gain, 0), 1)])
+            ] == [1, 2]
 
 
 def test_an_order_the_data_cannot_determine_is_refused():
