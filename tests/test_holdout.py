@@ -199,6 +199,27 @@ def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
     assert "informative" not in everything.info["refinement"]["final_refit"]["reason"]
 
 
+def test_a_thinned_final_fit_from_the_modal_start_is_judged_against_the_held_out_fit(
+        chain_frf, monkeypatch):
+    """On thinned lines each pass is judged on every line; where the complex pass starts
+    from the modal start (forced here: the rebuilt start — a tuple (M, C, K) — is given
+    the lower cost), its error before is still the held-out fit's, the start the user
+    had, over every line (1e-9: the same sums), not the rebuilt start's."""
+    import podid_rs.identification.order as order
+    from podid_rs.identification.order import _all_lines_db
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    monkeypatch.setattr(order, "_relative_cost",
+                        lambda model, *args, **kwargs: 0.0 if isinstance(model, tuple) else 1.0)
+    model, R = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3, log_magnitude=False)
+    kept = model.info["refinement"]["final_refit"]
+    assert "started from the modal start" in kept["reason"]
+    assert kept["lines_fitted"] < w.size
+    held = _all_lines_db(sweep.fit(2).model, R, U_n, F_n, w)
+    assert kept["passes"][0]["db_before"] == pytest.approx(held, rel=1e-9)
+
+
 def test_final_fit_on_thinned_lines_with_holes_is_judged_on_the_measured_entries():
     # two load cases; DOF 4 was not measured in the second, and holds garbage there
     # (10³ × the truth): the errors over every line that judge the passes leave it
@@ -260,16 +281,19 @@ def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(ch
 
     U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
-    objectives = []
+    objectives, accelerated = [], []
     real = order.refine
 
     def spy(*args, **kwargs):
         objectives.append(kwargs.get("objective", "complex"))
+        accelerated.append(kwargs.get("acceleration", False))  # refine's default: off
         return real(*args, **kwargs)
 
     monkeypatch.setattr(order, "refine", spy)
     model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5)
     assert objectives == ["complex", "log-magnitude"]
+    # each pass's steps take their geodesic acceleration, as the docstring says
+    assert accelerated == [True, True]
     passes = model.info["refinement"]["final_refit"]["passes"]
     assert [p["pass"] for p in passes] == ["complex refit", "log-magnitude refit"]
     # the reason quotes the median errors it decided on, over every line
