@@ -1043,3 +1043,18 @@ def test_reduced_data_one_coordinate_short_of_the_start_leave_one_latent():
     assert reduced.info["refinement"]["coordinates"] == {"observed": 1, "latent": 1, "gauge": 2}
     for k in "MCK":
         np.testing.assert_array_equal(getattr(reduced, k), getattr(through, k))
+
+
+def test_the_report_counts_the_accepted_steps_apart_from_the_iterations():
+    """Levenberg–Marquardt rejects the steps that raise the cost: from a start 50 % off in
+    stiffness some of the 30 steps are rejected, so the report's ``accepted`` is below
+    ``iterations`` — and equals the accepted steps the history records (one entry per
+    accepted step after the start's), at increasing iterations."""
+    chain, U, F, w = chain_data(n=4, p=2, lines=40)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine((chain.M, chain.C, 1.5 * chain.K), U, F, w, max_iter=30, threads=1)
+    ref = model.info["refinement"]
+    steps = [i for i, _ in ref["history"]]
+    assert steps[0] == 0 and all(a < b for a, b in zip(steps, steps[1:])) and steps[-1] <= 30
+    assert ref["accepted"] == len(steps) - 1 < model.iterations
