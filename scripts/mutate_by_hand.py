@@ -1176,6 +1176,18 @@ AUDIT = [
     ),
     ('identification/latent', '(s - 1, [omega[-1] * RESIDUAL_FACTOR]',
      '(s - 1, [omega[-1] / RESIDUAL_FACTOR]'),
+    # and: the report's accepted steps, the final fit's passes with the geodesic
+    # acceleration, a thinned pass judged against the held-out fit, the bar's step count
+    ('identification/refinement', '"accepted": int(out.accepted),',
+     '"accepted": int(out.iterations),'),
+    ('identification/order', 'curvature=True, measured=measured, acceleration=True,',
+     'curvature=True, measured=measured, acceleration=False,'),
+    (
+        'identification/order',
+        'ref["db_before"] = all_lines_db(model if judged_against is None else judged_against)',
+        'ref["db_before"] = all_lines_db(model)',
+    ),
+    ('identification/refinement', 'self.bar.n = iteration', 'self.bar.n = iteration - 1'),
 ]
 
 
