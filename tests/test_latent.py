@@ -71,6 +71,21 @@ def test_observation_matrix_is_the_basis_then_zero_columns():
         pr.observation_matrix(bad, 7)
 
 
+def test_a_column_below_zero_column_is_latent():
+    """A latent column that picked up round-off (norm 1e-14, below ZERO_COLUMN = 1e-12) is
+    still latent: three observed coordinates, and the observation matrix built from it
+    has an exact zero there; one at 1e-11 (above it) is no latent column but a fourth
+    column that is not orthonormal to the others, refused."""
+    Q, _ = np.linalg.qr(np.random.default_rng(0).standard_normal((5, 3)))
+    R = pr.observation_matrix(Q, 5)
+    R[:, 3] = 1e-14 / np.sqrt(5)
+    assert observed_count(R) == 3
+    assert not np.any(pr.observation_matrix(R, 6)[:, 3:])
+    R[:, 3] = 1e-11 / np.sqrt(5)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        observed_count(R)
+
+
 def test_an_empty_basis_is_refused():
     """No measured DOF, or no column: there is no basis to observe anything through —
     refused, not turned into an observation matrix of zero rows or of latent columns
