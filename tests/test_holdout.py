@@ -549,6 +549,68 @@ def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
         assert kept["kept"] != "log-magnitude refit"
 
 
+def test_a_log_magnitude_probe_that_ties_the_median_ends_the_pass(chain_frf, monkeypatch):
+    """The pass goes on past its probe only where the probe lowered the median error:
+    a spy keeps the complex refit (its median halved) and makes the probe end at exactly
+    that median — a tie, no gain — so the pass stops after the probe, and says so."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    budgets, steps, complex_db = [], [], []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        ref = fit.info["refinement"]
+        if kwargs.get("objective") == "log-magnitude":
+            budgets.append(kwargs["max_iter"])
+            steps.append(fit.iterations)
+            ref["converged"] = False
+            ref["db_after"] = complex_db[0]
+        else:
+            ref["db_after"] = tuple(0.5 * v for v in ref["db_before"])
+            complex_db.append(ref["db_after"])
+        return fit
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=60)
+    kept = model.info["refinement"]["final_refit"]
+    assert budgets == [order.LOG_MAGNITUDE_PROBE]
+    assert kept["kept"] == "complex refit"
+    assert f"in its first {steps[0]} steps, and stopped there" in kept["reason"]
+
+
+def test_a_log_magnitude_probe_that_used_the_whole_budget_is_the_whole_pass(chain_frf,
+                                                                           monkeypatch):
+    """max_iter = 3, below LOG_MAGNITUDE_PROBE: the probe's budget is the pass's, and a
+    probe that gained and used all 3 steps is the whole pass — no second part with no
+    step left (refine refuses max_iter = 0, and the pass would be reported as failed)."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    budgets, steps = [], []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        if kwargs.get("objective") == "log-magnitude":
+            budgets.append(kwargs["max_iter"])
+            steps.append(fit.iterations)
+            ref = fit.info["refinement"]
+            ref["converged"] = False
+            ref["db_after"] = tuple(0.5 * v for v in ref["db_before"])
+        return fit
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3)
+    kept = model.info["refinement"]["final_refit"]
+    assert budgets == [3] and steps == [3]
+    assert kept["kept"] == "log-magnitude refit" and "could not run" not in kept["reason"]
+    assert kept["passes"][1]["iterations"] == 3
+
+
 def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_it():
     # one step from the held-out fit of noisy data (2 % on every DOF) barely moves the
     # model: neither pass lowers the median error over every line, and the reason quotes
