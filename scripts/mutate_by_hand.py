@@ -1188,6 +1188,17 @@ AUDIT = [
         'ref["db_before"] = all_lines_db(model)',
     ),
     ('identification/refinement', 'self.bar.n = iteration', 'self.bar.n = iteration - 1'),
+    # and: a round-off column counted as latent, relative weights over the measured DOFs,
+    # the log-magnitude probe's tie and its budget used up
+    ('identification/latent', 'nonzero = norms > ZERO_COLUMN', 'nonzero = norms > 0'),
+    ('identification/refinement', 'base = data.U if measured is None else measured',
+     'base = data.U'),
+    ('identification/order', 'if probe_db[0] >= best_db[0]:', 'if probe_db[0] > best_db[0]:'),
+    (
+        'identification/order',
+        'elif not logm.info["refinement"]["converged"] and max_iter > log_steps:',
+        'elif not logm.info["refinement"]["converged"] and max_iter >= log_steps:',
+    ),
 ]
 
 
