@@ -42,10 +42,13 @@ def chain_frf():
 
 def test_sweep_fits_every_order_and_chooses_by_its_rule(chain_frf):
     chain, U_n, F_n, w, P = chain_frf
-    seen = []
-    sweep = sweep_orders(U_n, F_n, w, P, progress=lambda m, fit: seen.append(m))
+    seen, given = [], []
+    sweep = sweep_orders(U_n, F_n, w, P,
+                         progress=lambda m, fit: (seen.append(m), given.append(fit)))
     ms = [f.m for f in sweep.fits]
     assert ms == list(range(1, len(ms) + 1)) and seen == ms
+    # each call gets the fit of its own order, the one the sweep keeps
+    assert all(g is f for g, f in zip(given, sweep.fits, strict=True))
     for f in sweep.fits:
         assert f.stable and is_physical(f.model) and f.model.m == f.m
     best = min(f.test_db for f in sweep.fits)

@@ -1023,6 +1023,8 @@ def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p()
     X = pr.SecondOrderSystem(*start).response(w, F)
     want = float(np.sum(W[:, :, None] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
+    # and the report names them as the user's, per entry
+    assert model.info["refinement"]["weights"] == "log-magnitude, user per entry"
 
 
 def test_reduced_data_one_coordinate_short_of_the_start_leave_one_latent():
