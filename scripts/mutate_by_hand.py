@@ -1199,6 +1199,11 @@ AUDIT = [
         'elif not logm.info["refinement"]["converged"] and max_iter > log_steps:',
         'elif not logm.info["refinement"]["converged"] and max_iter >= log_steps:',
     ),
+    # and: the sweep's progress given each order's own fit, the log-magnitude label of user
+    # weights
+    ('identification/order', 'progress(order, fit)', 'progress(order, fits[0])'),
+    ('identification/refinement', 'label = "log-magnitude, user per entry"',
+     'label = "log-magnitude, user"'),
 ]
 
 
