@@ -1122,8 +1122,8 @@ AUDIT = [
     ('identification/latent', 'if R.ndim != 2 or R.shape[0] == 0 or R.shape[1] == 0:',
      'if R.ndim != 2 or R.shape[0] == 0:'),
     ('identification/latent', 'if m < k:', 'if m < k - 1:'),
-    # modal start: unstable poles, unit forces, one line, a band from 0, more poles than
-    # the order, a negative residue, the hole's load case, the condition check
+    # modal start: unstable poles, unit forces, one line, a band from 0, a pole of the band
+    # dropped, a negative residue, the hole's load case, the finiteness check inverted
     (
         'identification/modal_start',
         'keep = (wn >= w_lo) & (wn <= w_hi) & (zeta < ZETA_MAX) & (zeta >= 0)',
@@ -1140,7 +1140,7 @@ AUDIT = [
         'residual = ([w_lo / RESIDUAL_FACTOR] if w_lo > 0 else []) + [w_hi * RESIDUAL_FACTOR]',
         'residual = ([w_lo / RESIDUAL_FACTOR] if w_lo >= 0 else []) + [w_hi * RESIDUAL_FACTOR]',
     ),
-    ('identification/modal_start', 'wk, zk = wk[:m], zk[:m]', 'wk, zk = wk, zk'),
+    ('identification/modal_start', 'wk, zk = wk[:m], zk[:m]', 'wk, zk = wk[:m - 1], zk[:m - 1]'),
     ('identification/modal_start', 'return np.sqrt(max(scale2, 0.0)) * a',
      'return np.sqrt(abs(scale2)) * a'),
     (
@@ -1151,7 +1151,7 @@ AUDIT = [
     (
         'identification/modal_start',
         'if not np.all(np.isfinite(A)) or np.linalg.cond(A) > MAX_CONDITION:',
-        'if not np.all(np.isfinite(A)):',
+        'if np.all(np.isfinite(A)) or np.linalg.cond(A) > MAX_CONDITION:',
     ),
     # then, found by reading: the converged fit's start name, the tolerance reason's
     # numbers, a load case without force, physical_start's exact boundaries, the latent
