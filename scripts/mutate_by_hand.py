@@ -72,7 +72,9 @@ AUDIT_TESTS = {
                                   "tests/test_holes.py", "tests/test_identify_outputs.py",
                                   "tests/test_latent.py"],  # refine with latent coordinates
     "identification/order": ["tests/test_holdout.py", "tests/test_identify_outputs.py",
-                             "tests/test_holes.py"],  # the order limit with holes
+                             "tests/test_holes.py",  # the order limit with holes
+                             # the final fit's choice of start and its reasons
+                             "tests/test_modal_start.py"],
     # the latent starts and the modal start as the order sweep uses them
     "identification/latent": ["tests/test_model_order.py", "tests/test_holes.py"],
     "identification/modal_start": ["tests/test_model_order.py"],
@@ -1407,6 +1409,174 @@ AUDIT = [
     ("physical", '"residual_before": before,', '"residual_before": after,'),
     ("physical", "    return 0.5 * (B + B.T)\n", "    return B\n"),
     ("physical", "np.any(f_true <= 0)", "np.any(f_true < 0)"),
+    # hardening pass, order, refinement, latent, modal_start: written with their tests (a
+    # check, not a measurement)
+    # order: the KeyError's list of fitted orders, the final fit's reasons (medians, costs,
+    # the thinned lines), the latent order's strict progress step, the observed POD modes,
+    # the tie of the complex pass, the order limit's equations, the residual peak's shape
+    # clamp, m_max cut at the limit, the patience reason's percentage
+    (
+        'identification/order',
+        'raise KeyError(f"order {m} was not fitted (orders {[f.m for f in self.fits]})")',
+        'raise KeyError(f"order {m} was not fitted (orders {[f.m for f in self.fits[1:]]})")',
+    ),
+    (
+        'identification/order',
+        'f"every line ({ref[\'db_before\'][0]:.2f} → {ref[\'db_after\'][0]:.2f} dB)"\n        )'
+        '\n    kept_name',
+        'f"every line ({ref[\'db_after\'][0]:.2f} → {ref[\'db_before\'][0]:.2f} dB)"\n        )'
+        '\n    kept_name',
+    ),
+    ('identification/order', 'f"{lines.size} (the median is over every line)")',
+     'f"{int(lines.sum())} (the median is over every line)")'),
+    ('identification/order', 'f"cost {modal_cost:.4g} against {held_cost:.4g})")',
+     'f"cost {held_cost:.4g} against {modal_cost:.4g})")'),
+    ('identification/order', 'if not f.latent or f.test_db < best * (1 - PROGRESS_STEP):',
+     'if not f.latent or f.test_db <= best * (1 - PROGRESS_STEP):'),
+    ('identification/order', 'observed = min(int(np.sum(pod_result.eigenvalues > 0)), n)',
+     'observed = min(int(np.sum(pod_result.eigenvalues >= 0)), n)'),
+    (
+        'identification/order',
+        'f = next(f for f in counted if f.test_db <= (1 + tolerance) * best_fit.test_db)',
+        'f = next(f for f in counted if f.test_db < (1 + tolerance) * best_fit.test_db)',
+    ),
+    ('identification/order', 'f"({ref[\'cost_start\']:.4g} → {ref[\'cost\']:.4g}) but raised',
+     'f"({ref[\'cost\']:.4g} → {ref[\'cost_start\']:.4g}) but raised'),
+    ('identification/order', 'f"; the log-magnitude refit did not lower it ({best_db[0]:.2f} → "',
+     'f"; the log-magnitude refit did not lower it ({best_db[1]:.2f} → "'),
+    ('identification/order', 'if ref["db_after"][0] <= ref["db_before"][0]:',
+     'if ref["db_after"][0] < ref["db_before"][0]:'),
+    ('identification/order', '"db_all_lines": tuple(best_db),',
+     '"db_all_lines": tuple(ref["db_after"]),'),
+    ('identification/order', 'equations = 2 * lines * (n * p if entries is None else entries)',
+     'equations = 2 * lines * (n if entries is None else entries)'),
+    ('identification/order', 'if abs(phi[-1]) < 0.05:', 'if phi[-1] < 0.05:'),
+    ('identification/order', 'm_max = min(m_max, limit)', 'm_max = m_max'),
+    ('identification/order', 'f"{100 * PROGRESS_STEP:g} % gain")', 'f"{PROGRESS_STEP:g} % gain")'),
+    # refinement: weights per line repeated per load case, per column line-major, per load
+    # case for the log magnitude, the dynamic range per line, the latent coordinates'
+    # weights, CG's unmeasured rank, per-entry (s, n) weights, the bar's cost, the relative
+    # residual, reduced data one coordinate short, the log weights' message
+    ('identification/refinement', 'w = np.repeat(w, p)', 'w = np.tile(w, p)'),
+    ('identification/refinement', '    elif w.shape == (s, p):\n        w = w.reshape(-1)',
+     '    elif w.shape == (s, p):\n        w = w.T.reshape(-1)'),
+    ('identification/refinement', 'W = np.broadcast_to(W[:, None, :], (s, n, p))',
+     'W = np.broadcast_to(W[:, :1, :], (s, n, p))'),
+    (
+        'identification/refinement',
+        'W = np.where(A > LOG_DYNAMIC_RANGE * A.max(axis=1, keepdims=True), W, 0.0)',
+        'W = np.where(A > LOG_DYNAMIC_RANGE * A.max(), W, 0.0)',
+    ),
+    ('identification/refinement', 'T[:, idx, idx] = w[:, None]', 'T[:, idx, idx] = 1.0'),
+    ('identification/refinement', 'if not model.well_posed and model.method != "cg":',
+     'if not model.well_posed:'),
+    ('identification/refinement', 'Wa = np.repeat(Wa[:, :, None], p, axis=2)',
+     'Wa = np.repeat(Wa[:, None, :], p, axis=1)'),
+    ('identification/refinement', 'self.bar.set_postfix_str(f"cost {cost:.4g}", refresh=False)',
+     'self.bar.set_postfix_str(f"cost {iteration:.4g}", refresh=False)'),
+    (
+        'identification/refinement',
+        'relative_residual=float(np.sqrt(report["cost"])) / ref_norm if ref_norm > 0 else 0.0,',
+        'relative_residual=float(report["cost"]) / ref_norm if ref_norm > 0 else 0.0,',
+    ),
+    (
+        'identification/refinement',
+        'if basis is None and np.ndim(U) >= 2 and np.shape(U)[1] < m_model:',
+        'if basis is None and np.ndim(U) >= 2 and np.shape(U)[1] < m_model - 1:',
+    ),
+    ('identification/refinement', 'f"(s, n) / (s, n, p) with n = {n} entries, got {W.shape}"',
+     'f"(s, n) / (s, n, p) with n = {s} entries, got {W.shape}"'),
+    # latent: the squared weights, the residual term below the band, the gauge, the empty
+    # basis, the order below the observed coordinates
+    ('identification/latent', '    w2 = weights**2\n    base', '    w2 = weights\n    base'),
+    ('identification/latent', '(0, [omega[0] / RESIDUAL_FACTOR], (RESIDUAL_ZETA,),',
+     '(0, [omega[0] * RESIDUAL_FACTOR], (RESIDUAL_ZETA,),'),
+    ('identification/latent', 'latent = max(m - k, 0)', 'latent = abs(m - k)'),
+    ('identification/latent', 'if R.ndim != 2 or R.shape[0] == 0 or R.shape[1] == 0:',
+     'if R.ndim != 2 or R.shape[0] == 0:'),
+    ('identification/latent', 'if m < k:', 'if m < k - 1:'),
+    # modal start: unstable poles, unit forces, one line, a band from 0, a pole of the band
+    # dropped, a negative residue, the hole's load case, the finiteness check inverted
+    (
+        'identification/modal_start',
+        'keep = (wn >= w_lo) & (wn <= w_hi) & (zeta < ZETA_MAX) & (zeta >= 0)',
+        'keep = (wn >= w_lo) & (wn <= w_hi) & (zeta < ZETA_MAX)',
+    ),
+    (
+        'identification/modal_start',
+        'if nonzero.size != 1 or not np.all(F_n[:, nonzero[0], j] == 1):',
+        'if nonzero.size != 1 or not np.any(F_n[:, nonzero[0], j] == 1):',
+    ),
+    ('identification/modal_start', 'if inputs is None or s < 2:', 'if inputs is None or s < 1:'),
+    (
+        'identification/modal_start',
+        'residual = ([w_lo / RESIDUAL_FACTOR] if w_lo > 0 else []) + [w_hi * RESIDUAL_FACTOR]',
+        'residual = ([w_lo / RESIDUAL_FACTOR] if w_lo >= 0 else []) + [w_hi * RESIDUAL_FACTOR]',
+    ),
+    ('identification/modal_start', 'wk, zk = wk[:m], zk[:m]', 'wk, zk = wk[:m - 1], zk[:m - 1]'),
+    ('identification/modal_start', 'return np.sqrt(max(scale2, 0.0)) * a',
+     'return np.sqrt(abs(scale2)) * a'),
+    (
+        'identification/modal_start',
+        'rows = np.ones(n, dtype=bool) if measured is None else measured[:, j]',
+        'rows = np.ones(n, dtype=bool) if measured is None else measured[:, 0]',
+    ),
+    (
+        'identification/modal_start',
+        'if not np.all(np.isfinite(A)) or np.linalg.cond(A) > MAX_CONDITION:',
+        'if np.all(np.isfinite(A)) or np.linalg.cond(A) > MAX_CONDITION:',
+    ),
+    # then, found by reading: the converged fit's start name, the tolerance reason's
+    # numbers, a load case without force, physical_start's exact boundaries, the latent
+    # mass bound from the largest eigenvalue, the residual term above the band
+    ('identification/order', 'return fit, f"{name}, to convergence"',
+     'return fit, "sweep fit, to convergence"'),
+    ('identification/order', 'f"m = {best_fit.m})"', 'f"m = {chosen})"'),
+    (
+        'identification/order',
+        'f"m = {chosen}: held-out median error {f.test_db:.2f} dB, {how} over "',
+        'f"m = {chosen}: held-out median error {best_fit.test_db:.2f} dB, {how} over "',
+    ),
+    ('identification/order', '({best_fit.test_db:.2f} dB at "', '({f.test_db:.2f} dB at "'),
+    ('identification/modal_start', 'if nonzero.size != 1 or', 'if nonzero.size > 1 or'),
+    ('identification/refinement', 'keep = d.min() >= (START_KEEP', 'keep = d.min() > (START_KEEP'),
+    ('identification/refinement', 'Y, k = 0.5 * (Y + Y.T), int(np.sum(d < floor))',
+     'Y, k = 0.5 * (Y + Y.T), int(np.sum(d <= floor))'),
+    (
+        'identification/latent',
+        'max_mass = MAX_MASS_RATIO * float(np.linalg.eigvalsh(0.5 * (model[0] + model[0].T))[-1])',
+        'max_mass = MAX_MASS_RATIO * float(np.linalg.eigvalsh(0.5 * (model[0] + model[0].T))[0])',
+    ),
+    ('identification/latent', '(s - 1, [omega[-1] * RESIDUAL_FACTOR]',
+     '(s - 1, [omega[-1] / RESIDUAL_FACTOR]'),
+    # and: the report's accepted steps, the final fit's passes with the geodesic
+    # acceleration, a thinned pass judged against the held-out fit, the bar's step count
+    ('identification/refinement', '"accepted": int(out.accepted),',
+     '"accepted": int(out.iterations),'),
+    ('identification/order', 'curvature=True, measured=measured, acceleration=True,',
+     'curvature=True, measured=measured, acceleration=False,'),
+    (
+        'identification/order',
+        'ref["db_before"] = all_lines_db(model if judged_against is None else judged_against)',
+        'ref["db_before"] = all_lines_db(model)',
+    ),
+    ('identification/refinement', 'self.bar.n = iteration', 'self.bar.n = iteration - 1'),
+    # and: a round-off column counted as latent, relative weights over the measured DOFs,
+    # the log-magnitude probe's tie and its budget used up
+    ('identification/latent', 'nonzero = norms > ZERO_COLUMN', 'nonzero = norms > 0'),
+    ('identification/refinement', 'base = data.U if measured is None else measured',
+     'base = data.U'),
+    ('identification/order', 'if probe_db[0] >= best_db[0]:', 'if probe_db[0] > best_db[0]:'),
+    (
+        'identification/order',
+        'elif not logm.info["refinement"]["converged"] and max_iter > log_steps:',
+        'elif not logm.info["refinement"]["converged"] and max_iter >= log_steps:',
+    ),
+    # and: the sweep's progress given each order's own fit, the log-magnitude label of user
+    # weights
+    ('identification/order', 'progress(order, fit)', 'progress(order, fits[0])'),
+    ('identification/refinement', 'label = "log-magnitude, user per entry"',
+     'label = "log-magnitude, user"'),
 ]
 
 

@@ -199,6 +199,27 @@ def test_final_fit_on_thinned_lines_is_judged_on_every_line(chain_frf):
     assert "informative" not in everything.info["refinement"]["final_refit"]["reason"]
 
 
+def test_a_thinned_final_fit_from_the_modal_start_is_judged_against_the_held_out_fit(
+        chain_frf, monkeypatch):
+    """On thinned lines each pass is judged on every line; where the complex pass starts
+    from the modal start (forced here: the rebuilt start — a tuple (M, C, K) — is given
+    the lower cost), its error before is still the held-out fit's, the start the user
+    had, over every line (1e-9: the same sums), not the rebuilt start's."""
+    import podid_rs.identification.order as order
+    from podid_rs.identification.order import _all_lines_db
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    monkeypatch.setattr(order, "_relative_cost",
+                        lambda model, *args, **kwargs: 0.0 if isinstance(model, tuple) else 1.0)
+    model, R = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3, log_magnitude=False)
+    kept = model.info["refinement"]["final_refit"]
+    assert "started from the modal start" in kept["reason"]
+    assert kept["lines_fitted"] < w.size
+    held = _all_lines_db(sweep.fit(2).model, R, U_n, F_n, w)
+    assert kept["passes"][0]["db_before"] == pytest.approx(held, rel=1e-9)
+
+
 def test_final_fit_on_thinned_lines_with_holes_is_judged_on_the_measured_entries():
     # two load cases; DOF 4 was not measured in the second, and holds garbage there
     # (10³ × the truth): the errors over every line that judge the passes leave it
@@ -260,16 +281,19 @@ def test_final_fit_passes_are_the_complex_then_the_log_magnitude_output_error(ch
 
     U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
-    objectives = []
+    objectives, accelerated = [], []
     real = order.refine
 
     def spy(*args, **kwargs):
         objectives.append(kwargs.get("objective", "complex"))
+        accelerated.append(kwargs.get("acceleration", False))  # refine's default: off
         return real(*args, **kwargs)
 
     monkeypatch.setattr(order, "refine", spy)
     model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5)
     assert objectives == ["complex", "log-magnitude"]
+    # each pass's steps take their geodesic acceleration, as the docstring says
+    assert accelerated == [True, True]
     passes = model.info["refinement"]["final_refit"]["passes"]
     assert [p["pass"] for p in passes] == ["complex refit", "log-magnitude refit"]
     # the reason quotes the median errors it decided on, over every line
@@ -523,6 +547,68 @@ def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
         assert budgets == [order.LOG_MAGNITUDE_PROBE] and log["iterations"] == steps[0]
         assert f"in its first {steps[0]} steps, and stopped there" in kept["reason"]
         assert kept["kept"] != "log-magnitude refit"
+
+
+def test_a_log_magnitude_probe_that_ties_the_median_ends_the_pass(chain_frf, monkeypatch):
+    """The pass goes on past its probe only where the probe lowered the median error:
+    a spy keeps the complex refit (its median halved) and makes the probe end at exactly
+    that median — a tie, no gain — so the pass stops after the probe, and says so."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    budgets, steps, complex_db = [], [], []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        ref = fit.info["refinement"]
+        if kwargs.get("objective") == "log-magnitude":
+            budgets.append(kwargs["max_iter"])
+            steps.append(fit.iterations)
+            ref["converged"] = False
+            ref["db_after"] = complex_db[0]
+        else:
+            ref["db_after"] = tuple(0.5 * v for v in ref["db_before"])
+            complex_db.append(ref["db_after"])
+        return fit
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=60)
+    kept = model.info["refinement"]["final_refit"]
+    assert budgets == [order.LOG_MAGNITUDE_PROBE]
+    assert kept["kept"] == "complex refit"
+    assert f"in its first {steps[0]} steps, and stopped there" in kept["reason"]
+
+
+def test_a_log_magnitude_probe_that_used_the_whole_budget_is_the_whole_pass(chain_frf,
+                                                                           monkeypatch):
+    """max_iter = 3, below LOG_MAGNITUDE_PROBE: the probe's budget is the pass's, and a
+    probe that gained and used all 3 steps is the whole pass — no second part with no
+    step left (refine refuses max_iter = 0, and the pass would be reported as failed)."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    budgets, steps = [], []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        if kwargs.get("objective") == "log-magnitude":
+            budgets.append(kwargs["max_iter"])
+            steps.append(fit.iterations)
+            ref = fit.info["refinement"]
+            ref["converged"] = False
+            ref["db_after"] = tuple(0.5 * v for v in ref["db_before"])
+        return fit
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3)
+    kept = model.info["refinement"]["final_refit"]
+    assert budgets == [3] and steps == [3]
+    assert kept["kept"] == "log-magnitude refit" and "could not run" not in kept["reason"]
+    assert kept["passes"][1]["iterations"] == 3
 
 
 def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_it():

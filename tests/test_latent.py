@@ -71,6 +71,21 @@ def test_observation_matrix_is_the_basis_then_zero_columns():
         pr.observation_matrix(bad, 7)
 
 
+def test_a_column_below_zero_column_is_latent():
+    """A latent column that picked up round-off (norm 1e-14, below ZERO_COLUMN = 1e-12) is
+    still latent: three observed coordinates, and the observation matrix built from it
+    has an exact zero there; one at 1e-11 (above it) is no latent column but a fourth
+    column that is not orthonormal to the others, refused."""
+    Q, _ = np.linalg.qr(np.random.default_rng(0).standard_normal((5, 3)))
+    R = pr.observation_matrix(Q, 5)
+    R[:, 3] = 1e-14 / np.sqrt(5)
+    assert observed_count(R) == 3
+    assert not np.any(pr.observation_matrix(R, 6)[:, 3:])
+    R[:, 3] = 1e-11 / np.sqrt(5)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        observed_count(R)
+
+
 def test_an_empty_basis_is_refused():
     """No measured DOF, or no column: there is no basis to observe anything through —
     refused, not turned into an observation matrix of zero rows or of latent columns
@@ -475,6 +490,11 @@ def test_a_latent_order_counts_only_where_it_gains_the_progress_step():
     assert [f.m for f in counted_orders(fits)] == [1, 2, 4]
     # an observed order counts even where it is worse
     assert [f.m for f in counted_orders([_order(1, 1.0, 3), _order(2, 1.5, 3)])] == [1, 2]
+    # a latent order that gains exactly the step does not count: it must lower the error
+    # by more (1.0 · (1 − step) is the bound itself, exactly)
+    assert [f.m for f in counted_orders([_order(1, 1.0, 1), _order(2, gain, 1)])] == [1]
+    assert [f.m for f in counted_orders([_order(1, 1.0, 1), _order(2, np.nextafter(gain, 0), 1)])
+            ] == [1, 2]
 
 
 def test_an_order_the_data_cannot_determine_is_refused():

@@ -16,6 +16,8 @@ error over every line, and quotes the medians it decided on.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -273,6 +275,18 @@ def test_no_start_without_unit_forces(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
     F[::2, 0, 0] = 2.0  # not a unit force on every line
     assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega_all) is None
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
+    F[:, :, 1] = 0.0  # a load case without a force: no FRF either
+    assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega_all) is None
+
+
+def test_one_line_is_no_band_and_gives_no_start(omega_all):
+    """A band needs two lines: on one, the poles in it and the residues fitted there
+    mean nothing, so no start is made; on the first two lines of the same data, one is."""
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
+    system = pr.SecondOrderSystem(M4, C4, K4)
+    assert modal_start(system, np.eye(4), U[:1], F[:1], omega_all[:1]) is None
+    assert modal_start(system, np.eye(4), U[:2], F[:2], omega_all[:2]) is not None
 
 
 def test_the_inputs_are_not_modified(omega_all):
@@ -334,10 +348,20 @@ def test_final_fit_starts_from_it_when_it_fits_better(omega_all):
     U, _ = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
     data = from_frf(U, omega_all, inputs=[0, 2])
     U, F, P = data.U, data.forces_on_dofs(), data.pod()
-    sweep, _, _ = sweep_holding(U, F, omega_all, P, wrong_shapes)
+    sweep, _, held = sweep_holding(U, F, omega_all, P, wrong_shapes)
     model, R = final_fit(sweep, U, F, omega_all, P, log_magnitude=False)
     assert "modal start" in model.info["refinement"]["final_refit"]["reason"]
     assert _relative_cost(model, R, U, F, omega_all) < 1e-12
+    # the reason quotes the modal start's weighted cost, then the held-out fit's: the
+    # held-out fit's by hand, Σ ‖R x − u‖² / ‖u‖² over lines and load cases (to the 4
+    # digits quoted); the modal start's at round-off (it reproduces the exact FRFs)
+    X = np.einsum("nm,smp->snp", R,
+                  held.system().response(omega_all, np.einsum("nm,snp->smp", R, F)))
+    by_hand = float(np.sum(np.sum(np.abs(X - U) ** 2, axis=1) / np.sum(np.abs(U) ** 2, axis=1)))
+    quoted = re.search(r"weighted cost (\S+) against (\S+)\)",
+                       model.info["refinement"]["final_refit"]["reason"])
+    assert float(quoted[2]) == pytest.approx(by_hand, rel=1e-3)
+    assert float(quoted[1]) < 1e-12 * by_hand
 
 
 def test_the_final_fit_with_a_hole_never_reads_it_and_judges_the_modal_start_fairly(omega_all):
@@ -413,6 +437,27 @@ def test_the_final_fit_keeps_the_held_out_fit_when_the_refit_raises_the_median()
     for k in "MCK":
         np.testing.assert_array_equal(getattr(model, k), getattr(truth, k))
     assert f"every line ({before[0]:.2f} → {after[0]:.2f} dB)" in kept["reason"]
+    # … and the weighted costs: the pass started from the modal start (the relative cost
+    # trades the bad lines for the rest: it lies below the truth's), so its cost before
+    # is the modal start's, and the start's note sets it against the truth's — each by
+    # hand, Σ ‖R x − u‖² / ‖u‖² over lines and load cases (to the 4 digits quoted; R is
+    # square here, so nothing lies outside its span); the cost after is lower
+    R = sweep.basis(4, P)
+
+    def relative_cost(matrices):
+        x = pr.SecondOrderSystem(*matrices).response(omega, np.einsum("nm,snp->smp", R, F))
+        X = np.einsum("nm,smp->snp", R, x)
+        return float(np.sum(np.sum(np.abs(X - U) ** 2, axis=1) / np.sum(np.abs(U) ** 2, axis=1)))
+
+    held = relative_cost((truth.M, truth.C, truth.K))
+    rebuilt = relative_cost(modal_start(truth, R, U, F, omega))
+    assert rebuilt < held
+    cost = re.search(r"lowered the weighted cost \((\S+) → (\S+)\)", kept["reason"])
+    note = re.search(r"weighted cost (\S+) against (\S+)\)$", kept["reason"])
+    assert float(cost[1]) == pytest.approx(rebuilt, rel=1e-3)
+    assert float(cost[2]) < float(cost[1])
+    assert float(note[1]) == pytest.approx(rebuilt, rel=1e-3)
+    assert float(note[2]) == pytest.approx(held, rel=1e-3)
 
 
 def test_the_final_fit_quotes_the_medians_it_decided_on():

@@ -42,10 +42,13 @@ def chain_frf():
 
 def test_sweep_fits_every_order_and_chooses_by_its_rule(chain_frf):
     chain, U_n, F_n, w, P = chain_frf
-    seen = []
-    sweep = sweep_orders(U_n, F_n, w, P, progress=lambda m, fit: seen.append(m))
+    seen, given = [], []
+    sweep = sweep_orders(U_n, F_n, w, P,
+                         progress=lambda m, fit: (seen.append(m), given.append(fit)))
     ms = [f.m for f in sweep.fits]
     assert ms == list(range(1, len(ms) + 1)) and seen == ms
+    # each call gets the fit of its own order, the one the sweep keeps
+    assert all(g is f for g, f in zip(given, sweep.fits, strict=True))
     for f in sweep.fits:
         assert f.stable and is_physical(f.model) and f.model.m == f.m
     best = min(f.test_db for f in sweep.fits)
@@ -157,6 +160,9 @@ def test_sweep_table_and_plot(chain_frf, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(KeyError, match="not fitted"):
         sweep.fit(7)
+    # the message lists every order that was fitted, the first one too
+    with pytest.raises(KeyError, match=re.escape("order 4 was not fitted (orders [1, 2, 3])")):
+        sweep.basis(4, P)
 
 
 @pytest.mark.parametrize(
@@ -350,6 +356,11 @@ def test_a_tolerance_chooses_the_smallest_order_within_it_of_the_lowest(chain_fr
     assert sweep.chosen == next(f.m for f in sweep.fits if f.test_db <= 2.5 * best.test_db)
     # measured held-out errors 9.6, 4.4 and 1.9 dB: order 2 is within 150 % of order 3's
     assert sweep.chosen < best.m and "within 150 % of the lowest" in sweep.reason
+    # the reason quotes the chosen order's error, then the lowest and its order
+    chosen = sweep.fit(sweep.chosen)
+    assert sweep.reason.startswith(
+        f"m = {chosen.m}: held-out median error {chosen.test_db:.2f} dB, within 150 % of the "
+        f"lowest ({best.test_db:.2f} dB at m = {best.m}) over m = 1…3; ")
 
 
 def test_the_sweeps_relative_weights_are_one_over_the_norm_of_each_line_and_load_case():
@@ -508,11 +519,12 @@ def test_a_step_budget_of_the_trial_steps_alone_is_the_trials():
     assert all(f.model.iterations <= TRIAL_ITER for f in sweep.fits)
 
 
-def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one():
+def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one(monkeypatch):
     """The 4-mass chain seen at two masses: two POD coordinates. Asked for m = 3, order 2
     is run to convergence before the latent order 3 is weighed against it (its start
     says so); asked for m = 2, no latent order follows and order 2 keeps the sweep's
-    budget of 5 steps."""
+    budget of 5 steps. Without a modal start, the fit run on is the sweep's own, and
+    its start keeps the name of the start it came from."""
     U_n, F_n, w = _chain_seen_at_its_first_dofs(2, 4, np.linspace(5.0, 250.0, 60))
     P = pr.pod_from_frf(U_n, w)
     latent = sweep_orders(U_n, F_n, w, P, m=3, max_iter=5, threads=1)
@@ -521,3 +533,38 @@ def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one(
     observed = sweep_orders(U_n, F_n, w, P, m=2, max_iter=5, threads=1)
     assert not observed.fit(2).start.endswith("to convergence")
     assert observed.fit(2).model.iterations <= 5
+    from podid_rs.identification import order
+
+    monkeypatch.setattr(order, "modal_start", lambda *args, **kwargs: None)
+    run_on = sweep_orders(U_n, F_n, w, P, m=3, max_iter=5, threads=1)
+    assert run_on.fit(2).start == f"{observed.fit(2).start}, to convergence"
+
+
+def test_a_complex_refit_that_leaves_the_median_where_it_was_is_kept(monkeypatch, chain_frf):
+    """The tie of the final fit's first pass, scripted: the real refit, with its median
+    error after set to the one before. A refit no worse over every line is kept (its
+    weighted cost is the one it lowered) — the model returned is the refit's, and the
+    reason quotes the two equal medians (the modal start switched off, so that the pass
+    starts from the held-out fit)."""
+    from podid_rs.identification import order
+
+    _, U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    real, made = order.refine, []
+
+    def tied(*args, **kwargs):
+        fit = real(*args, **kwargs)
+        fit.info["refinement"]["db_after"] = fit.info["refinement"]["db_before"]
+        made.append(fit)
+        return fit
+
+    monkeypatch.setattr(order, "refine", tied)
+    monkeypatch.setattr(order, "modal_start", lambda *args, **kwargs: None)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, log_magnitude=False, max_iter=3, threads=1)
+    kept = model.info["refinement"]["final_refit"]
+    assert len(made) == 1 and kept["kept"] == "complex refit"
+    for k in "MCK":
+        np.testing.assert_array_equal(getattr(model, k), getattr(made[0], k))
+    before = kept["passes"][0]["db_before"][0]
+    assert kept["reason"] == ("the complex refit lowered the median error over every line "
+                              f"({before:.2f} → {before:.2f} dB)")

@@ -241,6 +241,15 @@ def test_a_rank_deficient_start_is_warned_about():
         warnings.simplefilter("ignore", ConvergenceWarning)
         warnings.filterwarnings("ignore", "the start model was not physical", StartWarning)
         refine(plain, H, F, w, max_iter=5)
+    # the conjugate-gradient solve measures no rank (its rank is not a rank-revealing
+    # one): the same matrices from it carry no such note
+    from dataclasses import replace
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        refine(replace(plain, method="cg"), H, F, w, max_iter=5)
+    assert not [c for c in caught if "rank-deficient" in str(c.message)]
+    assert any("not physical" in str(c.message) for c in caught)  # the rest as before
 
 
 def test_per_entry_weights_with_a_basis_are_the_reduced_problem():
@@ -793,6 +802,21 @@ def test_a_start_is_kept_only_with_every_eigenvalue_above_start_keep_of_the_larg
     # at 2 START_KEEP of the largest it is kept as it is
     (_, _, K3), report = physical_start(M, C, np.diag([1e4, 2 * START_KEEP * 1e4]))
     assert report["eigenvalues_raised"] == (0, 0, 0) and K3[1, 1] == 2 * START_KEEP * 1e4
+    # exactly at START_KEEP of the largest (1 and 1e-10, both exact in a diagonal
+    # matrix's eigenvalues): kept, bit for bit
+    K4 = np.diag([1.0, START_KEEP])
+    (_, _, K5), report = physical_start(M, C, K4)
+    assert report["eigenvalues_raised"] == (0, 0, 0) and np.array_equal(K5, K4)
+
+
+def test_an_eigenvalue_exactly_at_the_floor_is_not_counted_as_raised():
+    """M with eigenvalues −1, 1e-8 and 1 (rtol = 1e-8 of the largest magnitude 1: the
+    floor is 1e-8 exactly): the negative one is reflected to 1 and counted; the one at
+    the floor stays where it is and is not counted."""
+    M, C, K = np.diag([-1.0, 1e-8, 1.0]), np.zeros((3, 3)), np.eye(3)
+    (M2, _, _), report = physical_start(M, C, K)
+    assert report["eigenvalues_raised"] == (1, 0, 0)
+    np.testing.assert_allclose(np.linalg.eigvalsh(M2), [1e-8, 1.0, 1.0], rtol=1e-12)
 
 
 def test_a_positive_definite_damping_below_one_is_kept_bit_for_bit():
@@ -999,3 +1023,40 @@ def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p()
     X = pr.SecondOrderSystem(*start).response(w, F)
     want = float(np.sum(W[:, :, None] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
+    # and the report names them as the user's, per entry
+    assert model.info["refinement"]["weights"] == "log-magnitude, user per entry"
+
+
+def test_reduced_data_one_coordinate_short_of_the_start_leave_one_latent():
+    """Reduced data of order k = m − 1 (the driving point of a 2-mass chain, a start of
+    order 2): the first coordinate is observed and the other latent, as with basis = I₁ —
+    the same fit, with one latent coordinate and its gauge of l·k + l² = 2 directions —
+    not a start of the wrong order."""
+    chain = pr.mass_spring_chain(2)
+    w = 2 * np.pi * np.linspace(5.0, 150.0, 60)
+    F = np.zeros((w.size, 2, 1), dtype=complex)
+    F[:, 0, 0] = 1.0
+    U1, F1 = chain.response(w, F)[:, :1], F[:, :1]
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        reduced = refine(start, U1, F1, w, max_iter=3, threads=1)
+        through = refine(start, U1, F1, w, basis=np.eye(1), max_iter=3, threads=1)
+    assert reduced.info["refinement"]["coordinates"] == {"observed": 1, "latent": 1, "gauge": 2}
+    for k in "MCK":
+        np.testing.assert_array_equal(getattr(reduced, k), getattr(through, k))
+
+
+def test_the_report_counts_the_accepted_steps_apart_from_the_iterations():
+    """Levenberg–Marquardt rejects the steps that raise the cost: from a start 50 % off in
+    stiffness some of the 30 steps are rejected, so the report's ``accepted`` is below
+    ``iterations`` — and equals the accepted steps the history records (one entry per
+    accepted step after the start's), at increasing iterations."""
+    chain, U, F, w = chain_data(n=4, p=2, lines=40)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine((chain.M, chain.C, 1.5 * chain.K), U, F, w, max_iter=30, threads=1)
+    ref = model.info["refinement"]
+    steps = [i for i, _ in ref["history"]]
+    assert steps[0] == 0 and np.all(np.diff(steps) > 0) and steps[-1] <= 30
+    assert ref["accepted"] == len(steps) - 1 < model.iterations
