@@ -51,6 +51,7 @@ TESTS = {
                                "tests/test_hardening.py"],
     "_validation": ["tests/test_identification.py", "tests/test_hardening.py", "tests/test_cg.py"],
     "_arrays": ["tests/test_hardening.py", "tests/test_identification.py", "tests/test_api.py"],
+    "systems": ["tests/test_systems.py", "tests/test_linesolve.py"],
 }
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
@@ -1577,6 +1578,53 @@ AUDIT = [
     ('identification/order', 'progress(order, fit)', 'progress(order, fits[0])'),
     ('identification/refinement', 'label = "log-magnitude, user per entry"',
      'label = "log-magnitude, user"'),
+    # seventh audit, the systems (no earlier entry), written from the source before any run:
+    # the index range and its message, the chain's two masses and its dense/sparse switch,
+    # the damping term's sign, the rows of a partial FRF, the last chunk of lines, F's DOF
+    # count, the projected damping, a grounded edge of the lattice, the variations' bound, an
+    # undamped chain
+    ("systems", "if a.min() < 0 or a.max() >= n:", "if a.min() < 0 or a.max() > n:"),
+    ("systems", "(0 … {n - 1}), got {idx!r}", "(0 … {n}), got {idx!r}"),
+    (
+        "systems",
+        "M = np.diag(np.where(np.arange(n) < n // 2, m1, m2))",
+        "M = np.diag(np.where(np.arange(n) <= n // 2, m1, m2))",
+    ),
+    ("systems", "sparse = n > DENSE_CHAIN_MAX", "sparse = n >= DENSE_CHAIN_MAX"),
+    ("systems", "np.multiply(w3, C, out=Z.imag)", "np.multiply(-w3, C, out=Z.imag)"),
+    (
+        "systems",
+        "out[sl] = _solve(self.dynamic_stiffness(w[sl]), loads)[:, r, :]",
+        "out[sl] = _solve(self.dynamic_stiffness(w[sl]), loads)[:, c, :]",
+    ),
+    (
+        "systems",
+        "for i in range(0, s, step)]",
+        "for i in range(0, s - 1, step)]",
+    ),
+    (
+        "systems",
+        "tuple(shape[:2]) != (w.size, self.n)",
+        "shape[0] != w.size",
+    ),
+    (
+        "systems",
+        "Ra.T @ self.M @ Ra, Ra.T @ self.C @ Ra, Ra.T @ self.K @ Ra",
+        "Ra.T @ self.M @ Ra, Ra.T @ self.K @ Ra, Ra.T @ self.K @ Ra",
+    ),
+    (
+        "systems",
+        "[idx[:, 0], idx[:, -1], idx[0, :], idx[-1, :]]",
+        "[idx[:, 0], idx[:, -1], idx[0, :]]",
+    ),
+    ("systems", "if dm >= 1 or dk >= 1:", "if dm > 1 or dk > 1:"),
+    (
+        "systems",
+        'a0, a1 = (as_scalar(v, name, allow_zero=True) for v, name in ((a0, "a0"), (a1, "a1")))\n'
+        "    return m1",
+        'a0, a1 = (as_scalar(v, name) for v, name in ((a0, "a0"), (a1, "a1")))\n'
+        "    return m1",
+    ),
 ]
 
 

@@ -168,3 +168,83 @@ def test_singular_dynamic_stiffness_raises():
 def test_invalid_chain_parameters_raise(kwargs, message):
     with pytest.raises(ValueError, match=message):
         mass_spring_chain(**kwargs)
+
+
+# ------------------------------------------------ indices, chunks, switches, the lattice
+
+
+def test_frf_indices_run_from_0_to_n_minus_1():
+    system = random_system(5, 0)
+    omega = [3.0, 7.0]
+    assert system.frf(omega, rows=[4], cols=[0]).shape == (2, 1, 1)
+    for bad in ([5], [-1]):
+        with pytest.raises(ValueError, match=r"rows must index the 5 DOFs \(0 … 4\)"):
+            system.frf(omega, rows=bad)
+    with pytest.raises(ValueError, match=r"cols must index the 5 DOFs \(0 … 4\), got \[5\]"):
+        system.frf(omega, cols=[5])
+
+
+@pytest.mark.parametrize(("rows", "cols"), [([0, 2], [1, 3]), ([4, 0, 3], [2])])
+def test_some_frf_entries_are_those_of_the_full_frf(rows, cols):
+    system = random_system(5, 1)
+    omega = np.array([2.0, 9.0, 31.0])
+    full = system.frf(omega)
+    some = system.frf(omega, rows=rows, cols=cols)
+    assert np.array_equal(some.shape, (3, len(rows), len(cols)))
+    assert rel(some, full[:, rows][:, :, cols]) < 1e-12
+
+
+@pytest.mark.parametrize("s", [1, 5])
+def test_every_line_is_solved_when_the_lines_come_in_chunks(s, monkeypatch):
+    """Chunks of two lines (DENSE_CHUNK_BYTES cut to 2 dynamic stiffnesses of 4 × 4):
+    one line, and five lines in chunks 2 + 2 + 1 — the last chunk solved too."""
+    from podid_rs import systems
+
+    monkeypatch.setattr(systems, "DENSE_CHUNK_BYTES", 2 * 16 * 4 * 4)
+    system = random_system(4, 2)
+    omega = np.linspace(1.0, 20.0, s)
+    F = np.random.default_rng(0).standard_normal((s, 4))
+    U = system.response(omega, F)
+    H = system.frf(omega, rows=[1, 3], cols=[0, 2])
+    for i, w in enumerate(omega):
+        Z = -(w**2) * system.M + 1j * w * system.C + system.K
+        assert rel(U[i], np.linalg.solve(Z, F[i])) < 1e-12
+        assert rel(H[i], np.linalg.inv(Z)[np.ix_([1, 3], [0, 2])]) < 1e-12
+
+
+def test_the_chain_is_dense_up_to_its_limit_and_sparse_beyond():
+    from podid_rs.systems import DENSE_CHAIN_MAX
+
+    assert not mass_spring_chain(DENSE_CHAIN_MAX).is_sparse
+    assert mass_spring_chain(DENSE_CHAIN_MAX + 1).is_sparse
+
+
+def test_an_undamped_chain_is_allowed():
+    chain = mass_spring_chain(4, a0=0.0, a1=0.0)
+    assert not np.any(chain.C)
+
+
+def test_lattice_frequencies_follow_the_closed_form():
+    """Uniform lattice: ω² = (k/mass)·4(sin²(pπ/2(nx+1)) + sin²(qπ/2(ny+1))) for p ≤ nx,
+    q ≤ ny — the 5-point Laplacian with every edge mass grounded."""
+    from podid_rs.systems import mass_spring_lattice
+
+    nx, ny, mass, k = 3, 4, 2.0, 50.0
+    lat = mass_spring_lattice(nx, ny, mass, k)
+    got = np.sort(np.linalg.eigvalsh(lat.K.toarray()) / mass)
+    p, q = np.meshgrid(np.arange(1, nx + 1), np.arange(1, ny + 1))
+    s2 = np.sin(p * np.pi / (2 * (nx + 1))) ** 2 + np.sin(q * np.pi / (2 * (ny + 1))) ** 2
+    assert np.allclose(got, np.sort((k / mass * 4 * s2).ravel()), rtol=1e-12)
+    C = (0.5 * lat.M + 3e-5 * lat.K).toarray()  # the default Rayleigh coefficients
+    assert np.allclose(lat.M.diagonal(), mass) and np.allclose(lat.C.toarray(), C)
+
+
+def test_lattice_variations_are_fractions_below_one():
+    from podid_rs.systems import mass_spring_lattice
+
+    lat = mass_spring_lattice(3, 3, mass=2.0, mass_variation=0.99, seed=1)
+    assert np.all(np.abs(lat.M.diagonal() / 2.0 - 1.0) <= 0.99)
+    with pytest.raises(ValueError, match=r"must be in \[0, 1\), got 1 and 0"):
+        mass_spring_lattice(3, 3, mass_variation=1.0)
+    with pytest.raises(ValueError, match=r"got 0 and 1"):
+        mass_spring_lattice(3, 3, stiffness_variation=1.0)
