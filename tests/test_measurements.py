@@ -443,6 +443,28 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
         load_data(tmp_path / "junk.npz")
 
 
+def test_a_cut_off_npz_file_is_refused_as_unreadable(tmp_path, chain6):
+    """An .npz cut off (a copy interrupted, a full disk) still starts as a zip file but has
+    no central directory: load_data and load_model refuse it as not a readable .npz file,
+    naming it, rather than letting zipfile's own exception through."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficientWarning)
+        result, R = data.identify(m=3, lam=1.0)
+    for name, path, load in (
+        ("data", save_data(tmp_path / "data.npz", data), load_data),
+        ("model", save_model(tmp_path / "model.npz", result, basis=R), load_model),
+    ):
+        raw = path.read_bytes()
+        cut = tmp_path / f"cut-{name}.npz"
+        cut.write_bytes(raw[: len(raw) // 2])
+        assert raw.startswith(b"PK")  # a zip file, so numpy hands it to zipfile
+        with pytest.raises(ValueError, match=rf"^{re.escape(str(cut))}: not a readable "
+                                             r"\.npz file: "):
+            load(cut)
+
+
 @pytest.mark.parametrize(
     "kwargs,match",
     [
