@@ -1193,8 +1193,8 @@ AUDIT = [
     # damaged zip let through as BadZipFile
     ("io/npz", "            dofs=data.dofs,\n", ""),
     ("io/npz", 'inputs=z.get("inputs"),', "inputs=None,"),
-    ("io/npz", "except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:",
-     "except (ValueError, OSError, EOFError) as exc:"),
+    ("io/npz", "except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:",
+     "except (ValueError, OSError, EOFError, zlib.error) as exc:"),
     # seventh audit, UFF: a message's record number off by one, trailing blanks counted as
     # values, the band's mask taken over the lines before the 0 Hz line is dropped, a dead
     # channel judged as receptance, a column pruned when any (not all) of its pairs is

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 import warnings
+import zipfile
 
 import numpy as np
 import pytest
@@ -464,6 +465,25 @@ def test_a_cut_off_npz_file_is_refused_as_unreadable(tmp_path, chain6):
                                              r"\.npz file: "):
             load(cut)
 
+
+def test_a_damaged_compressed_npz_file_is_refused_as_unreadable(tmp_path):
+    """Time histories saved with np.savez_compressed whose compressed data are damaged fail
+    in zlib, not in zipfile: load_data refuses them as not a readable .npz file too."""
+    path = tmp_path / "histories.npz"
+    rng = np.random.default_rng(1)
+    np.savez_compressed(path, forces=rng.standard_normal((64, 1)),
+                        responses=rng.standard_normal((64, 2)), dt=0.01)
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as z:
+        head = z.infolist()[0].header_offset
+    # the member's data follow its 30-byte local header, its name and its extra field
+    start = head + 30 + int.from_bytes(raw[head + 26:head + 28], "little") + int.from_bytes(
+        raw[head + 28:head + 30], "little")
+    raw[start] = 0xFF  # block type 11, which deflate reserves: the stream cannot be read
+    path.write_bytes(bytes(raw))
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: not a readable \.npz "
+                                         r"file: .*invalid block type"):
+        load_data(path)
 
 @pytest.mark.parametrize(
     "kwargs,match",
