@@ -1625,6 +1625,40 @@ AUDIT = [
         'a0, a1 = (as_scalar(v, name) for v, name in ((a0, "a0"), (a1, "a1")))\n'
         "    return m1",
     ),
+    # seventh audit, measured data: the mask checked against (p, n) instead of (n, p),
+    # Hz as ω / π, identify's λ ignored, the POD integrated over Hz, the spectra's forces
+    # stacked records-first
+    ("measured", "check_measured(self.measured, U.shape[1], U.shape[2])",
+     "check_measured(self.measured, U.shape[2], U.shape[1])"),
+    ("measured", "return self.omega / (2 * np.pi)", "return self.omega / np.pi"),
+    ("measured", "identify(U_m, F_m, self.omega, lam, symmetric,",
+     "identify(U_m, F_m, self.omega, 0.0, symmetric,"),
+    ("measured", "return pod_from_frf(self.U, self.omega)",
+     "return pod_from_frf(self.U, self.freq_hz)"),
+    ("measured", "for rec in x], axis=-1)", "for rec in x], axis=1)"),
+    # seventh audit, npz: the DOF labels not saved, a time-history file's inputs ignored, a
+    # damaged zip let through as BadZipFile
+    ("io/npz", "            dofs=data.dofs,\n", ""),
+    ("io/npz", 'inputs=z.get("inputs"),', "inputs=None,"),
+    ("io/npz", "except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:",
+     "except (ValueError, OSError, EOFError, zlib.error) as exc:"),
+    # seventh audit, UFF: a message's record number off by one, trailing blanks counted as
+    # values, the band's mask taken over the lines before the 0 Hz line is dropped, a dead
+    # channel judged as receptance, a column pruned when any (not all) of its pairs is
+    # covered, the last DOF's FRFs not written, accelerance as write_uff's default ordinate
+    ("io/uff", 'text = f"record {k + 1} of the file', 'text = f"record {k} of the file'),
+    ("io/uff", "bisect.bisect_left(starts, len(line.rstrip()))",
+     "bisect.bisect_left(starts, len(line))"),
+    ("io/uff", "positive[band_lines(freq[positive], band_hz)]",
+     "positive[band_lines(freq, band_hz)]"),
+    ("io/uff", "dead = _dead_channel(record, y[keep], freq[keep], where)",
+     "dead = _dead_channel(record, record.values, freq[keep], where)"),
+    ("io/uff", "if all(e[0] in others or e[1] in others for e in pairs if v in e):",
+     "if any(e[0] in others or e[1] in others for e in pairs if v in e):"),
+    ("io/uff", "for k, col in enumerate(inputs) for i in range(dofs.shape[0]))",
+     "for k, col in enumerate(inputs) for i in range(dofs.shape[0] - 1))"),
+    ("io/uff", '    quantity: str = "displacement",\n    geometry',
+     '    quantity: str = "acceleration",\n    geometry'),
 ]
 
 

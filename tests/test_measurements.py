@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 import warnings
+import zipfile
 
 import numpy as np
 import pytest
@@ -442,6 +443,47 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     with pytest.raises(ValueError, match="not a readable .npz"):
         load_data(tmp_path / "junk.npz")
 
+
+def test_a_cut_off_npz_file_is_refused_as_unreadable(tmp_path, chain6):
+    """An .npz cut off (a copy interrupted, a full disk) still starts as a zip file but has
+    no central directory: load_data and load_model refuse it as not a readable .npz file,
+    naming it, rather than letting zipfile's own exception through."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RankDeficientWarning)
+        result, R = data.identify(m=3, lam=1.0)
+    for name, path, load in (
+        ("data", save_data(tmp_path / "data.npz", data), load_data),
+        ("model", save_model(tmp_path / "model.npz", result, basis=R), load_model),
+    ):
+        raw = path.read_bytes()
+        cut = tmp_path / f"cut-{name}.npz"
+        cut.write_bytes(raw[: len(raw) // 2])
+        assert raw.startswith(b"PK")  # a zip file, so numpy hands it to zipfile
+        with pytest.raises(ValueError, match=rf"^{re.escape(str(cut))}: not a readable "
+                                             r"\.npz file: "):
+            load(cut)
+
+
+def test_a_damaged_compressed_npz_file_is_refused_as_unreadable(tmp_path):
+    """Time histories saved with np.savez_compressed whose compressed data are damaged fail
+    in zlib, not in zipfile: load_data refuses them as not a readable .npz file too."""
+    path = tmp_path / "histories.npz"
+    rng = np.random.default_rng(1)
+    np.savez_compressed(path, forces=rng.standard_normal((64, 1)),
+                        responses=rng.standard_normal((64, 2)), dt=0.01)
+    raw = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as z:
+        head = z.infolist()[0].header_offset
+    # the member's data follow its 30-byte local header, its name and its extra field
+    start = head + 30 + int.from_bytes(raw[head + 26:head + 28], "little") + int.from_bytes(
+        raw[head + 28:head + 30], "little")
+    raw[start] = 0xFF  # block type 11, which deflate reserves: the stream cannot be read
+    path.write_bytes(bytes(raw))
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: not a readable \.npz "
+                                         r"file: .*invalid block type"):
+        load_data(path)
 
 @pytest.mark.parametrize(
     "kwargs,match",

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+import zlib
 from dataclasses import MISSING, fields
 from pathlib import Path
 
@@ -76,7 +77,8 @@ def _read_npz(path: str | Path) -> dict[str, np.ndarray]:
             raise ValueError("it holds a single array, not named arrays")
         with z:
             return {k: z[k] for k in z.files}
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+    # a cut-off file fails in zipfile, a damaged compressed one (np.savez_compressed) in zlib
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise ValueError(f"{path}: not a readable .npz file: {exc}") from None
 
 
