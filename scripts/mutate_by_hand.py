@@ -56,6 +56,9 @@ TESTS = {
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
 AUDIT_TESTS = {
+    # the intervals through the matrix-free path and the CLI's report
+    "uncertainty": ["tests/test_matrix_free_memory.py",
+                    "tests/test_cli_identify.py::test_identify_writes_the_intervals_of_the_refined_model"],
     # basis(m) one past the snapshots' rank refused (the one test of test_scale.py on the
     # method of snapshots' modes; the file's others take a minute)
     "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix"],
