@@ -56,6 +56,9 @@ TESTS = {
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
 AUDIT_TESTS = {
+    # the intervals through the matrix-free path and the CLI's report
+    "uncertainty": ["tests/test_matrix_free_memory.py",
+                    "tests/test_cli_identify.py::test_identify_writes_the_intervals_of_the_refined_model"],
     # basis(m) one past the snapshots' rank refused (the one test of test_scale.py on the
     # method of snapshots' modes; the file's others take a minute)
     "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix"],
@@ -1659,6 +1662,49 @@ AUDIT = [
      "for k, col in enumerate(inputs) for i in range(dofs.shape[0] - 1))"),
     ("io/uff", '    quantity: str = "displacement",\n    geometry',
      '    quantity: str = "acceleration",\n    geometry'),
+    # seventh audit, the intervals (written from the source before any run): the quantile's
+    # level and degrees of freedom, level 0, the loose-interval test in Hz, the summary's
+    # half-width and count, the lower triangle of the matrices' deviations, the latent
+    # message, the dB deviation's factor, the band's half-width, the real roots
+    ("uncertainty", "q = 0.5 + level / 2", "q = level"),
+    ("uncertainty", "scipy.stats.t.ppf(q, self.dof)", "scipy.stats.t.ppf(q, self.dof + 1)"),
+    ("uncertainty", "if not 0.0 < float(level) < 1.0:", "if not 0.0 <= float(level) < 1.0:"),
+    (
+        "uncertainty",
+        "loose = (z * np.sqrt(var_f) >= mag / (2 * np.pi))",
+        "loose = (z * np.sqrt(var_f) >= mag)",
+    ),
+    (
+        "uncertainty",
+        "hf = modes.z * modes.std_frequency_hz[osc] / modes.frequencies_hz[osc]",
+        "hf = modes.std_frequency_hz[osc] / modes.frequencies_hz[osc]",
+    ),
+    (
+        "uncertainty",
+        "undetermined = int(np.sum(~modes.determined & chosen))",
+        "undetermined = int(np.sum(~modes.determined))",
+    ),
+    ("uncertainty", "            S[cols, rows] = sd\n", ""),
+    (
+        "uncertainty",
+        'f"the model has {self.latent} latent coordinate(s): M, C and K have a gauge "',
+        'f"the model has {self.m} latent coordinate(s): M, C and K have a gauge "',
+    ),
+    (
+        "uncertainty",
+        "return 20 / np.log(10) * np.sqrt(np.maximum(var, 0.0)) / np.abs(H) ** 2",
+        "return 10 / np.log(10) * np.sqrt(np.maximum(var, 0.0)) / np.abs(H) ** 2",
+    ),
+    (
+        "uncertainty",
+        "half = z * np.sqrt(np.maximum(var_r, 0.0))",
+        "half = np.sqrt(np.maximum(var_r, 0.0))",
+    ),
+    (
+        "uncertainty",
+        "pick = np.flatnonzero(finite & (lam.imag >= 0))",
+        "pick = np.flatnonzero(finite & (lam.imag > 0))",
+    ),
 ]
 
 

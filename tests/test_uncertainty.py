@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.stats
 
 import podid_rs as pr
 from podid_rs.identification.covariance import (
@@ -262,7 +263,7 @@ def test_latent_coordinates_have_a_gauge_and_no_matrix_intervals():
                                noise_variance=var[:, :3])
     assert unc.latent == 1 and unc.gauge == 1 * 3 + 1
     assert unc.rank == unc.n_parameters - unc.gauge
-    with pytest.raises(ValueError, match="latent coordinate.*gauge of dimension 4"):
+    with pytest.raises(ValueError, match=r"has 1 latent coordinate\(s\).*gauge of dimension 4"):
         unc.matrices()
     modes = unc.modes(shapes=True)
     assert np.all(modes.determined) and np.all(np.isfinite(modes.std_frequency_hz))
@@ -387,6 +388,7 @@ def test_noise_from_the_residuals_matches_the_known_noise():
     known = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
     assert known.dof is None and known.z() == pytest.approx(1.959964, abs=1e-5)
     assert unc.z() > known.z()  # Student's t
+    assert unc.z() == pytest.approx(scipy.stats.t.ppf(0.975, 2 * U.size - unc.rank), rel=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -616,3 +618,46 @@ def test_band_follows_noise_that_grows_with_the_response():
             assert low > 0.7 and high < 1.6, (low, high)
         else:  # the case tells the two apart: one variance per channel is far too wide
             assert np.median(sharpness) > 3, np.median(sharpness)
+
+
+def test_the_modes_with_intervals_are_those_of_modal_parameters_real_roots_too():
+    """An overdamped pair (two real roots) besides an oscillating mode: the intervals are
+    given for every mode modal_parameters reports, in its order."""
+    from podid_rs.uncertainty import _all_modes
+
+    M, K = np.diag([1.0, 2.0]), np.array([[300.0, -100.0], [-100.0, 100.0]])
+    C = np.diag([80.0, 0.1])  # DOF 0 far beyond critical damping
+    system = pr.SecondOrderSystem(M, C, K)
+    lam, _, _, pick = _all_modes(M, C, K)
+    want = pr.modal_parameters(system).eigenvalues
+    assert np.sum(np.abs(want.imag) == 0) >= 1  # the case has a real root
+    assert np.allclose(lam[pick], want, rtol=1e-12)
+
+
+def _with_variances(unc: pr.ModelUncertainty, var_f: np.ndarray, var_z: np.ndarray) -> None:
+    """The covariance's variances replaced: every mode gets the given σ_f² and σ_ζ²."""
+    unc._cov.variances = lambda g: np.concatenate([var_f[: g.shape[0] // 2],
+                                                   var_z[: g.shape[0] // 2]])
+
+
+def test_an_interval_wider_than_the_value_in_hz_is_no_interval():
+    """z·σ_f = 2 f (in Hz, the frequency's own unit — below 2π f, the value in rad/s) is
+    wider than the value; z·σ_ζ = 0.01 is not. The summary counts the undetermined modes
+    among those selected, and its half-width is z·σ over the value."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    z = unc.z()
+    f = pr.modal_parameters(system).frequencies_hz
+    zeta = pr.modal_parameters(system).damping_ratios
+    var_f = (f / z) ** 2 * np.r_[4.0, np.full(f.size - 1, 1e-4)]  # mode 0: ±2 f; others ±1 %
+    var_z = np.full(f.size, (0.01 / z) ** 2)
+    _with_variances(unc, var_f, var_z)
+    modes = unc.modes()
+    assert list(modes.determined) == [False] + [True] * (f.size - 1)
+    assert modes.why_undetermined[0] == "wider than the value"
+    text = unc.summary()
+    assert "; 1 mode(s) not determined by the data" in text
+    assert "not determined" not in unc.summary(select=np.arange(f.size) > 0)
+    hz = 100 * np.median(0.01 / zeta[1:])
+    assert f"over {f.size - 1} mode(s): 1 % of the natural frequency, {hz:.2g} % of the damping" \
+        in text
