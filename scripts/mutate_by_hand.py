@@ -1705,6 +1705,42 @@ AUDIT = [
         "pick = np.flatnonzero(finite & (lam.imag >= 0))",
         "pick = np.flatnonzero(finite & (lam.imag > 0))",
     ),
+    # a seventh audit of the sweep and the final fit: the decoupled mode's mass for its
+    # inverse, the last order never fitted, the flat-training message's threshold, the longer
+    # log-magnitude pass kept when it is worse, the log-magnitude pass off by default
+    ('identification/order', 'best = (cost, 1.0 / a, wc, zeta)', 'best = (cost, a, wc, zeta)'),
+    ('identification/order', 'for order in range(1, m_max + 1):',
+     'for order in range(1, m_max):'),
+    ('identification/order', 'by less than {100 * PROGRESS_STEP / 3:g} % each',
+     'by less than {100 * PROGRESS_STEP:g} % each'),
+    ('identification/order', 'if more.info["refinement"]["db_after"][0] <= probe_db[0]:',
+     'if more.info["refinement"]["db_after"][0] >= probe_db[0]:'),
+    ('identification/order', 'log_magnitude: bool = True,', 'log_magnitude: bool = False,'),
+    # and of the refinement: a rank-deficient start's warning dropped, the start's floor
+    # absolute instead of relative, metric="modal" with solver="dense" not refused, the
+    # report's gauge with its arguments swapped
+    ('identification/refinement', 'return model.M, model.C, model.K, note',
+     'return model.M, model.C, model.K, None'),
+    ('identification/refinement', 'floor = tol * float(np.abs(d).max())', 'floor = tol'),
+    ('identification/refinement', '        if solver == "dense":\n',
+     '        if solver is None:\n'),
+    ('identification/refinement', '"gauge": gauge_dimension(m, observed)}',
+     '"gauge": gauge_dimension(observed, m)}'),
+    # and of the latent coordinates: a basis 1 % off orthonormal accepted, a peak's
+    # frequencies without the line's own, the residual's sign
+    ('identification/latent', 'np.eye(k), atol=1e-8)', 'np.eye(k), atol=1e-2)'),
+    ('identification/latent', '[omega[i] * (1 + d) for d in PEAK_OFFSETS]',
+     '[omega[i] * d for d in PEAK_OFFSETS]'),
+    ('identification/latent', 'residual = U_n - X', 'residual = X - U_n'),
+    # and of the modal start: K and C swapped in the state matrix, the residues' target
+    # without its weights, a shape's scale over the wrong norm
+    ('identification/modal_start', '[-np.linalg.solve(M, K), -np.linalg.solve(M, C)]',
+     '[-np.linalg.solve(M, C), -np.linalg.solve(M, K)]'),
+    ('identification/modal_start',
+     'target = np.vstack([(w[:, None] * u).real, (w[:, None] * u).imag])',
+     'target = np.vstack([u.real, u.imag])'),
+    ('identification/modal_start', '/ max(float(at_inputs @ at_inputs), np.finfo(float).tiny)',
+     '/ max(float(b @ b), np.finfo(float).tiny)'),
 ]
 
 

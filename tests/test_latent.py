@@ -2,7 +2,8 @@
 (podid_rs.identification.latent, refine and the order sweep past the POD basis).
 
 Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns that are
-not orthogonal among them, an empty basis) and orders that are not integers are refused;
+not orthogonal among them, columns orthonormal only to a few digits, an
+empty basis) and orders that are not integers are refused;
 an order at or below the observed coordinates has no gauge; a latent start
 seen at two sensors takes the residual's dominant direction; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
@@ -106,6 +107,22 @@ def test_unit_columns_that_are_not_orthogonal_are_no_basis():
         observed_count(skew)
     with pytest.raises(ValueError, match="orthonormal columns"):
         pr.observation_matrix(skew, 3)
+
+
+def test_a_basis_orthonormal_only_to_a_few_digits_is_refused():
+    """POD modes written out with four decimals (as a text file might hold them) are
+    orthonormal only to about 1e-5 — far outside the check's 1e-8, and the reduced data
+    Rᵀu would be off by as much: refused. The same modes with round-off (1e-13) pass."""
+    Q, _ = np.linalg.qr(np.random.default_rng(0).standard_normal((5, 3)))
+    rounded = np.round(Q, 4)
+    off = np.abs(rounded.T @ rounded - np.eye(3)).max()
+    assert 1e-6 < off < 1e-3  # rounding to 4 decimals: errors of order 5e-5 per entry
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        observed_count(rounded)
+    with pytest.raises(ValueError, match="orthonormal columns"):
+        pr.observation_matrix(rounded, 4)
+    nearly = Q + 1e-13 * np.random.default_rng(1).standard_normal(Q.shape)
+    assert observed_count(nearly) == 3
 
 
 def test_an_order_that_is_not_an_integer_is_refused_as_such():
