@@ -712,6 +712,45 @@ def test_records_without_unit_labels_are_kept_when_the_labelled_ones_disagree(tm
     np.testing.assert_allclose(data.U, clean.U, rtol=0, atol=1e-14 * np.abs(clean.U).max())
 
 
+def test_records_labelled_in_part_are_compared_on_the_part_they_give(tmp_path):
+    """Records 2 and 5 say m over NONE (a writer that left out the force's unit) among
+    m/N: they agree and are kept. Record 8 says mm over NONE: its numerator disagrees,
+    and it is left out, the message counting the 8 labelled records that agree."""
+    labels, denominators = ["m"] * 9, ["N"] * 9
+    denominators[1] = denominators[4] = "NONE"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        kept = read_uff(write_labelled(tmp_path / "part.uff", labels, denominators))
+    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
+    assert kept.measured.all()
+    np.testing.assert_array_equal(kept.U, clean.U)
+    labels[7], denominators[7] = "mm", "NONE"  # record 8: response 3:3 / reference 2:3
+    with pytest.warns(DataWarning, match=r"FRF record\(s\) 8 \(response 3:3 / reference "
+                      r"2:3, 'mm/'\) are in other units than the 8 other displacement "
+                      r"records \('m/n'\): left out"):
+        read_uff(write_labelled(tmp_path / "part_mm.uff", labels, denominators))
+
+
+def test_the_unit_is_the_most_common_full_label(tmp_path):
+    """Records 2, 3 and 6 say m/s over NONE (velocity labels on displacement data), records
+    1 and 5 m/N, the rest nothing: the full label m/N is the unit, and the three half labels,
+    which disagree with it on the numerator, are left out (their reciprocals remain) — a
+    count over every label would have made 'm/s/' the unit. The denominator is the part
+    after the last '/', so m/s over N is 'm/s' / 'n'."""
+    from podid_rs.io.uff import _unit_parts
+
+    assert _unit_parts("m/s/n") == ("m/s", "n") and _unit_parts("m/s/") == ("m/s", "")
+    labels, denominators = ["NONE"] * 9, ["NONE"] * 9
+    for k in (1, 2, 5):  # 1:3 / 2:3, 1:3 / 3:3, 2:3 / 3:3
+        labels[k] = "m/s"
+    for k in (0, 4):  # the driving points 1:3 and 2:3
+        labels[k], denominators[k] = "m", "N"
+    with pytest.warns(DataWarning, match=r"FRF record\(s\) 2 .*, 3 .*, 6 .* are in other "
+                      r"units than the 2 other displacement records \('m/n'\)"):
+        data = read_uff(write_labelled(tmp_path / "full.uff", labels, denominators))
+    assert data.measured.all()
+
+
 def test_labels_that_differ_in_spelling_only_agree(tmp_path):
     labels = ["m"] * 4 + ["M"] * 3 + [" m "] * 2
     path = write_labelled(tmp_path / "spelling.uff", labels)

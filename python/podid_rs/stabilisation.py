@@ -133,7 +133,8 @@ class StabilisationChart:
     freq_hz : numpy.ndarray, (s,)
         The data's lines (Hz), the plot's abscissa.
     summed_frf : numpy.ndarray, (s,)
-        Σ |U| over measured DOFs and load cases, in receptance: the plot's background.
+        Σ |U| over measured DOFs and load cases — of the FRFs in receptance, or of the
+        response spectra when the data are not FRFs (``is_frf``): the plot's background.
     is_frf : bool
         Whether the data are FRFs.
     f_tol, zeta_tol : float

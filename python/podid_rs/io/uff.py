@@ -422,12 +422,28 @@ def _units(record: dict) -> str | None:
     return None if not any(labels) else "/".join(labels)
 
 
+def _unit_parts(label: str) -> tuple[str, str]:
+    """A label of :func:`_units` as (numerator, denominator), ``""`` for a part not given
+    (the denominator follows the last ``/``: a numerator may hold one, as m/s2)."""
+    num, _, den = label.rpartition("/")
+    return num, den
+
+
+def _same_unit(label: str, unit: str) -> bool:
+    """Whether two labels agree on every part both give."""
+    return all(a == b or not a or not b
+               for a, b in zip(_unit_parts(label), _unit_parts(unit), strict=True))
+
+
 def _same_units(raw: list, path: Path) -> tuple[list, list[str]]:
     """The records whose unit labels agree with the others of the same ordinate
     (displacement, velocity, acceleration): a record labelled in another unit (g/N
     among (m/s²)/N) would enter the fit at another scale, so it is left out as not
-    measured, with a :class:`DataWarning` naming it and both labels. A tie between two
-    labels cannot be settled and is refused. Records without labels are kept."""
+    measured, with a :class:`DataWarning` naming it and both labels. The unit is the
+    most common label among the records labelled in full (numerator and denominator),
+    else among all; a tie between two labels cannot be settled and is refused. A
+    record labelled in part ((m/s²) over NONE) is compared on the part it gives, and
+    records without labels are kept."""
     keep, notes = [], []
     for q in dict.fromkeys(item[4] for item in raw):
         group = [item for item in raw if item[4] == q]
@@ -435,9 +451,10 @@ def _same_units(raw: list, path: Path) -> tuple[list, list[str]]:
         for item in group:
             if item[6] is not None:
                 counts[item[6]] = counts.get(item[6], 0) + 1
+        full = {k: v for k, v in counts.items() if all(_unit_parts(k))}
         if len(counts) > 1:
-            ranked = sorted(counts.items(), key=lambda kv: -kv[1])
-            if ranked[0][1] == ranked[1][1]:
+            ranked = sorted((full or counts).items(), key=lambda kv: -kv[1])
+            if len(ranked) > 1 and ranked[0][1] == ranked[1][1]:
                 raise ValueError(
                     f"{path}: the {q} FRF records disagree on their units, as many in "
                     f"{ranked[0][0]!r} as in {ranked[1][0]!r} (records "
@@ -445,13 +462,17 @@ def _same_units(raw: list, path: Path) -> tuple[list, list[str]]:
                     f"{[i[0] for i in group if i[6] == ranked[1][0]]}): convert them to one unit"
                 )
             unit = ranked[0][0]
-            odd = [item for item in group if item[6] not in (None, unit)]
-            text = (f"FRF record(s) {', '.join(f'{i[0]} ({i[5]}, {i[6]!r})' for i in odd)} "
-                    f"are in other units than the {counts[unit]} other {q} records "
-                    f"({unit!r}): left out as not measured (convert them to include them)")
-            warnings.warn(f"{path}: {text}", DataWarning, stacklevel=3)
-            notes.append(f"{path.name}: {text}")
-            group = [item for item in group if item[6] in (None, unit)]
+            agree = [item[6] is None or _same_unit(item[6], unit) for item in group]
+            odd = [item for item, ok in zip(group, agree, strict=True) if not ok]
+            if odd:
+                labelled = sum(ok and item[6] is not None
+                               for item, ok in zip(group, agree, strict=True))
+                text = (f"FRF record(s) {', '.join(f'{i[0]} ({i[5]}, {i[6]!r})' for i in odd)} "
+                        f"are in other units than the {labelled} other {q} records "
+                        f"({unit!r}): left out as not measured (convert them to include them)")
+                warnings.warn(f"{path}: {text}", DataWarning, stacklevel=3)
+                notes.append(f"{path.name}: {text}")
+            group = [item for item, ok in zip(group, agree, strict=True) if ok]
         keep += [id(item) for item in group]
     return [item for item in raw if id(item) in keep], notes
 
