@@ -52,6 +52,13 @@ TESTS = {
     "_validation": ["tests/test_identification.py", "tests/test_hardening.py", "tests/test_cg.py"],
     "_arrays": ["tests/test_hardening.py", "tests/test_identification.py", "tests/test_api.py"],
     "systems": ["tests/test_systems.py", "tests/test_linesolve.py"],
+    "identification/result": ["tests/test_identification.py", "tests/test_regularisation.py"],
+    "identification/estimator": ["tests/test_identification.py", "tests/test_cg.py",
+                                 "tests/test_regularisation.py"],
+    "identification/reference": ["tests/test_reference.py", "tests/test_identification.py"],
+    "_linesolve": ["tests/test_linesolve.py", "tests/test_systems.py"],
+    "_memory": ["tests/test_memory_guards.py", "tests/test_hardening.py",
+                "tests/test_matrix_free_memory.py"],
 }
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
@@ -1751,6 +1758,112 @@ AUDIT = [
     ),
     ("io/uff", "a == b or not a or not b", "a == b or not a and not b"),
     ("io/uff", "num, _, den = label.rpartition(\"/\")", "num, _, den = label.partition(\"/\")"),
+    # hardening pass, _validation, _arrays, result, estimator, reference, _linesolve, _memory:
+    # written with their tests (a check, not a measurement)
+    # check_frequency_data's messages quote the shapes given; a zero entry is data; the λ
+    # triple's order; the equation count over every load case and the symmetric unknowns
+    ("_validation", 'got shape {Ua.shape}")', 'got shape {Fa.shape}")'),
+    ("_validation", 'like U; got shape {Fa.shape}")', 'like U; got shape {Ua.shape}")'),
+    (
+        "_validation",
+        'f"got U {squeeze(Ua)} and F {squeeze(Fa)}"',
+        'f"got U {squeeze(Fa)} and F {squeeze(Ua)}"',
+    ),
+    (
+        "_validation",
+        "a.shape[:2] if a.shape[2] == 1 else a.shape",
+        "a.shape[:2] if a.shape[2] == 0 else a.shape",
+    ),
+    ("_validation", 'f"got shape {w.shape}"', 'f"got shape {Ua.shape}"'),
+    ("_validation", "if not np.any(Ua):", "if not np.all(Ua):"),
+    (
+        "_validation",
+        "return (float(arr[0]), float(arr[1]), float(arr[2]))",
+        "return (float(arr[0]), float(arr[2]), float(arr[1]))",
+    ),
+    ("_validation", "eq = 2 * data.n_columns * m", "eq = 2 * data.s * m"),
+    ("_validation", "return eq, 3 * m * (m + 1) // 2", "return eq, 3 * m * (m - 1) // 2"),
+    # as_omega names the first non-positive line and refuses 2-D; as_scalar's and as_count's
+    # bounds and words; as_basis refuses no DOF; as_dof_labels' default, message and repeats
+    ("_arrays", "i = int(np.argmax(w <= 0))", "i = int(np.argmax(w < 0))"),
+    ("_arrays", "if w.ndim != 1 or w.size == 0:", "if w.ndim > 2 or w.size == 0:"),
+    ("_arrays", "if a.ndim != 0 or a < 0 or", "if a.ndim != 0 or a <= 0 or"),
+    (
+        "_arrays",
+        'kind = "a non-negative" if allow_zero else "a positive"',
+        'kind = "a positive" if allow_zero else "a non-negative"',
+    ),
+    (
+        "_arrays",
+        'bounds = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"',
+        'bounds = f"> {lo}" if hi is None else f"in [{lo}, {hi}]"',
+    ),
+    ("_arrays", "or R.shape[0] == 0:", ":"),
+    (
+        "_arrays",
+        "return np.stack([np.arange(1, n + 1), np.ones(n, dtype=np.int64)], axis=1)",
+        "return np.stack([np.arange(n), np.ones(n, dtype=np.int64)], axis=1)",
+    ),
+    (
+        "_arrays",
+        '({n}, 2) (node, direction), got {d.shape}")',
+        '({n}, 2) (node, direction), got {n}")',
+    ),
+    (
+        "_arrays",
+        "if len({tuple(r) for r in labels.tolist()}) != n:",
+        "if len({tuple(r) for r in labels.tolist()}) < n - 1:",
+    ),
+    # symmetry_defect of a zero matrix; threads at the core's bound and the value quoted
+    (
+        "identification/result",
+        "out.append(_skew_norm(X) / nx if nx > 0 else 0.0)",
+        "out.append(_skew_norm(X) / nx if nx > 0 else 1.0)",
+    ),
+    (
+        "identification/result",
+        "if not 0 <= threads <= MAX_THREADS:",
+        "if not 0 <= threads < MAX_THREADS:",
+    ),
+    (
+        "identification/result",
+        'f"threads must be between 1 and {MAX_THREADS}, got {threads}"',
+        'f"threads must be between 1 and {MAX_THREADS}, got {MAX_THREADS}"',
+    ),
+    # identify: an SNR alone refused, passed on to the rule, warnings at the caller's line
+    (
+        "identification/estimator",
+        "if noise is not None or snr_db is not None:",
+        "if noise is not None:",
+    ),
+    ("identification/estimator", "            snr_db=snr_db,\n", "            snr_db=None,\n"),
+    ("identification/estimator", "stacklevel=3,", "stacklevel=2,"),
+    # the dense oracle's size guard: at the limit, in GiB, 16 bytes a complex entry
+    ("identification/reference", "if nbytes > MAX_BYTES:", "if nbytes >= MAX_BYTES:"),
+    ("identification/reference", "{nbytes / 1024**3:.1f} GiB", "{nbytes / 1e9:.1f} GiB"),
+    (
+        "identification/reference",
+        "_check_size(16 * U.shape[0] * m * 3 * m * m,",
+        "_check_size(8 * U.shape[0] * m * 3 * m * m,",
+    ),
+    # lines in parallel from PARALLEL_MIN_N DOFs; the memory fraction's bound, the fraction
+    # asked for, MemAvailable in KiB
+    (
+        "_linesolve",
+        "return (os.cpu_count() or 1) if n >= PARALLEL_MIN_N else 1",
+        "return (os.cpu_count() or 1) if n > PARALLEL_MIN_N else 1",
+    ),
+    (
+        "_memory",
+        "return available is None or nbytes <= fraction * available",
+        "return available is None or nbytes < fraction * available",
+    ),
+    (
+        "_memory",
+        "return _fits(nbytes, available_memory_bytes(), fraction)",
+        "return _fits(nbytes, available_memory_bytes(), FRACTION)",
+    ),
+    ("_memory", "return int(line.split()[1]) * 1024", "return int(line.split()[1]) * 1000"),
 ]
 
 

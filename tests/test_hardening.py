@@ -512,3 +512,38 @@ def test_to_receptance(X, quantity):
     assert out.shape == x.shape and out.dtype == np.complex128
     np.testing.assert_allclose(out, expected[quantity], rtol=1e-15, atol=0)
     assert not np.shares_memory(out, X), "the result must be a fresh array"
+
+
+# ------------------------------------------------- the small helpers' own checks
+
+
+def test_scalar_and_count_bounds_are_inclusive_and_the_refusals_quote_them():
+    from podid_rs._arrays import as_count, as_scalar
+
+    # allow_zero: 0 is the bound itself and is accepted; a negative is refused by its kind
+    assert as_scalar(0, "floor", allow_zero=True) == 0.0
+    with pytest.raises(ValueError, match=r"^floor must be a non-negative number, got -1$"):
+        as_scalar(-1, "floor", allow_zero=True)
+    with pytest.raises(ValueError, match=r"^dt must be a positive number, got 0$"):
+        as_scalar(0, "dt")
+    # the lower bound of a count is accepted, one below it refused with the bound
+    assert as_count(1, "n", 1) == 1 and as_count(2, "n", 2) == 2
+    with pytest.raises(ValueError, match=r"^n must be >= 2, got 1$"):
+        as_count(1, "n", 2)
+
+
+def test_basis_and_dof_label_checks():
+    from podid_rs._arrays import as_basis, as_dof_labels
+
+    # a basis of no DOF at all has the right number of columns and is still refused
+    with pytest.raises(ValueError, match=r"^basis must have shape \(n, m\) with m = 3 \(the "
+                                         r"model's order\), got \(0, 3\)$"):
+        as_basis(np.zeros((0, 3)), 3)
+    # no labels: node k = 1 … n, direction 1
+    np.testing.assert_array_equal(as_dof_labels(None, 3), [[1, 1], [2, 1], [3, 1]])
+    with pytest.raises(ValueError, match=r"^dofs must have shape \(n, 2\) = \(3, 2\) \(node, "
+                                         r"direction\), got \(2, 2\)$"):
+        as_dof_labels(np.ones((2, 2)), 3)
+    # a single label given twice among three is refused
+    with pytest.raises(ValueError, match="^dofs must not repeat a"):
+        as_dof_labels([[1, 1], [2, 1], [1, 1]], 3)

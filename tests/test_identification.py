@@ -350,3 +350,103 @@ def test_the_hint_to_penalise_every_block_only_where_one_is_not():
         identify(U, F, omega, (0.0, 1.0, 0.0))
     with pytest.raises(ValueError, match=r"give 21 real equations for 27 unknowns at order m = 3$"):
         identify(U[:2], F[:2], omega[:2], 1.0)
+
+
+# ------------------------------------------- the values quoted, the exact bounds
+
+
+def test_shape_refusals_quote_the_shapes_given():
+    # good_data(): U and F (10, 3), omega (10,); each message names the shapes passed
+    U, F, w = good_data()
+    with pytest.raises(ValueError, match=r"^U must have shape \(s, m\) or \(s, m, p\); "
+                                         r"got shape \(10,\)$"):
+        identify(U[:, 0], F, w)
+    with pytest.raises(ValueError, match=r"^F must have shape \(s, m\) or \(s, m, p\) like U; "
+                                         r"got shape \(10,\)$"):
+        identify(U, F[:, 0], w)
+    # (s, m) shown as given; (s, m, p) with its load cases
+    with pytest.raises(ValueError, match=r"; got U \(10, 3\) and F \(10, 2\)$"):
+        identify(U, F[:, :2], w)
+    with pytest.raises(ValueError, match=r"; got U \(10, 3, 2\) and F \(10, 3\)$"):
+        identify(np.stack([U, U], axis=2), F, w)
+    with pytest.raises(ValueError, match=r"\(s = 10\); got shape \(9,\)$"):
+        identify(U, F, w[:-1])
+    # a column of frequencies is not 1-D, though it has one entry per line
+    with pytest.raises(ValueError, match=r"^omega must be a non-empty 1-D array \(rad/s\), "
+                                         r"got shape \(10, 1\)$"):
+        identify(U, F, w[:, None])
+    # the first entry that is not positive is named: omega[1] = 0, not the negative omega[2]
+    with pytest.raises(ValueError, match=r"^omega must be strictly positive \(rad/s\); "
+                                         r"omega\[1\] = 0\.0$"):
+        identify(U, F, np.r_[w[0], 0.0, -w[2:]])
+
+
+def test_a_zero_entry_is_data_only_all_zeros_is_refused():
+    # one response entry exactly zero is legitimate (a node at a line); the refusal is
+    # for U with no non-zero entry at all
+    _, U, F, w = random_system_data(3, 10, 1, 0, 0.0)
+    U = U[..., 0].copy()
+    U[4, 1] = 0.0
+    res = identify(U, F[..., 0], w)
+    assert np.all(np.isfinite(res.M)) and res.well_posed
+
+
+def test_the_equation_count_takes_every_load_case_and_the_symmetric_unknowns():
+    # m = 2, λ = 0: 3m² = 12 unknowns, and each (line, load case) pair gives 2m = 4 real
+    # equations: one line with three load cases is enough by count, with two it is not.
+    # (One line cannot tell M, C and K apart, so the counted-enough case is solved with
+    # the rank it has, and says so: accepted, not refused. At one ω only Re D = K − ω²M
+    # and Im D = ωC are seen, 4 + 4 of the 12 numbers: rank 8.)
+    _, U, F, w = random_system_data(2, 1, 3, 0, 0.0)
+    with pytest.warns(RankDeficientWarning, match=r"\(rank 8 of 12 unknowns\)"):
+        assert identify(U, F, w).n_unknowns == 12
+    with pytest.raises(ValueError, match=r"^too few equations: 1 frequency line\(s\) × 2 load "
+                                         r"case\(s\) give 8 real equations for 12 unknowns at "
+                                         r"order m = 2 \(a positive lam"):
+        identify(U[..., :2], F[..., :2], w)
+    # exact-symmetric, m = 3: 3m(m+1)/2 = 18 unknowns, 2m = 6 equations per line
+    _, U, F, w = random_system_data(3, 3, 1, 1, 0.0)
+    assert identify(U, F, w, symmetric=True).n_unknowns == 18
+    with pytest.raises(ValueError, match=r"give 12 real equations for 18 unknowns at order "
+                                         r"m = 3$"):
+        identify(U[:2], F[:2], w[:2], symmetric=True)
+
+
+def test_a_lam_triple_keeps_its_order():
+    U, F, w = good_data()
+    assert identify(U, F, w, (1.0, 2.0, 3.0)).lam == (1.0, 2.0, 3.0)
+    assert identify(U, F, w, 4.0).lam == (4.0, 4.0, 4.0)
+
+
+def test_threads_up_to_the_core_bound_and_the_refusal_quotes_the_value():
+    from podid_rs.identification.result import MAX_THREADS, _check_threads
+
+    assert MAX_THREADS == 1024 and _check_threads(1024) == 1024 and _check_threads(1) == 1
+    with pytest.raises(ValueError, match=r"^threads must be between 1 and 1024, got 1025$"):
+        identify(*good_data(), threads=1025)
+
+
+def test_warnings_point_at_the_line_that_called_identify():
+    # stacklevel: a warning must name the caller's file, not the package's
+    U, F, w = good_data()
+    U, F, w = np.repeat(U[:1], 10, axis=0), np.repeat(F[:1], 10, axis=0), np.repeat(w[:1], 10)
+    with pytest.warns(RankDeficientWarning) as record:
+        identify(U, F, w)
+    assert record[0].filename == __file__
+
+
+def test_symmetry_defect_is_each_matrix_own_relative_skew_part():
+    from podid_rs.identification.result import IdentificationResult
+
+    def result(M, C, K):
+        return IdentificationResult(
+            np.asarray(M, float), np.asarray(C, float), np.asarray(K, float), (0.0, 0.0, 0.0),
+            False, 0.0, (0.0, 0.0, 0.0), "cholesky", 12, 12, 1.0, "numpy",
+        )
+
+    # by hand: M = I is symmetric; C = [[0, 1], [0, 0]] has ‖C − Cᵀ‖ = √2 and ‖C‖ = 1;
+    # K = [[2, 1], [0, 2]] has ‖K − Kᵀ‖ = √2 and ‖K‖ = 3
+    d = result(np.eye(2), [[0, 1], [0, 0]], [[2, 1], [0, 2]]).symmetry_defect()
+    np.testing.assert_allclose(d, (0.0, np.sqrt(2), np.sqrt(2) / 3), rtol=1e-15, atol=0)
+    # a zero matrix has no skew part: 0, not 0/0
+    assert result(np.eye(2), np.zeros((2, 2)), np.eye(2)).symmetry_defect() == (0.0, 0.0, 0.0)

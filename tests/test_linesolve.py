@@ -100,3 +100,11 @@ def test_a_singular_line_is_named(n, upper, kind):
     assert np.all(np.isfinite(system.frf(np.array([1.5, 2.5]))))
     with pytest.raises(ValueError, match="singular at omega = 2 rad/s"):
         system.frf(np.array([1.5, 2.0]))
+
+
+def test_lines_go_parallel_from_parallel_min_n_dofs_on(monkeypatch):
+    import podid_rs._linesolve as linesolve
+
+    monkeypatch.setattr(linesolve.os, "cpu_count", lambda: 8)
+    n = linesolve.PARALLEL_MIN_N
+    assert (linesolve.default_threads(n - 1), linesolve.default_threads(n)) == (1, 8)

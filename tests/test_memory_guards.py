@@ -10,6 +10,7 @@ message is compared with the count written out by hand (3 significant digits).
 
 from __future__ import annotations
 
+import io
 import re
 
 import numpy as np
@@ -108,3 +109,20 @@ def test_simulation_counts_every_byte_of_a_tiny_record(monkeypatch, histories):
         nbytes, what, hint = 3 * COMPLEX * s, f"simulating 1 DOFs over {s} lines", ""
     with pytest.raises(MemoryError, match=refusal(what, nbytes, hint)):
         simulate_white_noise(one, (0.1, 0.45), 1.0, 5.0, histories=histories)
+
+
+def test_a_request_of_exactly_the_allowed_fraction_fits(monkeypatch):
+    # 1000 bytes available: 90 % is 900 (0.9 · 1000 rounds to exactly 900.0)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 1000)
+    assert memory.fits_in_memory(900) and not memory.fits_in_memory(901)
+    memory.require_memory(900, "x")
+    with pytest.raises(MemoryError, match=r"^x needs 9\.01e-07 GB but only 1e-06 GB"):
+        memory.require_memory(901, "x")
+    # a fraction asked for is the one applied (the dense normal matrix asks for half)
+    assert memory.fits_in_memory(500, 0.5) and not memory.fits_in_memory(501, 0.5)
+
+
+def test_available_memory_is_read_from_meminfo_in_kib(monkeypatch):
+    meminfo = "MemTotal:        4000 kB\nMemFree:         1500 kB\nMemAvailable:    2000 kB\n"
+    monkeypatch.setattr(memory, "open", lambda *a, **k: io.StringIO(meminfo), raising=False)
+    assert memory.available_memory_bytes() == 2000 * 1024

@@ -173,3 +173,20 @@ def test_sizes_must_be_positive_integers(bad):
         vec_permutation(bad, 2)
     with pytest.raises(ValueError):
         symmetry_constraints(bad)
+
+
+def test_size_guard_refuses_only_above_the_limit_and_quotes_the_gib():
+    from podid_rs.identification.reference import MAX_BYTES, _check_size
+
+    _check_size(MAX_BYTES, "at the limit")  # 2 GiB exactly is allowed
+    with pytest.raises(ValueError, match=r"^one byte more would take 2\.0 GiB \(limit 2 GiB\)"):
+        _check_size(MAX_BYTES + 1, "one byte more")
+    # L_M, L_C, L_K at m = 80: 3 · 8 B · 80² · 3·80² = 2 949 120 000 B = 2.75 GiB
+    with pytest.raises(ValueError, match=r"^L_M, L_C, L_K \(3 x 6400 x 19200\) would take 2\.7 "
+                                         r"GiB \(limit 2 GiB\)"):
+        symmetry_constraints(80)
+    # A of 60 000 columns at m = 10: 16 B · 600 000 × 300 = 2.88e9 B = 2.68 GiB, refused;
+    # counted at 8 B a complex entry it would pass as 1.34 GiB
+    U = np.ones((60_000, 10), dtype=complex)
+    with pytest.raises(ValueError, match=r"^A \(600000 x 300 complex\) would take 2\.7 GiB"):
+        kronecker_system(U, U, np.ones(60_000))

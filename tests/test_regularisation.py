@@ -402,3 +402,17 @@ def test_a_given_grid_bounds_the_rules_search():
         assert grid[0] <= curve.choices[rule] <= grid[-1], rule
     assert curve.lam in (grid[0], grid[-1])
     assert "an end of the λ range" in curve.problems["lcurve"][0]
+
+
+def test_identify_passes_an_snr_on_to_the_discrepancy_rule():
+    # the same noise level given as σ or as an SNR (10 log10(mean |U|² / σ²)) sets the
+    # same target, through identify as through lambda_curve
+    _, U, F, omega, sigma = skew_mass_case(4, noise=0.001, on="U")
+    snr = 10 * np.log10(np.mean(np.abs(U) ** 2) / sigma**2)
+    by_sigma = identify(U, F, omega, "discrepancy", noise=sigma).info["lambda_curve"]
+    by_snr = identify(U, F, omega, "discrepancy", snr_db=snr).info["lambda_curve"]
+    assert by_snr.target_residual == pytest.approx(by_sigma.target_residual, rel=1e-12)
+    # outside the discrepancy rule an SNR alone is refused too, not ignored
+    with pytest.raises(ValueError, match="^noise and snr_db set the discrepancy target; they "
+                                         "need lam='discrepancy'$"):
+        identify(U, F, omega, 1.0, snr_db=snr)
