@@ -701,3 +701,12 @@ def test_without_modal_constants_the_data_are_not_consulted():
     assert list(mode_kinds(shapes, w, flat, inputs=[0])) == ["weak"]
     bare = ModeShapes(eigenvalues=shapes.eigenvalues, shapes=shapes.shapes)
     assert list(mode_kinds(bare, w, flat, inputs=[0])) == ["structural"]
+
+
+def test_shape_mac_refuses_anything_but_two_mode_shapes_on_either_side():
+    lam = np.array([-1.0 + 60.0j, -2.0 + 90.0j])
+    a = ModeShapes(lam, np.array([[1.0, 0.5], [0.5, -1.0], [0.2, 0.3]], dtype=complex),
+                   np.array([[1, 3], [2, 3], [3, 3]]))
+    for left, right in ((a, a.shapes), (a.shapes, a), (a.shapes, a.shapes)):
+        with pytest.raises(ValueError, match=r"^shape_mac compares two ModeShapes"):
+            shape_mac(left, right)

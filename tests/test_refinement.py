@@ -1060,3 +1060,30 @@ def test_the_report_counts_the_accepted_steps_apart_from_the_iterations():
     steps = [i for i, _ in ref["history"]]
     assert steps[0] == 0 and np.all(np.diff(steps) > 0) and steps[-1] <= 30
     assert ref["accepted"] == len(steps) - 1 < model.iterations
+
+
+def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses(monkeypatch):
+    """The core reports the start's responses unless it cannot evaluate them; then refine
+    computes them itself (on the data's DOFs, no basis): the same dB errors either way."""
+    import types
+
+    from podid_rs import _core
+
+    chain, U, F, w = chain_data(n=4, p=2)
+    start = (chain.M, 1.3 * chain.C, 0.9 * chain.K)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        given = refine(start, U, F, w, max_iter=2, threads=1)
+        core = _core.refine_output_error
+
+        def without_start_responses(*args, **kwargs):
+            out = core(*args, **kwargs)
+            names = [k for k in dir(out) if not k.startswith("_")]
+            return types.SimpleNamespace(**{k: getattr(out, k) for k in names}
+                                         | {"responses_start": None})
+
+        monkeypatch.setattr(_core, "refine_output_error", without_start_responses)
+        computed = refine(start, U, F, w, max_iter=2, threads=1)
+    a, b = given.info["refinement"]["db_before"], computed.info["refinement"]["db_before"]
+    assert a[0] > 0.1  # the start is off: a real error to compare
+    np.testing.assert_allclose(b, a, rtol=1e-9)

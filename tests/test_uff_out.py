@@ -309,6 +309,14 @@ def test_unevenly_spaced_lines_are_written_line_by_line(written, tmp_path, binar
                      omega=2 * np.pi * nearly, binary=binary)
     s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
     assert all(d["abscissa_spacing"] == 0 for d in s58)
+    # relative, not absolute: steps of 1 mHz differing by 5e-9 Hz (5e-6 of a step) are
+    # not equal either
+    fine = 5.0 + 0.001 * np.arange(6.0)
+    fine[3:] += 5e-9
+    path = write_uff(tmp_path / "fine.uff", result, R, dofs=data.dofs, inputs=[1],
+                     omega=2 * np.pi * fine, binary=binary)
+    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+    assert all(d["abscissa_spacing"] == 0 for d in s58)
 
 
 def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
