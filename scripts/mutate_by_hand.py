@@ -52,6 +52,7 @@ TESTS = {
     "_validation": ["tests/test_identification.py", "tests/test_hardening.py", "tests/test_cg.py"],
     "_arrays": ["tests/test_hardening.py", "tests/test_identification.py", "tests/test_api.py"],
     "systems": ["tests/test_systems.py", "tests/test_linesolve.py"],
+    "apps/identify": ["tests/test_cli_identify.py", "tests/test_identify_outputs.py"],
 }
 # the audit's mutants of a module run these files besides the module's own (the tests
 # of what calls it)
@@ -1625,7 +1626,7 @@ AUDIT = [
         'a0, a1 = (as_scalar(v, name) for v, name in ((a0, "a0"), (a1, "a1")))\n'
         "    return m1",
     ),
-    # hardening pass, systems: written with their tests (a check, not a
+    # hardening pass, systems and apps/identify: written with their tests (a check, not a
     # measurement)
     # systems: a sparse matrix's checks and copy, the index checks, the constructor's
     # messages and its mix of dense and sparse, todense, threads passed on, the sparse
@@ -1683,6 +1684,37 @@ AUDIT = [
      '"a1")))\n    a0, a1 = as_scalar(a0, "a0"), as_scalar(a1, "a1")\n    dm = '),
     ("systems", 'as_scalar(k, "k")', 'as_scalar(k, "k", allow_zero=True)'),
     ("systems", 'as_count(ny, "ny", 1)', 'as_count(ny, "nx", 1)'),
+    # apps/identify: m and energy both refused, a DOF's name, the intervals' columns and
+    # level, the modes.md header and its rows without a kind, the summary's driven DOFs,
+    # load cases, observed coordinates, physical change and FRF errors, the MAC's
+    # neighbour order, the chart's model at the chosen order, the overlays' count and far
+    # DOF, an .npz's quantity
+    ("apps/identify",
+     'raise ValueError("give the reduced order m or the energy fraction, not both")', "pass"),
+    ("apps/identify", "if 1 <= abs(direction) <= 3:", "if 1 <= abs(direction) < 3:"),
+    ("apps/identify", "'-' if direction < 0 else ''", "'-' if direction > 0 else ''"),
+    ("apps/identify", 'float(df if key == "f_hz" else dz)', 'float(dz if key == "f_hz" else df)'),
+    ("apps/identify", "modes = unc.modes(level)", "modes = unc.modes(LEVEL)"),
+    ("apps/identify", "modes.z * modes.std_damping", "modes.std_damping"),
+    ("apps/identify", "f\"{pm[0][7:]} % confidence", "f\"{pm[0][6:]} % confidence"),
+    ("apps/identify", 'structural = [r for r in rows if r.get("kind", STRUCTURAL) == STRUCTURAL]',
+     'structural = [r for r in rows if r.get("kind") == STRUCTURAL]'),
+    ("apps/identify", "for i in d.inputs),", "for i in range(d.p)),"),
+    ("apps/identify", "{d.p} load case(s)", "{d.n} load case(s)"),
+    ("apps/identify", "- coordinates: {ls.m} observed", "- coordinates: {r.m} observed"),
+    ("apps/identify", 'p["residual_after"] / p["residual_before"] - 1',
+     'p["residual_before"] / p["residual_after"] - 1'),
+    ("apps/identify", "float(np.percentile(e, 95))", "float(np.percentile(e, 90))"),
+    ("apps/identify", 'F_m = np.einsum("im,sip->smp", R[d.inputs], d.F)',
+     'F_m = np.einsum("im,sip->smp", R[: d.p], d.F)'),
+    ("apps/identify", "{'refined' if ref is not None else 'written'} model {med",
+     "{'refined' if ref is None else 'written'} model {med"),
+    ("apps/identify", "other = m + 1 if m < top else m - 1",
+     "other = m + 1 if m < top - 1 else m - 1"),
+    ("apps/identify", "fit=lambda k: result if k == order else fits[k]", "fit=lambda k: fits[k]"),
+    ("apps/identify", "MAX_OVERLAYS = 4", "MAX_OVERLAYS = 5"),
+    ("apps/identify", "far = int(np.argmax(distance))", "far = int(np.argmin(distance))"),
+    ("apps/identify", 'if "quantity" in z.files:', 'if "quantities" in z.files:'),
 ]
 
 
