@@ -1715,6 +1715,10 @@ AUDIT = [
     ("apps/identify", "MAX_OVERLAYS = 4", "MAX_OVERLAYS = 5"),
     ("apps/identify", "far = int(np.argmax(distance))", "far = int(np.argmin(distance))"),
     ("apps/identify", 'if "quantity" in z.files:', 'if "quantities" in z.files:'),
+    # and: the paper's estimator's default energy, the chart's λ
+    ("apps/identify", "0.99 if energy is None else energy", "0.9 if energy is None else energy"),
+    ("apps/identify", "plain = pod_fit(data, 0.0 if lam is None else lam, lam is None, basis)",
+     "plain = pod_fit(data, 0.0, lam is None, basis)"),
 ]
 
 

@@ -133,6 +133,12 @@ def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
     assert (out / "frf_input2.png").read_bytes()[:8] == PNG
     # the stabilisation chart fits as the command does: every order made physical
     assert {r["physical"] for r in read_rows(out / "stabilisation.csv")} == {"True"}
+    # ... with the command's λ: at the chosen order the chart's model is the one written
+    # (the same fit of the same data, so equal to round-off: 1e-9)
+    chosen = [float(r["f_hz"]) for r in read_rows(out / "stabilisation.csv")
+              if r["chosen"] == "True"]
+    written = [float(r["f_hz"]) for r in read_rows(out / "modes.csv")]
+    assert chosen and np.allclose(sorted(chosen), sorted(written), rtol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -292,3 +298,14 @@ def test_the_chart_shows_the_written_model_at_the_chosen_order(uff_file, tmp_pat
     assert {r["m"] for r in chosen} == {"4"}
     written = [float(r["f_hz"]) for r in read_rows(out / "modes.csv")]
     assert np.allclose(sorted(float(r["f_hz"]) for r in chosen), sorted(written), rtol=1e-12)
+
+
+def test_the_paper_estimator_keeps_99_percent_of_the_energy_by_default(uff_file, tmp_path):
+    from podid_rs.apps.identify import run_identify
+
+    _, path = uff_file
+    run = run_identify(path, tmp_path / "o", band_hz=(5.0, 200.0), paper_estimator=True,
+                       progress=False)
+    pod = run.data.pod()
+    assert pod.order_for_energy(0.9) < pod.order_for_energy(0.99)  # the default shows
+    assert run.result.m == pod.order_for_energy(0.99)
