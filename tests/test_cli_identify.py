@@ -65,6 +65,8 @@ def check_full_order_outputs(chain, out, names_extra=()):
     assert all(r["stable"] == "yes" for r in rows)
     md = (out / "modes.md").read_text()
     assert "`test.uff`" in md and "196 lines 5–200 Hz" in md and "| mode | f_hz |" in md
+    # the fixture's six DOFs along X, forces at DOFs 2 and 5: two load cases
+    assert "6 measured DOFs, 2 load case(s), driven DOFs (node, dir) (2, 1), (5, 1)" in md
     return model
 
 
@@ -77,6 +79,7 @@ def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
     stdout = capsys.readouterr().out
     assert "output-error refinement" in stdout and "m = 6 as asked" in stdout
     assert "stable: yes" in stdout and "positive definite: yes" in stdout
+    assert "→ refined model" in stdout  # the FRF errors' line names the model written
     model = check_full_order_outputs(chain, out, ("order.md", "order.png"))
     assert model.method == "output-error" and model.symmetric
     table = (out / "order.md").read_text()
@@ -119,12 +122,23 @@ def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
     model, _ = load_model(out / "model.npz")
     rep = model.info["physical"]
     assert model.residual_norm == rep["residual_after"] < 1.05 * rep["residual_before"]
+    # the summary quotes the correction's change of residual, after against before
+    before, after = rep["residual_before"], rep["residual_after"]
+    change = 100 * (after / before - 1)
+    assert f"residual {before:.4g} → {after:.4g} ({change:+.2f} %)" in stdout
+    assert "→ written model" in stdout  # made physical: not the paper's estimator itself
     for X in (model.M, model.C, model.K):
         assert np.array_equal(X, X.T)
     assert np.linalg.eigvalsh(model.M).min() > 0 and np.linalg.eigvalsh(model.K).min() > 0
     assert (out / "frf_input2.png").read_bytes()[:8] == PNG
     # the stabilisation chart fits as the command does: every order made physical
     assert {r["physical"] for r in read_rows(out / "stabilisation.csv")} == {"True"}
+    # ... with the command's λ: at the chosen order the chart's model is the one written
+    # (the same fit of the same data, so equal to round-off: 1e-9)
+    chosen = [float(r["f_hz"]) for r in read_rows(out / "stabilisation.csv")
+              if r["chosen"] == "True"]
+    written = [float(r["f_hz"]) for r in read_rows(out / "modes.csv")]
+    assert chosen and np.allclose(sorted(chosen), sorted(written), rtol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -212,7 +226,11 @@ def test_identify_a_single_driving_point_frf(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["identify", str(path), "--band-hz", "1", "50", "--out", str(out),
                  "--no-progress"]) == 0
-    assert "latent" in capsys.readouterr().out
+    stdout = capsys.readouterr().out
+    # one sensor: one POD mode observed, the rest of the chosen order latent
+    m = load_model(out / "model.npz")[0].m
+    assert m > 1 and (f"- coordinates: 1 observed (the POD modes of the 1 measured DOFs) "
+                      f"and {m - 1} latent") in stdout
     assert not (out / "mac.png").exists() and (out / "stabilisation.png").exists()
     f_true = np.sort(modal_parameters(chain).frequencies_hz)
     f = [float(r["f_hz"]) for r in read_rows(out / "modes.csv") if r["kind"] == "structural"]
@@ -233,3 +251,61 @@ def test_overlay_entries_are_those_of_r_h_rt():
     full = np.einsum("am,smk,bk->sab", R, chain.frf(w), R)
     np.testing.assert_allclose(_model_frf(model, R, w, [0, 7], 3), full[:, [0, 7], 3],
                                rtol=1e-12, atol=1e-12 * np.abs(full).max())
+
+
+def test_run_identify_refuses_an_order_and_an_energy_together(uff_file, tmp_path):
+    from podid_rs.apps.identify import run_identify
+
+    _, path = uff_file
+    with pytest.raises(ValueError, match="give the reduced order m or the energy fraction, "
+                                         "not both"):
+        run_identify(path, tmp_path / "o", band_hz=(5.0, 200.0), m=2, energy=0.9,
+                     progress=False)
+
+
+def test_frf_errors_are_those_of_r_h_rt_at_the_driven_columns(uff_file, tmp_path):
+    """The summary's median and 95th percentile |dB|: the model's FRF R H_m R[inputs]ᵀ
+    (by the full FRF here, by one response per load case in the run) against the measured
+    FRFs, over every line and entry. m = 3 < 6: errors of order 1 dB, not round-off.
+    Tolerance: the two ways solve the same systems, round-off apart (1e-9 relative)."""
+    from podid_rs.apps.identify import run_identify
+
+    _, path = uff_file
+    run = run_identify(path, tmp_path / "o", band_hz=(5.0, 200.0), m=3, paper_estimator=True,
+                       progress=False)
+    d, model = run.data, run.least_squares
+    R = run.basis[:, : model.m]
+    X = np.einsum("am,smk,bk->sab", R, model.system().frf(d.omega), R[[1, 4]])
+    e = np.abs(20 * np.log10(np.abs(X) / np.abs(d.U)))
+    median, p95 = run.frf_errors(model)
+    assert median == pytest.approx(np.median(e), rel=1e-9)
+    assert p95 == pytest.approx(np.percentile(e, 95), rel=1e-9)
+    assert median < p95  # not a degenerate spread
+
+
+def test_the_chart_shows_the_written_model_at_the_chosen_order(uff_file, tmp_path):
+    """At m = 4 the final fit on every line changes the sweep's fit of that order; the
+    stabilisation chart's row for the chosen order is the model written. Both rows come
+    from the same eigenvalue solve of the same matrices: equal to round-off (1e-12)."""
+    from podid_rs.apps.identify import run_identify
+
+    _, path = uff_file
+    out = tmp_path / "out"
+    run = run_identify(path, out, band_hz=(5.0, 200.0), m=4, progress=False)
+    swept = {fit.m: fit.model for fit in run.sweep.fits}[4]
+    assert not np.allclose(swept.K, run.result.K, rtol=1e-9, atol=0)  # the refit was kept
+    chosen = [r for r in read_rows(out / "stabilisation.csv") if r["chosen"] == "True"]
+    assert {r["m"] for r in chosen} == {"4"}
+    written = [float(r["f_hz"]) for r in read_rows(out / "modes.csv")]
+    assert np.allclose(sorted(float(r["f_hz"]) for r in chosen), sorted(written), rtol=1e-12)
+
+
+def test_the_paper_estimator_keeps_99_percent_of_the_energy_by_default(uff_file, tmp_path):
+    from podid_rs.apps.identify import run_identify
+
+    _, path = uff_file
+    run = run_identify(path, tmp_path / "o", band_hz=(5.0, 200.0), paper_estimator=True,
+                       progress=False)
+    pod = run.data.pod()
+    assert pod.order_for_energy(0.9) < pod.order_for_energy(0.99)  # the default shows
+    assert run.result.m == pod.order_for_energy(0.99)

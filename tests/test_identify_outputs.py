@@ -117,3 +117,103 @@ def test_no_progress_option():
         ["identify", "x.uff", "--band-hz", "1", "2", "--out", "o", "--no-progress"]
     )
     assert args.no_progress
+
+
+def test_dof_names_give_the_node_and_the_signed_axis():
+    from podid_rs.apps.identify import _dof_name
+
+    names = {(7, 1): "7X", (12, -2): "12-Y", (3, 3): "3Z", (8, -3): "8-Z", (4, 0): "4:0",
+             (5, 4): "5:4", (6, -4): "6:-4"}
+    for dof, name in names.items():
+        assert _dof_name(np.array(dof)) == name
+
+
+def test_intervals_sit_beside_their_values_at_the_level_asked():
+    """Half-widths z·σ (z = 2 here by construction), f's beside f and ζ's beside ζ, named
+    by the level; a mode the data do not fix is `undetermined` in both."""
+    from types import SimpleNamespace
+
+    from podid_rs.apps.identify import with_intervals
+
+    asked = []
+    modes = SimpleNamespace(z=2.0, std_frequency_hz=np.array([0.5, 0.25]),
+                            std_damping=np.array([0.01, 0.02]),
+                            determined=np.array([True, False]))
+    unc = SimpleNamespace(modes=lambda level: asked.append(level) or modes)
+    rows = [{"mode": 1, "f_hz": 10.0, "zeta": 0.02, "stable": "yes"},
+            {"mode": 2, "f_hz": 30.0, "zeta": 0.05, "stable": "no"}]
+    out = with_intervals(rows, unc, level=0.9)
+    assert asked == [0.9]
+    assert list(out[0]) == ["mode", "f_hz", "f_hz_pm90", "zeta", "zeta_pm90", "stable"]
+    assert out[0] == {"mode": 1, "f_hz": 10.0, "f_hz_pm90": 1.0, "zeta": 0.02,
+                      "zeta_pm90": 0.02, "stable": "yes"}
+    assert out[1]["f_hz_pm90"] == out[1]["zeta_pm90"] == "undetermined"
+
+
+def test_modes_markdown_names_the_interval_level_and_keeps_rows_without_a_kind():
+    """Rows without a `kind` (a table made without kinds) are the structure's modes."""
+    from podid_rs.apps.identify import modes_markdown
+
+    rows = [{"mode": 1, "f_hz": 10.0, "f_hz_pm90": 1.0, "zeta": 0.02, "zeta_pm90": 0.002}]
+    md = modes_markdown("- run\n", rows)
+    assert "`f_hz_pm90`, `zeta_pm90`: the half-width of the 90 % confidence interval" in md
+    assert "None." not in md and "Other poles" not in md and "| 1 | 10 |" in md
+
+
+def test_the_mac_compares_the_chosen_order_with_the_next(beam_like, tmp_path, capsys,
+                                                         monkeypatch):
+    """m = 7 of an 8-DOF chart: the MAC's other order is 8 (m + 1 up to the chart's top)."""
+    from podid_rs.apps import identify as identify_module
+
+    seen = {}
+
+    def fake_mac(a, b, path, *, names, title):
+        seen.update(names=names, title=title)
+        return path
+
+    monkeypatch.setattr(identify_module, "plot_mac", fake_mac)
+    chain, path = beam_like
+    argv = ["identify", str(path), "--band-hz", "2", "160", "--m", "7", "--paper-estimator",
+            "--no-progress", "--out", str(tmp_path / "out")]
+    assert main(argv) == 0
+    assert seen["names"] == ("m = 7", "m = 8")
+    assert seen["title"] == "MAC of the identified mode shapes in 2–160 Hz, m = 7 vs m = 8"
+
+
+def test_overlays_draw_four_driven_dofs_and_their_farthest_dof(tmp_path, capsys, monkeypatch):
+    """Five driven DOFs of the 6-DOF chain (nodes 1–5 of 1–6 along X): four overlays, each
+    the driving point and the measured DOF farthest from it (node 6, or node 1 for nodes
+    4 and 5)."""
+    from podid_rs.apps import identify as identify_module
+
+    calls = []
+
+    def fake_overlay(freq, curves, path, *, title, entries):
+        calls.append((path.name, entries))
+        return path
+
+    monkeypatch.setattr(identify_module, "plot_frf_comparison", fake_overlay)
+    chain = mass_spring_chain(6)
+    freq = np.arange(5.0, 201.0, 1.0)
+    dofs = [(k + 1, 1) for k in range(6)]
+    path = write_uff(tmp_path / "five.uff", freq, chain.frf(2 * np.pi * freq)[:, :, :5], dofs,
+                     dofs[:5])
+    argv = ["identify", str(path), "--band-hz", "5", "200", "--m", "6", "--paper-estimator",
+            "--no-progress", "--out", str(tmp_path / "out")]
+    assert main(argv) == 0
+    assert calls == [
+        ("frf_input1.png", [("1X", "1X"), ("6X", "1X")]),
+        ("frf_input2.png", [("2X", "2X"), ("6X", "2X")]),
+        ("frf_input3.png", [("3X", "3X"), ("6X", "3X")]),
+        ("frf_input4.png", [("4X", "4X"), ("1X", "4X")]),
+    ]
+
+
+def test_source_ordinate_of_a_saved_data_set(tmp_path):
+    from podid_rs.apps.identify import source_ordinate
+
+    np.savez(tmp_path / "velocity.npz", quantity=np.array("velocity"))
+    np.savez(tmp_path / "plain.npz", dt=np.array(0.1))
+    assert source_ordinate(tmp_path / "velocity.npz") == "velocity"
+    assert source_ordinate(tmp_path / "plain.npz") == "displacement"
+    assert source_ordinate(tmp_path / "notes.txt") == "displacement"

@@ -1,7 +1,13 @@
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
-from podid_rs.systems import SecondOrderSystem, mass_spring_chain
+from podid_rs.systems import (
+    DENSE_CHAIN_MAX,
+    SecondOrderSystem,
+    mass_spring_chain,
+    mass_spring_lattice,
+)
 
 
 def random_system(n: int, seed: int) -> SecondOrderSystem:
@@ -248,3 +254,185 @@ def test_lattice_variations_are_fractions_below_one():
         mass_spring_lattice(3, 3, mass_variation=1.0)
     with pytest.raises(ValueError, match=r"got 0 and 1"):
         mass_spring_lattice(3, 3, stiffness_variation=1.0)
+
+
+# ------------------------------------------- sparse input, messages, options, the lattice
+
+
+@pytest.mark.parametrize(
+    ("which", "bad", "message"),
+    [
+        (0, sp.csr_array(np.eye(2, dtype=bool)), "M must be a numeric matrix, got dtype bool"),
+        (2, sp.csr_array(np.eye(2) * (1 + 1j)), "K must be real, got complex dtype complex128"),
+        (1, sp.csr_array(np.diag([1.0, np.inf])), r"C contains non-finite values \(NaN or inf\)"),
+        (0, np.ones((2, 3)), r"M must be a non-empty square matrix, got shape \(2, 3\)"),
+        (2, np.zeros((0, 0)), r"K must be a non-empty square matrix, got shape \(0, 0\)"),
+        (1, np.eye(3), r"same shape, got \(2, 2\), \(3, 3\) and \(2, 2\)"),
+    ],
+)
+def test_invalid_matrices_are_named_with_their_dtype_or_shape(which, bad, message):
+    mats = [np.eye(2), np.eye(2), 4.0 * np.eye(2)]
+    mats[which] = bad
+    with pytest.raises(ValueError, match=message):
+        SecondOrderSystem(*mats)
+
+
+def test_a_dense_matrix_beside_a_sparse_one_is_checked_as_the_dense_are():
+    with pytest.raises(ValueError, match="M must be real"):
+        SecondOrderSystem(1j * np.eye(2), np.eye(2), sp.csr_array(np.eye(2)))
+
+
+def test_sparse_matrices_are_stored_as_copies():
+    K = sp.csr_array(4.0 * np.eye(2))
+    system = SecondOrderSystem(sp.eye_array(2), sp.csr_array((2, 2)), K)
+    K.data[:] = 99.0
+    assert np.array_equal(system.K.toarray(), 4.0 * np.eye(2))
+
+
+def test_one_sparse_matrix_makes_the_system_sparse():
+    """M and C dense, K sparse: all three held sparse, the same FRF as the dense system."""
+    dense = random_system(4, 3)
+    mixed = SecondOrderSystem(dense.M, dense.C, sp.csr_array(dense.K))
+    assert mixed.is_sparse and all(sp.issparse(X) for X in (mixed.M, mixed.C, mixed.K))
+    assert repr(mixed) == "SecondOrderSystem(n=4, sparse)" and repr(dense) == (
+        "SecondOrderSystem(n=4)")
+    omega = np.array([1.0, 6.0])
+    assert rel(mixed.frf(omega), dense.frf(omega)) < 1e-12
+
+
+def test_todense_gives_dense_arrays_of_the_same_entries():
+    chain = mass_spring_chain(5, sparse=True)
+    dense = chain.todense()
+    assert not dense.is_sparse and isinstance(dense.M, np.ndarray)
+    for X, Y in ((dense.M, chain.M), (dense.C, chain.C), (dense.K, chain.K)):
+        assert np.array_equal(X, Y.toarray())
+    again = dense.todense()
+    assert again is not dense and np.array_equal(again.K, dense.K)
+
+
+@pytest.mark.parametrize(
+    ("idx", "message"),
+    [
+        (np.array([], dtype=int), "rows must be a non-empty 1-D sequence of integer DOF indices"),
+        ([], "rows must be a non-empty 1-D sequence of integer DOF indices"),  # float64
+        ([1.0], "rows must be a non-empty 1-D sequence of integer DOF indices"),
+        ([[0, 1]], "rows must be a non-empty 1-D sequence of integer DOF indices"),
+    ],
+)
+def test_malformed_indices_are_refused(idx, message):
+    with pytest.raises(ValueError, match=message):
+        random_system(3, 0).frf([1.0], rows=idx)
+
+
+def test_rows_or_cols_alone_select_those_entries():
+    """rows alone: every column of those rows; cols alone: every row; a scalar index is
+    one index."""
+    system = random_system(4, 4)
+    omega = np.array([2.0, 5.0])
+    full = system.frf(omega)
+    assert rel(system.frf(omega, rows=[2]), full[:, [2], :]) < 1e-12
+    assert rel(system.frf(omega, cols=[3, 0]), full[:, :, [3, 0]]) < 1e-12
+    assert rel(system.frf(omega, rows=1, cols=2), full[:, [1]][:, :, [2]]) < 1e-12
+
+
+def test_sparse_entries_and_dynamic_stiffness_are_the_dense_ones():
+    """The chain held sparse against the same chain held dense: the dynamic stiffness
+    (formed densely from the sparse matrices), some FRF entries and a projection."""
+    sparse, dense = mass_spring_chain(6, sparse=True), mass_spring_chain(6, sparse=False)
+    # the Rayleigh damping has other entries than M and K: a swap of C shows
+    omega = np.array([3.0, 40.0, 700.0])
+    np.testing.assert_array_equal(sparse.dynamic_stiffness(omega),
+                                  dense.dynamic_stiffness(omega))
+    rows, cols = [5, 0], [1, 4, 2]
+    some = sparse.frf(omega, rows=rows, cols=cols)
+    assert rel(some, dense.frf(omega)[:, rows][:, :, cols]) < 1e-12
+    R = np.linalg.qr(np.random.default_rng(1).standard_normal((6, 2)))[0]
+    # the same products in another order: round-off apart
+    for name in "MCK":
+        np.testing.assert_allclose(getattr(sparse.project(R), name),
+                                   getattr(dense.project(R), name), rtol=1e-13)
+
+
+def test_threads_are_checked_on_the_sparse_path():
+    chain = mass_spring_chain(4, sparse=True)
+    with pytest.raises(ValueError, match=r"threads must be in \[1, 1024\], got 0"):
+        chain.frf([1.0], rows=[0], threads=0)
+    with pytest.raises(ValueError, match=r"threads must be in \[1, 1024\], got 1025"):
+        chain.response([1.0], np.ones((1, 4)), threads=1025)
+
+
+def test_malformed_forces_and_basis_are_named_with_their_shapes():
+    system = random_system(3, 0)
+    with pytest.raises(ValueError, match=r"with s = 2 lines and n = 3 DOFs, got \(3, 3\)"):
+        system.response([1.0, 2.0], np.ones((3, 3)))
+    with pytest.raises(ValueError, match=r"with s = 2 lines and n = 3 DOFs, got \(2, 3, 1, 1\)"):
+        system.response([1.0, 2.0], np.ones((2, 3, 1, 1)))
+    with pytest.raises(ValueError, match=r"R must have shape \(n, m\) with n = 3, got \(3, 0\)"):
+        system.project(np.zeros((3, 0)))
+
+
+def test_sparse_chain_holds_the_dense_chains_entries_bit_for_bit():
+    """eqs. 51–52 on both layouts, with distinct masses: m1 on the first n // 2 DOFs."""
+    kwargs = dict(m1=0.25, m2=3.0, ku=7.0, a0=0.5, a1=0.125)
+    sparse, dense = mass_spring_chain(5, sparse=True, **kwargs), mass_spring_chain(5, **kwargs)
+    assert sparse.is_sparse and not dense.is_sparse
+    assert np.array_equal(sparse.M.diagonal(), [0.25, 0.25, 3.0, 3.0, 3.0])
+    assert sparse.K[0, 1] == sparse.K[1, 0] == -7.0 and sparse.K[0, 0] == 14.0
+    for X, Y in ((sparse.M, dense.M), (sparse.C, dense.C), (sparse.K, dense.K)):
+        assert np.array_equal(X.toarray(), Y)
+
+
+def test_the_chains_sparse_keyword_overrides_the_size_rule():
+    assert mass_spring_chain(3, sparse=True).is_sparse
+    assert not mass_spring_chain(DENSE_CHAIN_MAX + 1, sparse=False).is_sparse
+
+
+def test_the_chains_second_mass_is_checked_by_name():
+    with pytest.raises(ValueError, match=r"m2 must be a positive number, got -1\.0"):
+        mass_spring_chain(4, m2=-1.0)
+
+
+def test_memory_refusals_say_how_much():
+    """By hand: a dense chain of 10⁶ masses is 3 matrices × 3 (with temporaries) × 8 B ×
+    10¹² = 7.2e13 B; a lattice of 10⁵ × 10⁵ masses 3 × 3 × 12 B × 5 per row × 10¹⁰ rows =
+    5.4e12 B."""
+    with pytest.raises(MemoryError, match=r"a dense chain of 1000000 masses needs 7.2e\+04 GB"):
+        mass_spring_chain(10**6, sparse=False)
+    with pytest.raises(MemoryError, match=r"100000 × 100000 masses needs 5.4e\+03 GB"):
+        mass_spring_lattice(10**5, 10**5)
+
+
+def test_lattice_dofs_are_numbered_along_x_first():
+    """DOF j·nx + i: with nx = 3, DOFs 0–1 and 0–3 are neighbours, 2–3 are not (2 ends a
+    row); an edge mass has one spring to ground per side on the edge (corner: two)."""
+    lat = mass_spring_lattice(3, 4, k=5.0)
+    K = lat.K.toarray()
+    assert K[0, 1] == K[0, 3] == -5.0 and K[2, 3] == 0.0
+    # row sums: the springs to ground, 2 at a corner, 1 on an edge, 0 inside
+    assert np.allclose(K.sum(axis=1).reshape(4, 3),
+                       5.0 * np.array([[2, 1, 2], [1, 0, 1], [1, 0, 1], [2, 1, 2]]))
+
+
+def test_lattice_variations_draw_each_property_alone_and_follow_the_seed():
+    nominal = mass_spring_lattice(3, 3, mass=2.0, k=10.0).K.toarray()
+    heavy = mass_spring_lattice(3, 3, mass=2.0, k=10.0, mass_variation=0.5, seed=4)
+    masses = heavy.M.diagonal()
+    # nine uniform draws in (1 ± 0.5)·2: all equal has probability zero
+    assert np.ptp(masses) > 0 and np.all(np.abs(masses / 2.0 - 1.0) <= 0.5)
+    assert np.array_equal(heavy.K.toarray(), nominal)
+    stiff = mass_spring_lattice(3, 3, mass=2.0, k=10.0, stiffness_variation=0.5, seed=4)
+    springs = -stiff.K.toarray()[nominal < 0]
+    assert np.ptp(springs) > 0 and np.all(np.abs(springs / 10.0 - 1.0) <= 0.5)
+    assert np.array_equal(stiff.M.diagonal(), np.full(9, 2.0))
+    again = mass_spring_lattice(3, 3, mass=2.0, k=10.0, stiffness_variation=0.5, seed=4)
+    other = mass_spring_lattice(3, 3, mass=2.0, k=10.0, stiffness_variation=0.5, seed=5)
+    assert np.array_equal(again.K.toarray(), stiff.K.toarray())
+    assert not np.array_equal(other.K.toarray(), stiff.K.toarray())
+
+
+def test_lattice_parameters_are_checked_by_name():
+    assert mass_spring_lattice(2, 2, a0=0.0, a1=0.0).C.count_nonzero() == 0
+    with pytest.raises(ValueError, match=r"k must be a positive number, got 0\.0"):
+        mass_spring_lattice(2, 2, k=0.0)
+    with pytest.raises(ValueError, match=r"ny must be >= 1, got 0"):
+        mass_spring_lattice(2, 0)
