@@ -553,6 +553,7 @@ def test_h1_variance_from_the_coherence_and_the_averages():
     g = np.linspace(0.5, 0.95, 40)[:, None] * np.array([1.0, 0.9, 0.8, 1.0])
     unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), coherence=g, averages=11)
     gamma = np.repeat(g[:, :, None], 2, 2)
+    # the same few roundings in another order (every γ² is above the coherence floor)
     np.testing.assert_allclose(unc.variance, np.abs(U) ** 2 * (1 - gamma) / (gamma * 10),
                                rtol=1e-13)
     assert unc.noise == "from the coherence and 11 averages (H1)"
@@ -578,6 +579,8 @@ def test_noise_per_line_and_global_leave_the_holes_out(noise):
         mean = np.full(40, e2.sum() / used)
         what = "one for all entries"
     expected = np.broadcast_to(mean[:, None, None], U.shape) * 2 * used / unc.dof
+    # ŷ is the fit's D⁻¹F against the chain's own FRF: equal to ~1e-13 of |H|, the noise
+    # 30 dB (a factor 30) below it, so the squared residuals agree to ~1e-11
     np.testing.assert_allclose(unc.variance, expected, rtol=1e-8)
     assert unc.noise == f"estimated from the residuals, {what}, {unc.dof} degrees of freedom"
 
