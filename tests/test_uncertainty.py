@@ -3,6 +3,7 @@ the gauge, a small Monte Carlo and the refusals."""
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -433,6 +434,205 @@ def test_bad_level_and_a_model_that_is_not_refined():
         user = pr.refine(system, U, F, omega, basis=np.eye(4), weights=np.ones(40))
     with pytest.raises(ValueError, match="user's weights"):
         pr.fit_uncertainty(data, user, np.eye(4))
+
+
+def _escaped(text: str) -> str:
+    return "^" + re.escape(text) + "$"
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        # the smallest variance is quoted, not the largest (1)
+        ({"noise_variance": np.r_[1.0, -2.0, np.ones(38)]},
+         "noise_variance must be non-negative (found -2)"),
+        ({"noise_variance": np.inf}, "noise_variance contains inf"),
+        ({"noise_variance": np.ones(7)},
+         "noise_variance must be a scalar, (s,) = (40,), (s, n) = (40, 4) or "
+         "(s, n, p) = (40, 4, 2), got shape (7,)"),
+        # the first coherence outside [0, 1] is quoted, not the first coherence (0.5)
+        ({"coherence": np.where(np.arange(40 * 4 * 2).reshape(40, 4, 2) == 25, 1.5, 0.5),
+          "averages": 10}, "coherence must lie in [0, 1] (γ², found 1.5)"),
+        ({"coherence": np.full((40, 2), 0.9), "averages": 10},
+         "coherence must have shape (s, n) or (s, n, p) = (40, 4, 2), got (40, 2)"),
+        ({"coherence": np.full((40, 4), 0.9), "averages": True},
+         "averages must be a number, got True"),
+        ({"coherence": np.full((40, 4), 0.9), "averages": 1},
+         "averages must be more than 1 (the number of averaged segments; one has coherence 1 "
+         "whatever the noise), got 1"),
+        ({"noise": "typo"}, "noise must be 'local', 'channel', 'line' or 'global', got 'typo'"),
+        ({"weights": np.r_[1.0, -3.0, np.ones(38)]}, "weights must be non-negative (found -3)"),
+        ({"line_correlation": (0.5, 1.0)},
+         "line_correlation must be coefficients in (−1, 1), got (0.5, 1.0)"),
+        ({"lines": np.ones(39, bool)},
+         "lines must be a boolean mask of the 40 lines, with a line in it"),
+        ({"objective": "cmplx"},
+         "objective must be 'complex' or 'log-magnitude', got 'cmplx'"),
+        ({"solver": "fast"}, "solver must be 'auto', 'dense' or 'matrix-free', got 'fast'"),
+    ],
+)
+def test_refusals_quote_the_value_they_refuse(kwargs, message):
+    """The whole message, with the value, shape or count it names (s = 40 lines, n = 4
+    DOFs, p = 2 load cases)."""
+    system, omega, H, U, F, var = _frf_data()
+    with pytest.raises(ValueError, match=_escaped(message)):
+        pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), **kwargs)
+
+
+def test_refusals_of_the_data_and_the_model_name_what_they_got():
+    system, omega, H, U, F, var = _frf_data()
+    with pytest.raises(ValueError, match=_escaped(
+            "U and F must be (s, n[, p]) of the same shape with s = 40 lines, got (40, 4, 2) "
+            "and (40, 4, 1)")):
+        pr.model_uncertainty(system, U, F[:, :, :1], omega)
+    # four measured coordinates, three in the model: the coordinates counted along axis 1
+    with pytest.raises(ValueError, match=_escaped(
+            "U has 4 coordinates, more than the model's m = 3: give the basis")):
+        pr.model_uncertainty(_chain(3), U, F, omega)
+    # three measured DOFs with a basis of four rows: n is the data's, not the model's m = 4
+    with pytest.raises(ValueError, match=_escaped(
+            "basis must be (n, k) with n = 3 measured DOFs, got (4, 4)")):
+        pr.model_uncertainty(system, U[:, :3], F[:, :3], omega, basis=np.eye(4))
+    C = system.C.copy()
+    C[0, 1] += 1.0
+    with pytest.raises(ValueError, match="^the model's C is not symmetric"):
+        pr.model_uncertainty(pr.SecondOrderSystem(system.M, C, system.K), U, F, omega)
+    with pytest.raises(ValueError, match=_escaped("data must be a MeasuredData, got ndarray")):
+        pr.fit_uncertainty(U, system, np.eye(4))
+    data = from_frf(U, omega, inputs=[0, 2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        user = pr.refine(system, U, F, omega, basis=np.eye(4), weights=np.ones(40))
+    with pytest.raises(ValueError, match=r"refined with the user's weights \('user'\)"):
+        pr.fit_uncertainty(data, user, np.eye(4))
+    # one line: 4 · 2 = 8 complex entries, 16 real numbers; the matrix-free path takes the
+    # rank as the 3 · 10 parameters less the gauge (none): 30, more than 16
+    with pytest.raises(ValueError, match=_escaped(
+            "the residuals have no degrees of freedom left (8 complex entries, 30 parameters): "
+            "give noise_variance or coherence")):
+        pr.model_uncertainty(system, U[:1], F[:1], omega[:1], basis=np.eye(4),
+                             solver="matrix-free")
+
+
+def test_frf_rows_and_columns_outside_the_measured_dofs_are_refused():
+    """n = 4 measured DOFs: index 4 is one past the last, 3 the last."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    for name in ("rows", "cols"):
+        with pytest.raises(ValueError, match=_escaped(
+                f"{name} must be indices of measured DOFs in [0, 4), got array([4])")):
+            unc.frf(omega[:3], **{name: [4]})
+    assert unc.frf(omega[:3], rows=[3], cols=[3]).values.shape == (3, 1, 1)
+
+
+def test_the_matrix_free_refusal_of_matrices_counts_the_parameters():
+    system, omega, H, U, F, var = _frf_data()
+    free = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var,
+                                solver="matrix-free")
+    # m = 4: three symmetric 4 × 4 matrices, 3 · 10 entries
+    with pytest.raises(ValueError, match=r"matrix-free path \(30 of them at m = 4\)"):
+        free.matrices()
+
+
+def test_the_noise_variance_per_line_and_per_line_and_dof_is_broadcast():
+    """(s,) and (s, n) variances are those of every entry of the line (and DOF)."""
+    system, omega, H, U, F, var = _frf_data()
+    per_line = np.linspace(1.0, 2.0, 40) * np.mean(var)
+    per_dof = per_line[:, None] * np.array([1.0, 2.0, 3.0, 4.0])
+    a = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=per_line)
+    b = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=per_dof)
+    assert np.array_equal(a.variance, np.repeat(np.repeat(per_line[:, None, None], 4, 1), 2, 2))
+    assert np.array_equal(b.variance, np.repeat(per_dof[:, :, None], 2, 2))
+    assert a.noise == b.noise == "given per entry"
+
+
+def test_h1_variance_from_the_coherence_and_the_averages():
+    """|Ĥ|²(1 − γ²)/(γ² (n_d − 1)) per entry, a coherence per line and DOF standing for
+    all the DOF's load cases; the report names the averages."""
+    system, omega, H, U, F, var = _frf_data()
+    g = np.linspace(0.5, 0.95, 40)[:, None] * np.array([1.0, 0.9, 0.8, 1.0])
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), coherence=g, averages=11)
+    gamma = np.repeat(g[:, :, None], 2, 2)
+    # the same few roundings in another order (every γ² is above the coherence floor)
+    np.testing.assert_allclose(unc.variance, np.abs(U) ** 2 * (1 - gamma) / (gamma * 10),
+                               rtol=1e-13)
+    assert unc.noise == "from the coherence and 11 averages (H1)"
+    assert unc.dof is None
+
+
+@pytest.mark.parametrize("noise", ["line", "global"])
+def test_noise_per_line_and_global_leave_the_holes_out(noise):
+    """The mean square of the residuals ŷ − u over the measured entries only (ŷ the chain's
+    FRF: the model is the chain), scaled by 2·entries/dof; the report names the model."""
+    system, omega, H, U, F, var = _frf_data()
+    mask = np.ones((4, 2), dtype=bool)
+    mask[3, 0] = mask[1, 1] = False
+    unc = pr.model_uncertainty(system, np.where(mask, U, 1e3), F, omega, basis=np.eye(4),
+                               measured=mask, noise=noise)
+    used = 40 * int(mask.sum())
+    assert unc.dof == 2 * used - unc.rank
+    e2 = np.where(mask, np.abs(U - H) ** 2, 0.0)
+    if noise == "line":
+        mean = e2.sum(axis=(1, 2)) / mask.sum()
+        what = "per line"
+    else:
+        mean = np.full(40, e2.sum() / used)
+        what = "one for all entries"
+    expected = np.broadcast_to(mean[:, None, None], U.shape) * 2 * used / unc.dof
+    # ŷ is the fit's D⁻¹F against the chain's own FRF: equal to ~1e-13 of |H|, the noise
+    # 30 dB (a factor 30) below it, so the squared residuals agree to ~1e-11
+    np.testing.assert_allclose(unc.variance, expected, rtol=1e-8)
+    assert unc.noise == f"estimated from the residuals, {what}, {unc.dof} degrees of freedom"
+
+
+def test_summary_of_a_model_with_latent_coordinates_names_rank_and_gauge():
+    """m = 4 with one latent coordinate: 3 · 10 parameters, a gauge of 1 · 3 + 1 = 4, so
+    rank 26."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U[:, :3], F[:, :3], omega, basis=np.eye(3),
+                               noise_variance=var[:, :3])
+    assert "(dense, 30 parameters, rank 26, gauge 4); noise given per entry" in unc.summary()
+
+
+def test_weights_per_line_and_dof_are_those_of_every_load_case():
+    system, omega, H, U, F, var = _frf_data()
+    w = np.linspace(1.0, 2.0, 40)[:, None] * np.array([1.0, 0.5, 2.0, 1.0])
+    kw = dict(basis=np.eye(4), noise_variance=var)
+    a = pr.model_uncertainty(system, U, F, omega, weights=w, **kw).modes()
+    b = pr.model_uncertainty(system, U, F, omega, weights=np.repeat(w[:, :, None], 2, 2),
+                             **kw).modes()
+    np.testing.assert_array_equal(a.std_frequency_hz, b.std_frequency_hz)
+    # the weights change the intervals (else the comparison above would prove nothing)
+    c = pr.model_uncertainty(system, U, F, omega, weights="uniform", **kw).modes()
+    assert not np.allclose(c.std_frequency_hz, a.std_frequency_hz, rtol=1e-3)
+
+
+def test_log_magnitude_weights_leave_out_entries_below_the_range_of_their_line():
+    """LOG_DYNAMIC_RANGE = 1e-12 below the largest entry of the same line and load case is
+    out: on line 0 (largest 1) 1e-13 and 1e-12 itself (not above the limit); on line 1
+    (largest 1e-12, the limit 1e-24) every entry is in, its 1e-12 too though it is at the
+    limit of DOF 0's largest over the lines."""
+    U = np.array([[1.0, 1e-12, 1e-13], [1e-12, 1e-13, 1e-13]], dtype=complex)[:, :, None]
+    W = entry_weights("uniform", U, "log-magnitude", True)
+    np.testing.assert_array_equal(W[:, :, 0], [[1.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
+
+
+def test_a_level_that_is_not_a_number_is_refused_as_such():
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    with pytest.raises(ValueError, match=_escaped("level must be a number in (0, 1), got True")):
+        unc.modes(True)
+    with pytest.raises(ValueError, match=_escaped("level must lie in (0, 1), got 1")):
+        unc.modes(1)
+
+
+def test_line_correlation_that_is_no_correlation_is_refused_with_its_coefficients():
+    """ρ = (0.9, 0.9): the spectrum 1 + 1.8 cos θ + 1.8 cos 2θ is −1.025 at cos θ = −1/4."""
+    system, omega, H, U, F, var = _frf_data()
+    with pytest.raises(ValueError, match=re.escape(
+            "line_correlation (0.9, 0.9) is not a correlation sequence")):
+        pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var,
+                             line_correlation=(0.9, 0.9), solver="matrix-free").frf(omega[:3])
 
 
 def test_h1_coherence_of_hann_segments():

@@ -743,8 +743,8 @@ def model_uncertainty(
     Raises
     ------
     ValueError
-        For malformed data or options, negative or NaN variances, a coherence outside
-        [0, 1], fewer than one average, both a variance and a coherence, a
+        For malformed data or options, negative, NaN or infinite variances, a coherence
+        outside [0, 1], fewer than two averages, both a variance and a coherence, a
         coherence without averages, a line correlation outside (−1, 1), or an unknown
         solver.
     """
