@@ -216,6 +216,8 @@ def test_bad_input_raises_value_error_naming_the_problem(mutate, match):
         ({"threads": -2}, "threads"),
         ({"threads": 2**40}, "threads"),
         ({"threads": 1.5}, "threads"),
+        # a bool is an int to Python; True must not pass as one worker thread
+        ({"threads": True}, "threads must be None or a positive integer, got True"),
         ({"symmetric": "no"}, "True or False"),
     ],
 )
