@@ -26,6 +26,9 @@ import subprocess
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+# a mutant's test run longer than this hangs (a loop that no longer ends): it counts as
+# killed, as mutmut counts a timeout; the slowest module's files take about 2 minutes
+TIMEOUT_SECONDS = 900
 PKG = ROOT / "python" / "podid_rs"
 TESTS = {
     "pod": ["tests/test_pod.py", "tests/test_memory_guards.py"],
@@ -2126,7 +2129,10 @@ def main() -> None:
                 cwd=ROOT,
                 capture_output=True,
                 text=True,
+                timeout=TIMEOUT_SECONDS,
             )
+        except subprocess.TimeoutExpired:  # the mutant made the tests hang: as mutmut, killed
+            r = subprocess.CompletedProcess([], 1, f"timed out after {TIMEOUT_SECONDS} s", "")
         finally:
             path.write_text(src)
             # the old modification time too: mutmut regenerates the mutants of a source newer
