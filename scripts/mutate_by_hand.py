@@ -2093,6 +2093,34 @@ AUDIT = [
         "if R.ndim != 2 or R.shape[1] != m or",
         "if R.ndim != 2 or R.shape[0] != m or",
     ),
+    # eighth audit, modal side. physical: a non-positive rtol no longer refused, the count
+    # of raised eigenvalues only the negative ones, the Im λ < 0 half of each pair kept,
+    # natural frequencies in rad/s labelled Hz
+    ("physical", 'rtol = as_scalar(rtol, "rtol")', "rtol = float(rtol)"),
+    ("physical", "int(np.sum(d < floor))", "int(np.sum(d < 0))"),
+    ("physical", "finite & (lam.imag >= 0)", "finite & (lam.imag <= 0)"),
+    ("physical", "frequencies_hz=mag / (2 * np.pi),", "frequencies_hz=mag,"),
+    # modes: select's mask on the rows (DOFs) not the columns (modes), the shapes scaled at
+    # the row of ψ's largest entry instead of φ's, a 1-D shape taken as a row, the weak-term
+    # threshold defaulting to the window (0.02) not the fraction, the nearest line no longer
+    # forced into the pole's half-power band
+    ("modes", "shapes=self.shapes[:, keep],", "shapes=self.shapes[keep],"),
+    ("modes", "top = phi[np.argmax(np.abs(phi), axis=0)",
+     "top = phi[np.argmax(np.abs(psi), axis=0)"),
+    ("modes", "a = a[:, None] if a.ndim == 1 else a", "a = a[None, :] if a.ndim == 1 else a"),
+    ("modes", "visible_fraction: float = VISIBLE_FRACTION,",
+     "visible_fraction: float = VISIBLE_WINDOW,"),
+    ("modes", "    inner[int(np.argmin(distance))] = True\n", ""),
+    # stabilisation: the frequency tolerance absolute (Hz) not relative, a given POD basis
+    # ignored, the damping tolerance replaced by the frequency one, every order marked chosen
+    ("stabilisation", "abs(f - fp[j]) <= f_tol * fp[j]", "abs(f - fp[j]) <= f_tol"),
+    ("stabilisation", "basis = data.pod() if basis is None else basis", "basis = data.pod()"),
+    ("stabilisation", "_match_previous(modes, prev, f_tol, zeta_tol)",
+     "_match_previous(modes, prev, f_tol, f_tol)"),
+    ("stabilisation", '"chosen": o.m == self.chosen_m,', '"chosen": self.chosen_m is not None,'),
+    # statespace: Rᵀ untransposed in B, the damping term's sign in A
+    ("statespace", "for X in (Km, Cm, R.T))", "for X in (Km, Cm, R))"),
+    ("statespace", "[-MinvK, -MinvC]", "[-MinvK, MinvC]"),
 ]
 
 

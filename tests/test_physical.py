@@ -309,6 +309,25 @@ def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
     assert got.min() > 0
 
 
+def test_a_positive_eigenvalue_under_the_floor_is_raised_and_counted(noisy_band3):
+    """M positive definite but with its smallest eigenvalue a tenth of the floor
+    rtol · max |eig|: it is raised to the floor and counted as raised, like a negative
+    one; the next one, ten times the floor, is kept and not counted."""
+    _, data, result, R = noisy_band3
+    U, F = data.project(R)
+    d, Q = np.linalg.eigh(result.M)
+    rtol = 1e-6
+    floor = rtol * d.max()  # M's eigenvalues are positive: max |d| = max d
+    assert d.min() > 0 and d[2] > 10 * floor  # the two new ones stay the smallest two
+    bad = replace(result, M=(Q * np.r_[0.1 * floor, 10 * floor, d[2:]]) @ Q.T)
+    phys = make_physical(bad, U, F, data.omega, rtol=rtol)
+    assert phys.info["physical"]["eigenvalues_raised"][0] == 1
+    # eigvalsh's error is ~1e-16 of max d, 1e-10 of the floor: rel=1e-6 is ample
+    got = np.linalg.eigvalsh(phys.M)
+    assert got[:2] == pytest.approx([floor, 10 * floor], rel=1e-6)
+    assert got[2:] == pytest.approx(d[2:], rel=1e-9)
+
+
 def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):
     _, data, result, R = noisy_band3
     U, F = data.project(R)
