@@ -2121,6 +2121,41 @@ AUDIT = [
     # statespace: Rᵀ untransposed in B, the damping term's sign in A
     ("statespace", "for X in (Km, Cm, R.T))", "for X in (Km, Cm, R))"),
     ("statespace", "[-MinvK, -MinvC]", "[-MinvK, MinvC]"),
+    # an eighth audit of the identification modules (refinement, order, latent, modal
+    # start, lines, holes). Refinement: a zero response column given an infinite relative
+    # weight, the log-magnitude objective taking any weights string, the modal metric
+    # ignored by the default "auto", a singular start K not raised (its floor 0)
+    ("identification/refinement", "nz = norms > 0", "nz = norms >= 0"),
+    ("identification/refinement", 'if weights not in ("relative", "uniform"):',
+     "if not weights:"),
+    ("identification/refinement", 'modal_metric=metric != "diagonal",',
+     'modal_metric=metric == "modal",'),
+    ("identification/refinement", '(K, "K", rtol)', '(K, "K", 0.0)'),
+    # the order sweep: the order limit capped at DEFAULT_M_MAX, the table's latent column
+    # giving the observed ones, the final fit's modal start blind to the holes, every
+    # order recorded with all its coordinates observed
+    ("identification/order", "if m >= 10 * DEFAULT_M_MAX:", "if m >= DEFAULT_M_MAX:"),
+    ("identification/order", "| {f.m}{mark} | {f.latent} |", "| {f.m}{mark} | {f.observed} |"),
+    ("identification/order", "omega[lines], measured)\n    if rebuilt",
+     "omega[lines])\n    if rebuilt"),
+    ("identification/order", "            observed=k,", "            observed=order,"),
+    # latent coordinates: the gauge added to the free parameters instead of taken off, a
+    # candidate's cost without its fitted modal mass
+    ("identification/latent", "// 2 - gauge_dimension(m, k)", "// 2 + gauge_dimension(m, k)"),
+    ("identification/latent", "np.abs(a * g - r) ** 2", "np.abs(g - r) ** 2"),
+    # modal start: the imaginary part of the design with the wrong sign, one residual
+    # pole too few (and a crash when the band holds m poles)
+    ("identification/modal_start", "design = np.vstack([G.real, G.imag])",
+     "design = np.vstack([G.real, -G.imag])"),
+    ("identification/modal_start", "room = m - wk.size", "room = m - wk.size - 1"),
+    # informative lines: a quiet block keeps no line (the band no longer covered)
+    ("identification/lines", "count = np.ones(n_blocks, dtype=np.int64)",
+     "count = np.zeros(n_blocks, dtype=np.int64)"),
+    # holes: the metric's targets Rᵀu (holes read as zero responses), the message's shape
+    # (n, p) given as (p, n)
+    ("identification/holes", "Y = measured_targets(U_n, R, measured)",
+     "Y = measured_targets(U_n, R, None)"),
+    ("identification/holes", "(n, p) = ({n}, {p})", "(n, p) = ({p}, {n})"),
 ]
 
 
