@@ -2156,6 +2156,54 @@ AUDIT = [
     ("identification/holes", "Y = measured_targets(U_n, R, measured)",
      "Y = measured_targets(U_n, R, None)"),
     ("identification/holes", "(n, p) = ({n}, {p})", "(n, p) = ({p}, {n})"),
+    # an eighth audit of the data modules. POD: the noise correction adds the noise's
+    # correlation, a zero noise variance refused, the snapshot side's eigenvalues unscaled
+    (
+        "pod",
+        "theta, W = _descending_eigh(np.diag(lam) - QtDQ)",
+        "theta, W = _descending_eigh(np.diag(lam) + QtDQ)",
+    ),
+    ("pod", "if np.any(d < 0):", "if np.any(d <= 0):"),
+    ("pod", "lam[:rank] = scale * mu[:rank]", "lam[:rank] = mu[:rank]"),
+    # simulation: a band from 0 Hz accepted (the DC line kept), complex noise subtracts the
+    # signal, h1_coherence takes two inputs
+    ("simulation", "if not 0 < lo < hi < nyquist:", "if not 0 <= lo < hi < nyquist:"),
+    ("simulation", "noise += a", "noise -= a"),
+    ("simulation", "if welch.x.shape[2] != 1:", "if welch.x.shape[2] > 2:"),
+    # measured data: the default mask over the driven DOFs instead of the load cases, the
+    # projection without the mask, identify symmetric by default
+    (
+        "measured",
+        "np.ones((n, U.shape[2]), dtype=bool)",
+        "np.ones((n, n_in), dtype=bool)",
+    ),
+    (
+        "measured",
+        "measured_targets(self.U, Ra, self._mask())",
+        "measured_targets(self.U, Ra, None)",
+    ),
+    ("measured", "symmetric: bool = False,", "symmetric: bool = True,"),
+    # UFF: dataset 55's frequency in rad/s, the count of further non-finite lines, the
+    # written FRFs' loads on the first rows of R, two unit labels not compared
+    (
+        "io/uff",
+        "f, zeta = modes.frequencies_hz[j], modes.damping_ratios[j]",
+        "f, zeta = abs(modes.eigenvalues[j]), modes.damping_ratios[j]",
+    ),
+    (
+        "io/uff",
+        'more = f" and at {bad.size - 1} more line(s)"',
+        'more = f" and at {bad.size} more line(s)"',
+    ),
+    (
+        "io/uff",
+        "loads = np.broadcast_to(R[inputs].T,",
+        "loads = np.broadcast_to(R[: len(inputs)].T,",
+    ),
+    ("io/uff", "if len(counts) > 1:", "if len(counts) > 2:"),
+    # npz: a time-history file's DOF labels dropped, the extra arrays keep their prefix
+    ("io/npz", '            dofs=z.get("dofs"),\n', "            dofs=None,\n"),
+    ("io/npz", 'extras = {k.removeprefix("extra."): v', "extras = {k: v"),
 ]
 
 

@@ -159,6 +159,21 @@ def test_time_histories_name_what_is_wrong(shaker_records):
             forces, responses[:4000], dt, inputs=[0, 2], estimator="spectra")
 
 
+def test_spectra_of_several_records_mark_every_load_case_measured(shaker_records, tmp_path):
+    """With estimator="spectra" each record is a load case: 4 records of 2 forces give
+    p = 4, and the mask of measured entries is (n, p) — all measured — so that the data
+    survive a save and load (whose mask must match U's load cases)."""
+    from podid_rs.io.npz import load_data, save_data
+
+    forces, responses, dt = shaker_records
+    data = from_time_histories(forces.reshape(4, -1, 2), responses.reshape(4, -1, 3), dt,
+                               inputs=[0, 2], estimator="spectra", band_hz=(10.0, 40.0))
+    assert (data.n, data.p, data.F.shape[1]) == (3, 4, 2)
+    assert data.measured.shape == (3, 4) and data.measured.all() and data.complete
+    back = load_data(save_data(tmp_path / "records.npz", data))
+    assert np.array_equal(back.U, data.U) and np.array_equal(back.measured, data.measured)
+
+
 def test_is_frf_only_for_unit_forces_one_case_per_driven_dof(chain_frf):
     assert chain_frf.is_frf
     rng = np.random.default_rng(0)
