@@ -2204,8 +2204,36 @@ AUDIT = [
     # npz: a time-history file's DOF labels dropped, the extra arrays keep their prefix
     ("io/npz", '            dofs=z.get("dofs"),\n', "            dofs=None,\n"),
     ("io/npz", 'extras = {k.removeprefix("extra."): v', "extras = {k: v"),
+    # eighth audit (systems): a negative DOF index accepted, a non-square matrix accepted,
+    # C and K swapped in a dense copy, the columns indexed by rows, a complex force's
+    # imaginary part dropped (sparse), a transpose in the sparse projection, the springs
+    # of DOF 0 to its neighbours dropped from the lattice
+    ("systems", "if a.min() < 0 or", "if a.min() < -1 or"),
+    ("systems", "if a.ndim != 2 or a.shape[0] != a.shape[1] or", "if a.ndim != 2 or"),
+    ("systems", "SecondOrderSystem(self.M.toarray(), self.C.toarray(), self.K.toarray())",
+     "SecondOrderSystem(self.M.toarray(), self.K.toarray(), self.C.toarray())"),
+    ("systems", 'c = _indices(cols, self.n, "cols")', 'c = _indices(rows, self.n, "cols")'),
+    ("systems", "np.asfortranarray(F3[i], dtype=np.complex128)",
+     "np.asfortranarray(F3[i].real, dtype=np.complex128)"),
+    ("systems", "Ra.T @ (X @ Ra) for X in", "Ra.T @ (X.T @ Ra) for X in"),
+    ("systems", "inner = b >= 0", "inner = b > 0"),
+    # eighth audit (apps/identify): the FRF errors' mask of measured entries dropped, the
+    # latent-coordinates line for a model without any, the overlay's "not measured" note
+    # about the far DOF, the intervals' columns named by the fraction, X and Y shifted in
+    # a DOF's name, lam=None no longer exactly symmetric, an .npz's ordinate ignored, a MAC
+    # of one-DOF shapes
+    ("apps/identify", "e = db_errors(X, d.U, None if d.complete else d.measured)",
+     "e = db_errors(X, d.U, None)"),
+    ("apps/identify", "latent = r.m - ls.m\n        if latent > 0:",
+     "latent = r.m - ls.m\n        if latent >= 0:"),
+    ("apps/identify", "if d.is_frf and not d.measured[col, k]:",
+     "if d.is_frf and not d.measured[far, k]:"),
+    ("apps/identify", 'tag = f"pm{100 * level:g}"', 'tag = f"pm{level:g}"'),
+    ("apps/identify", "{'XYZ'[abs(direction) - 1]}", "{'XYZ'[abs(direction) % 3]}"),
+    ("apps/identify", "0.0 if symmetric else lam, symmetric)", "0.0 if symmetric else lam, False)"),
+    ("apps/identify", 'if path.suffix.lower() == ".npz":', 'if path.suffix.lower() == "npz":'),
+    ("apps/identify", "if other >= 1 and data.n >= 2:", "if other >= 1 and data.n >= 1:"),
 ]
-
 
 def main() -> None:
     """Run the mutants named on the command line (all without arguments)."""
