@@ -82,6 +82,21 @@ def test_project_matches_explicit_products():
     np.testing.assert_allclose(reduced.K, R.T @ system.K @ R, rtol=1e-14)
 
 
+
+def test_a_sparse_non_symmetric_system_projects_as_the_explicit_products():
+    """RᵀXR for a non-symmetric system held sparse (the chain's symmetric matrices cannot
+    tell RᵀXR from RᵀXᵀR): the products in another order, round-off apart."""
+    dense = random_system(6, 5)
+    sparse = SecondOrderSystem(*(sp.csr_array(X) for X in (dense.M, dense.C, dense.K)))
+    R = np.linalg.qr(np.random.default_rng(6).standard_normal((6, 3)))[0]
+    reduced = sparse.project(R)
+    for name in "MCK":
+        X = getattr(dense, name)
+        # the random matrices' asymmetry is of the order of their entries: a transpose
+        # is off by O(1), round-off by ~1e-15
+        assert rel(R.T @ X.T @ R, R.T @ X @ R) > 0.1
+        assert rel(getattr(reduced, name), R.T @ X @ R) < 1e-12
+
 @pytest.mark.parametrize("n", [1, 5, 6])
 def test_chain_matrices_follow_eqs_51_52(n):
     system = mass_spring_chain(n, m1=0.1, m2=1.0, ku=4e5, a0=0.5, a1=3e-5)
