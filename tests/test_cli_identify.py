@@ -80,6 +80,10 @@ def test_identify_uff_full_order_recovers_the_chain(uff_file, tmp_path, capsys):
     assert "output-error refinement" in stdout and "m = 6 as asked" in stdout
     assert "stable: yes" in stdout and "positive definite: yes" in stdout
     assert "→ refined model" in stdout  # the FRF errors' line names the model written
+    # every coordinate of m = 6 observed by the six sensors: no latent line, and the
+    # equation-error residual given for both models
+    assert "- coordinates:" not in stdout and "not defined for the refined model" not in stdout
+    assert "minimises): paper's estimator " in stdout and ", refined model " in stdout
     model = check_full_order_outputs(chain, out, ("order.md", "order.png"))
     assert model.method == "output-error" and model.symmetric
     table = (out / "order.md").read_text()

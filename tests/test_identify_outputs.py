@@ -217,3 +217,43 @@ def test_source_ordinate_of_a_saved_data_set(tmp_path):
     assert source_ordinate(tmp_path / "velocity.npz") == "velocity"
     assert source_ordinate(tmp_path / "plain.npz") == "displacement"
     assert source_ordinate(tmp_path / "notes.txt") == "displacement"
+
+
+def holed_run(tmp_path):
+    """A run on the exact 6-DOF chain's FRFs driven at DOFs 1 and 3 (nodes 1–6 along X),
+    with three of the twelve entries not measured, the driving point of the second force
+    among them. The model is the chain itself on the identity basis."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from podid_rs.apps.identify import IdentifyRun
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(6, m1=1.0, m2=1.0)
+    w = 2 * np.pi * np.arange(5.0, 250.0, 1.0)
+    H = chain.frf(w)[:, :, [0, 2]]
+    mask = np.ones((6, 2), dtype=bool)
+    for j, k in ((5, 0), (2, 1), (0, 1)):
+        mask[j, k] = False
+    data = from_frf(H, w, inputs=[0, 2], dofs=[(k + 1, 1) for k in range(6)], measured=mask)
+    model = SimpleNamespace(m=6, system=lambda: chain, info={})  # what the run asks of it
+    return IdentifyRun(Path(tmp_path / "holes.uff"), data, model, model, np.eye(6))
+
+
+def test_an_overlay_says_when_its_driving_point_was_not_measured(tmp_path, monkeypatch):
+    """H(3X,3X) is a hole: the second overlay's title says so, the first's (its driving
+    point measured, its farthest measured DOF node 5) does not."""
+    from podid_rs.apps import identify as identify_module
+
+    titles = []
+
+    def fake_overlay(freq, curves, path, *, title, entries):
+        titles.append((title, entries))
+        return path
+
+    monkeypatch.setattr(identify_module, "plot_frf_comparison", fake_overlay)
+    identify_module._overlays(holed_run(tmp_path), tmp_path)
+    (first, first_entries), (second, _) = titles
+    assert first_entries == [("1X", "1X"), ("5X", "1X")]
+    assert "not measured" not in first
+    assert "; H(3X,3X) was not measured" in second
