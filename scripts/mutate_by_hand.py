@@ -2216,12 +2216,14 @@ AUDIT = [
     ("systems", "np.asfortranarray(F3[i], dtype=np.complex128)",
      "np.asfortranarray(F3[i].real, dtype=np.complex128)"),
     ("systems", "Ra.T @ (X @ Ra) for X in", "Ra.T @ (X.T @ Ra) for X in"),
+    # equivalent: b is -1 (to ground) or a neighbour's index, never 0 (idx[:, 1:], idx[1:, :])
     ("systems", "inner = b >= 0", "inner = b > 0"),
     # eighth audit (apps/identify): the FRF errors' mask of measured entries dropped, the
     # latent-coordinates line for a model without any, the overlay's "not measured" note
     # about the far DOF, the intervals' columns named by the fraction, X and Y shifted in
     # a DOF's name, lam=None no longer exactly symmetric, an .npz's ordinate ignored, a MAC
     # of one-DOF shapes
+    # equivalent: MeasuredData puts zeros in its holes, and db_errors skips zero entries
     ("apps/identify", "e = db_errors(X, d.U, None if d.complete else d.measured)",
      "e = db_errors(X, d.U, None)"),
     ("apps/identify", "latent = r.m - ls.m\n        if latent > 0:",
