@@ -2235,6 +2235,44 @@ AUDIT = [
     ("apps/identify", "0.0 if symmetric else lam, symmetric)", "0.0 if symmetric else lam, False)"),
     ("apps/identify", 'if path.suffix.lower() == ".npz":', 'if path.suffix.lower() == "npz":'),
     ("apps/identify", "if other >= 1 and data.n >= 2:", "if other >= 1 and data.n >= 1:"),
+    # an eighth audit of uncertainty: the band's magnitude variance taken at |H| = 0, the
+    # frequency gradient without its conjugate, a shape's imaginary σ from its real part,
+    # the band's columns every DOF by default, every block of matrices() as M's, summary's
+    # selection ignored, the driven DOFs along the load cases, the held-out fit's lines
+    # with its test lines
+    ("uncertainty", "var_r = np.where(mag > 0, var_r, vr + vi)",
+     "var_r = np.where(mag >= 0, var_r, vr + vi)"),
+    ("uncertainty", "g_f = (np.conj(sel)[:, None] * dlam).real",
+     "g_f = (sel[:, None] * dlam).real"),
+    ("uncertainty", "var_im = self._cov.variances(dphi.imag)",
+     "var_im = self._cov.variances(dphi.real)"),
+    ("uncertainty", "c_idx = self.driven if cols is None",
+     "c_idx = np.arange(n) if cols is None"),
+    ("uncertainty", "[E if k == b else zero for k in range(3)]",
+     "[E if k == 0 else zero for k in range(3)]"),
+    ("uncertainty", "osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0) & chosen",
+     "osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0)"),
+    ("uncertainty", "driven = np.flatnonzero(np.any(Fa != 0, axis=(0, 2)))",
+     "driven = np.flatnonzero(np.any(Fa != 0, axis=(0, 1)))"),
+    ("uncertainty", "lines = np.asarray(sweep.lines) & ~np.asarray(sweep.test_lines)",
+     "lines = np.asarray(sweep.lines)"),
+    # an eighth audit of identification/covariance: a coherence of 1 refused, the
+    # degrees-of-freedom correction without its 2, the channel's count over the wrong
+    # axis, the relative weight squared, the correlated meat with the left line's
+    # deviation twice, N⁺'s half scaled the wrong way, the warning's tolerance without
+    # its 10
+    ("identification/covariance", "if np.any((g < 0) | (g > 1)):",
+     "if np.any((g < 0) | (g >= 1)):"),
+    ("identification/covariance", "scale = 2 * n_used / dof", "scale = n_used / dof"),
+    ("identification/covariance", "count = np.maximum(used.sum(axis=0, keepdims=True), 1)",
+     "count = np.maximum(used.sum(axis=1, keepdims=True), 1)"),
+    ("identification/covariance", "w[norms > 0] = 1.0 / norms[norms > 0]",
+     "w[norms > 0] = 1.0 / norms[norms > 0] ** 2"),
+    ("identification/covariance", "c = rho[:, None, None] * sd[lft] * sd[rgt]",
+     "c = rho[:, None, None] * sd[lft] * sd[lft]"),
+    ("identification/covariance", "self._half = V[:, keep] / np.sqrt(lam[keep]) / d[:, None]",
+     "self._half = V[:, keep] / np.sqrt(lam[keep]) * d[:, None]"),
+    ("identification/covariance", "residual {10 * self.tol:g} in", "residual {self.tol:g} in"),
 ]
 
 def main() -> None:

@@ -3,6 +3,8 @@ the gauge, a small Monte Carlo and the refusals."""
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import re
 import warnings
 
@@ -11,6 +13,7 @@ import pytest
 import scipy.stats
 
 import podid_rs as pr
+from podid_rs.identification import covariance
 from podid_rs.identification.covariance import (
     LOCAL_HALF_WIDTH,
     DenseCovariance,
@@ -99,7 +102,11 @@ def test_gauss_newton_matrices_equal_the_explicit_jacobians(objective):
     fit, var = _fit(objective, grid=grid)
     J = fit.jacobian().reshape(fit.s, -1, fit.n_params)
     rng = np.random.default_rng(4)
-    for weights in (fit.bread(), fit.meat(var), fit.meat(var, (0.44, 0.03))):
+    # the last: a variance that changes along the lines, so that a correlated pair's
+    # E δu_l δū_r = ρ σ_l σ_r differs from σ_l² (the meat of H1 estimates)
+    ramp = np.linspace(1.0, 3.0, fit.s)[:, None, None]
+    for weights in (fit.bread(), fit.meat(var), fit.meat(var, (0.44, 0.03)),
+                    fit.meat(var * ramp, (0.44, 0.03))):
         ref = np.zeros((fit.n_params, fit.n_params))
         for k in range(weights.left.size):
             lft, rgt = weights.left[k], weights.right[k]
@@ -861,3 +868,116 @@ def test_an_interval_wider_than_the_value_in_hz_is_no_interval():
     hz = 100 * np.median(0.01 / zeta[1:])
     assert f"over {f.size - 1} mode(s): 1 % of the natural frequency, {hz:.2g} % of the damping" \
         in text
+
+
+def test_the_band_at_an_exact_zero_of_the_frf_is_the_whole_scatter():
+    """Where Ĥ = 0 (an entry the model does not couple) the radial direction is none: the
+    band is [0, z √(σ_re² + σ_im²)], the scatter of |δH| itself, not NaN."""
+    H = np.array([0j, 1.0 + 0j])
+    vr, vi, c = np.array([0.09, 1.0]), np.array([0.16, 1.0]), np.zeros(2)
+    lo, hi = _magnitude_band(H, vr, vi, c, 2.0)
+    assert lo[0] == 0.0 and np.isclose(hi[0], 2.0 * 0.5)  # √(0.09 + 0.16) = 0.5
+    # the origin 1 σ from Ĥ = 1, inside z = 2: down to 0, up by the radial σ (the real part's)
+    assert lo[1] == 0.0 and np.isclose(hi[1], 1.0 + 2.0)
+
+
+def test_summary_takes_the_typical_interval_of_the_selected_modes_only():
+    """select= restricts the median half-width to those modes: one mode selected, its own
+    z·σ_f/f and z·σ_ζ/ζ."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    f = pr.modal_parameters(system).frequencies_hz
+    zeta = pr.modal_parameters(system).damping_ratios
+    z = unc.z()
+    # mode 1 ±1 % in frequency and ±0.002 in damping, the others ±5 % and ±0.004
+    var_f = (f / z) ** 2 * np.r_[25e-4, 1e-4, 25e-4, 25e-4]
+    var_z = (np.r_[0.004, 0.002, 0.004, 0.004] / z) ** 2
+    _with_variances(unc, var_f, var_z)
+    text = unc.summary(select=np.arange(f.size) == 1)
+    assert (f"over 1 mode(s): 1 % of the natural frequency, {100 * 0.002 / zeta[1]:.2g} % "
+            "of the damping ratio") in text
+
+
+def test_the_band_defaults_to_the_driven_dofs_not_the_load_cases():
+    """Forces at DOFs 0 and 2 (two load cases): frf()'s default columns are DOFs 0 and 2."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    assert list(unc.driven) == [0, 2]
+    band = unc.frf(omega[:2])
+    assert list(band.cols) == [0, 2]
+    np.testing.assert_allclose(band.values, system.frf(omega[:2])[:, :, [0, 2]], rtol=1e-10)
+
+
+def test_a_coherence_of_one_is_a_noise_free_entry():
+    """γ² = 1 (a noise-free channel, the top of [0, 1]) gives variance 0, not a refusal."""
+    system, omega, H, U, F, var = _frf_data()
+    g = np.full((40, 4), 0.9)
+    g[:, 1] = 1.0
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), coherence=g, averages=5)
+    assert np.all(unc.variance[:, 1] == 0.0)
+    np.testing.assert_allclose(unc.variance[:, 0], np.abs(U[:, 0]) ** 2 * 0.1 / (0.9 * 4),
+                               rtol=1e-13)
+
+
+def test_an_unconverged_matrix_free_solve_names_its_tolerance(monkeypatch):
+    """One CG iteration (no restart) leaves the solves short of the relative residual
+    10 · CG_TOL they are held to: the warning names that tolerance and the modes have no
+    interval, "not converged"."""
+    monkeypatch.setattr(covariance, "CG_MAX_ITER", 1)
+    monkeypatch.setattr(covariance, "CG_RESTARTS", 0)
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var,
+                               solver="matrix-free")
+    tol = f"relative residual {10 * covariance.CG_TOL:g} in 1 iterations and 0 restarts"
+    with pytest.warns(pr.ConvergenceWarning, match=re.escape(tol)):
+        modes = unc.modes()
+    assert "not converged" in list(modes.why_undetermined)
+
+
+def test_fit_uncertainty_of_a_kept_held_out_fit_leaves_out_the_test_lines():
+    """A final fit that kept the sweep's held-out fit was fitted on the training lines,
+    the informative lines less the test lines: its covariance is that of those lines.
+    (The report is the one thing fit_uncertainty reads: here it is set to say so.)"""
+    chain = pr.mass_spring_chain(5)
+    w = 2 * np.pi * np.linspace(10.0, 200.0, 120)
+    F_n = np.zeros((w.size, 5, 1), dtype=complex)
+    F_n[:, 1, 0] = 1.0
+    rng = np.random.default_rng(2)
+    U_n = chain.response(w, F_n)
+    U_n = U_n * (1 + 0.01 * rng.standard_normal(U_n.shape))
+    P = pr.pod_from_frf(U_n, w)
+    sweep = pr.sweep_orders(U_n, F_n, w, P, m=5, sweep_lines=40, threads=1)
+    model, R = pr.final_fit(sweep, U_n, F_n, w, P, threads=1)
+    info = copy.deepcopy(model.info)
+    info["refinement"].setdefault("final_refit", {})["kept"] = "held-out fit"
+    held_out = dataclasses.replace(model, info=info)
+    data = from_frf(U_n, w, inputs=[1])
+    with pytest.raises(ValueError, match="held-out fit"):
+        pr.fit_uncertainty(data, held_out, R)
+    training = sweep.lines & ~sweep.test_lines
+    assert 0 < training.sum() < sweep.lines.sum()
+    unc = pr.fit_uncertainty(data, held_out, R, sweep)
+    weights, objective = ("relative", model.info["refinement"]["objective"])
+    if objective == "log-magnitude":
+        weights = "uniform"
+    direct = pr.model_uncertainty(model, U_n, F_n, w, basis=R, weights=weights,
+                                  objective=objective, lines=training)
+    assert unc.dof == direct.dof
+    np.testing.assert_allclose(unc.modes().std_frequency_hz, direct.modes().std_frequency_hz,
+                               rtol=1e-12)
+
+
+def test_the_meat_of_correlated_lines_is_rho_times_both_lines_deviations():
+    """Complex objective: the pair of fitted lines l, r = l + 1 on the grid carries
+    E δu_l δū_r = ρ σ_l σ_r, weighted ½ W_l² W_r² (scaled units: σ² / su²) — the geometric
+    mean of the two lines' variances, which here differ by a factor of 4 from l to r."""
+    fit, var = _fit("complex")
+    v = var * np.linspace(1.0, 4.0, fit.s)[:, None, None] ** 2  # σ grows 1 → 4 over the band
+    meat = fit.meat(v, (0.44,))
+    pairs = ~meat.diagonal
+    assert np.array_equal(meat.left[pairs], np.arange(fit.s - 1))
+    assert np.array_equal(meat.right[pairs], np.arange(1, fit.s))
+    lft, rgt = meat.left[pairs], meat.right[pairs]
+    sd = np.sqrt(v) / fit.su
+    expected = 0.5 * fit.W[lft] ** 2 * fit.W[rgt] ** 2 * 0.44 * sd[lft] * sd[rgt]
+    np.testing.assert_allclose(meat.hermitian[pairs], expected, rtol=1e-13)
