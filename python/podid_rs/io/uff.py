@@ -464,15 +464,14 @@ def _same_units(raw: list, path: Path) -> tuple[list, list[str]]:
             unit = ranked[0][0]
             agree = [item[6] is None or _same_unit(item[6], unit) for item in group]
             odd = [item for item, ok in zip(group, agree, strict=True) if not ok]
+            group = [item for item, ok in zip(group, agree, strict=True) if ok]
             if odd:
-                labelled = sum(ok and item[6] is not None
-                               for item, ok in zip(group, agree, strict=True))
+                labelled = sum(item[6] is not None for item in group)
                 text = (f"FRF record(s) {', '.join(f'{i[0]} ({i[5]}, {i[6]!r})' for i in odd)} "
                         f"are in other units than the {labelled} other {q} records "
                         f"({unit!r}): left out as not measured (convert them to include them)")
                 warnings.warn(f"{path}: {text}", DataWarning, stacklevel=3)
                 notes.append(f"{path.name}: {text}")
-            group = [item for item, ok in zip(group, agree, strict=True) if ok]
         keep += [id(item) for item in group]
     return [item for item in raw if id(item) in keep], notes
 
