@@ -302,21 +302,16 @@ def test_unevenly_spaced_lines_are_written_line_by_line(written, tmp_path, binar
     assert all(np.allclose(d["x"], freq, rtol=5e-6, atol=0) for d in s58)
     assert np.allclose(pr.read_uff(path).freq_hz, freq, rtol=5e-6, atol=0)
     # even to 1e-6 of a step is not even: spacing and first line would put the fourth
-    # line 1.5e-6 Hz off (evenly spaced means equal steps to 1e-9)
-    nearly = 5.0 + 1.5 * np.arange(6.0)
-    nearly[3:] += 1.5e-6
-    path = write_uff(tmp_path / "nearly.uff", result, R, dofs=data.dofs, inputs=[1],
-                     omega=2 * np.pi * nearly, binary=binary)
-    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
-    assert all(d["abscissa_spacing"] == 0 for d in s58)
+    # line 1.5e-6 Hz off (evenly spaced means equal steps to 1e-9); and the test is
     # relative, not absolute: steps of 1 mHz differing by 5e-9 Hz (5e-6 of a step) are
     # not equal either
-    fine = 5.0 + 0.001 * np.arange(6.0)
-    fine[3:] += 5e-9
-    path = write_uff(tmp_path / "fine.uff", result, R, dofs=data.dofs, inputs=[1],
-                     omega=2 * np.pi * fine, binary=binary)
-    s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
-    assert all(d["abscissa_spacing"] == 0 for d in s58)
+    for name, step, shift in (("nearly", 1.5, 1.5e-6), ("fine", 0.001, 5e-9)):
+        lines = 5.0 + step * np.arange(6.0)
+        lines[3:] += shift
+        path = write_uff(tmp_path / f"{name}.uff", result, R, dofs=data.dofs, inputs=[1],
+                         omega=2 * np.pi * lines, binary=binary)
+        s58 = [d for d in pyuff.UFF(str(path)).read_sets() if d["type"] == 58]
+        assert all(d["abscissa_spacing"] == 0 for d in s58), name
 
 
 def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
