@@ -399,6 +399,10 @@ def test_a_time_history_npz_file_keeps_its_estimator_and_names_what_it_lacks(tmp
     with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a measured data set "
                        r"needs the arrays \['F'\] \(found \['U', 'omega'\]\)$"):
         load_data(half)
+    np.savez(half, U=data.U, F=data.F)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a measured data set "
+                       r"needs the arrays \['omega'\] \(found \['F', 'U'\]\)$"):
+        load_data(half)
 
 
 # ----------------------------------------------------------------- data and .npz
@@ -413,6 +417,24 @@ def test_projection_puts_forces_only_on_driven_dofs(chain6):
     assert np.array_equal(Fn[:, [0, 1, 3, 4]], np.zeros_like(Fn[:, [0, 1, 3, 4]]))
     assert np.allclose(F_m, np.einsum("nm,snp->smp", R, Fn))
     assert np.allclose(U_m, np.einsum("nm,snp->smp", R, data.U))
+
+
+def test_forces_on_dofs_keep_complex_forces_on_their_driven_dofs():
+    """Forces of a random excitation are complex on every line; F_n holds them, phases and
+    all, on the driven DOFs in the order of ``inputs``, zero elsewhere, and ``project``'s
+    F_m is Rᵀ F_n. Placement is a copy, so exact; the projection's einsum and matmul sum
+    the same two products in other orders (1e-12 relative)."""
+    rng = np.random.default_rng(3)
+    s, n, p = 5, 4, 2
+    U = rng.standard_normal((s, n, p)) + 1j * rng.standard_normal((s, n, p))
+    F = rng.standard_normal((s, 2, p)) + 1j * rng.standard_normal((s, 2, p))
+    data = MeasuredData(2 * np.pi * np.arange(1.0, s + 1), U, F, inputs=[3, 1])
+    Fn = data.forces_on_dofs()
+    assert np.array_equal(Fn[:, 3], F[:, 0]) and np.array_equal(Fn[:, 1], F[:, 1])
+    assert not np.any(Fn[:, [0, 2]])
+    R = rng.standard_normal((n, 2))
+    _, F_m = data.project(R)
+    assert np.allclose(F_m, np.einsum("nm,snp->smp", R, Fn), rtol=1e-12, atol=0.0)
 
 
 def test_data_and_model_npz_round_trip(tmp_path, chain6):
