@@ -2303,6 +2303,36 @@ AUDIT = [
      "return found.pop() if found else None"),
     ("io/uff", 'any("roving-hammer" in note for note in data.notes)',
      'any("reciprocity" in note for note in data.notes)'),
+    # a ninth audit of physical: the nearest PSD matrix rebuilt without Qᵀ, the companion
+    # form's B with M and I swapped, the true mode paired by the signed log-distance, the
+    # Markdown table with 3 significant digits
+    ("physical", "np.maximum(d, floor)) @ Q.T", "np.maximum(d, floor)) @ Q"),
+    ("physical", "B = np.block([[eye, zero], [zero, M]])",
+     "B = np.block([[M, zero], [zero, eye]])"),
+    ("physical", "np.argmin(np.abs(np.log(f_true) - np.log(f)))",
+     "np.argmin(np.log(f_true) - np.log(f))"),
+    ("physical", 'fmt = lambda v: f"{v:.4g}"', 'fmt = lambda v: f"{v:.3g}"'),
+    # a ninth audit of modes: an exactly symmetric matrix's zero defect not symmetric, the
+    # modal A with C subtracted, an empty B accepted by the MAC, the visibility level from
+    # the largest |U| of every entry, the data's peak as the least |U| in the band
+    ("modes", "np.linalg.norm(X - X.T) <= SYMMETRY_RTOL",
+     "np.linalg.norm(X - X.T) < SYMMETRY_RTOL"),
+    ("modes", "2 * M, psi) + np.einsum(", "2 * M, psi) - np.einsum("),
+    ("modes", "or 0 in a.shape or 0 in b.shape:", "or 0 in a.shape:"),
+    ("modes", "np.abs(Ua[near]).max(axis=0)", "np.abs(Ua[near]).max()"),
+    ("modes", "peak = np.abs(Ua[inner]).max(axis=0)", "peak = np.abs(Ua[inner]).min(axis=0)"),
+    # a ninth audit of stabilisation: C's and K's eigenvalues swapped in is_physical, order()
+    # answering the first order at or above m, a damping ratio equal to the previous
+    # order's at the boundary no longer consistent, the default fit on the lines in Hz,
+    # a negative f_tol accepted
+    ("stabilisation", "eM, eC, eK = (", "eM, eK, eC = ("),
+    ("stabilisation", "if o.m == m:", "if o.m >= m:"),
+    ("stabilisation", "abs(z - zp[j]) <= zeta_tol", "abs(z - zp[j]) < zeta_tol"),
+    ("stabilisation", "identify(U_m, F_m, data.omega, lam, symmetric)",
+     "identify(U_m, F_m, data.freq_hz, lam, symmetric)"),
+    ("stabilisation", 'f_tol = as_scalar(f_tol, "f_tol")', "f_tol = float(f_tol)"),
+    # a ninth audit of statespace: the shape check's message naming K for C and C for K
+    ("statespace", 'zip(mats, "MCK", strict=True)', 'zip(mats, "MKC", strict=True)'),
 ]
 
 def main() -> None:

@@ -63,6 +63,9 @@ def test_mac_definition_and_invariances():
         # one zero column among others is refused too (its MAC would be 0 / 0)
         (np.ones((4, 2)), np.array([[1.0, 0.0]] * 4), "^B column 1 is zero: it has no MAC$"),
         (np.ones((4, 0)), np.ones((4, 2)), "non-empty"),
+        # B without columns too: it has no MAC, not an empty (2, 0) answer
+        (np.ones((4, 2)), np.ones((4, 0)),
+         r"non-empty \(n, k\) arrays, got \(4, 2\) and \(4, 0\)$"),
         (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
         (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
         (np.ones((4, 2)), np.ones((4, 2, 2)), r"non-empty \(n, k\) arrays, got \(4, 2\) and"),

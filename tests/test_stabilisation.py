@@ -417,6 +417,18 @@ def test_a_chart_names_the_order_it_does_not_have(chain_data):
         chart.order(5)
 
 
+def test_a_chart_from_a_higher_order_has_no_lower_one():
+    # orders 2 … 3 only: order 1 is below the chart, not its lowest order
+    models = {m: model_with_modes(10.0 * np.arange(1, m + 1), 0.02) for m in (2, 3)}
+    data = from_frf(np.ones((5, 3, 1), dtype=complex), 2 * np.pi * np.linspace(5, 40, 5),
+                    inputs=[0])
+    chart = stabilisation_chart(data, 3, m_min=2, fit=models.__getitem__, progress=False)
+    assert [chart.order(m).m for m in (2, 3)] == [2, 3]
+    for m in (1, 4):
+        with pytest.raises(KeyError, match=rf"^'the chart has no order m = {m}'$"):
+            chart.order(m)
+
+
 def test_a_pole_at_zero_frequency_is_consistent_with_nothing():
     # the frequency tolerance is relative to the previous pole's frequency: 0 Hz gives
     # no tolerance to be within, even for another pole at 0 Hz
