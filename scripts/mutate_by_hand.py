@@ -2303,6 +2303,9 @@ AUDIT = [
     # the new mode's change of coordinates without its inverse (the shape's sign flipped)
     ("identification/latent", "is below the {k} observed coordinates",
      "is below the {R.shape[1]} observed coordinates"),
+    # equivalent: Tᵀ D T is G (T⁻ᵀ D T⁻¹) G with G = diag(1, …, 1, −1), the new latent
+    # coordinate's sign flipped (a change inside the gauge): the same responses (the mode
+    # enters as φφᵀf/d), and the refinement's steps are the same up to that sign
     ("identification/latent", "Ti = np.linalg.inv(T)\n", "Ti = T\n"),
     # a ninth audit of modal_start: the residues' relative weights squared, the driven DOF
     # looked for along the lines (no modal start is ever built)
