@@ -2333,6 +2333,47 @@ AUDIT = [
     ("stabilisation", 'f_tol = as_scalar(f_tol, "f_tol")', "f_tol = float(f_tol)"),
     # a ninth audit of statespace: the shape check's message naming K for C and C for K
     ("statespace", 'zip(mats, "MCK", strict=True)', 'zip(mats, "MKC", strict=True)'),
+    # a ninth audit of refinement: the per-entry metric's factor without its square root,
+    # physical_start giving C and K back swapped, the negative weight's message naming the
+    # largest, the log-magnitude objective's all-zero weights no longer refused, reduced
+    # data of a lower order given the start's identity as basis
+    ("identification/refinement", "T[i, j] = (np.sqrt(np.clip(lam, 0.0, None))[:, None] * V.T)",
+     "T[i, j] = (np.clip(lam, 0.0, None)[:, None] * V.T)"),
+    ("identification/refinement", "return (out[0], out[1], out[2]), report",
+     "return (out[0], out[2], out[1]), report"),
+    ("identification/refinement", "must be non-negative (found {w.min():.3g})",
+     "must be non-negative (found {w.max():.3g})"),
+    ("identification/refinement", "if not np.any(W > 0):", "if not np.any(W >= 0):"),
+    ("identification/refinement", "basis = np.eye(np.shape(U)[1])", "basis = np.eye(m_model)"),
+    # a ninth audit of order: every matrix of a continuation extended from M, the residual
+    # peaks found without the weights, the relative cost divided by ‖u‖ not ‖u‖², holdout
+    # = 2 refused, the default largest order past the data's limit, the log-magnitude pass
+    # started from the held-out fit instead of the better of the two
+    ("identification/order", "old = np.zeros((0, 0)) if model is None else model[k]",
+     "old = np.zeros((0, 0)) if model is None else model[0]"),
+    ("identification/order", 'energy = np.einsum("sp,smp->s", w2, np.abs(r) ** 2)',
+     'energy = np.einsum("sp,smp->s", np.ones_like(w2), np.abs(r) ** 2)'),
+    ("identification/order", "return float(np.sum(diff[norm > 0] / norm[norm > 0]))",
+     "return float(np.sum(diff[norm > 0] / np.sqrt(norm[norm > 0])))"),
+    ("identification/order", "if holdout < 2:", "if holdout <= 2:"),
+    ("identification/order", "m_max = min(limit, DEFAULT_M_MAX)", "m_max = DEFAULT_M_MAX"),
+    ("identification/order", 'logm = refit(best, "log-magnitude"',
+     'logm = refit(start, "log-magnitude"'),
+    # a ninth audit of latent: the order-below-basis message counting the zero columns too,
+    # the new mode's change of coordinates without its inverse (the shape's sign flipped)
+    ("identification/latent", "is below the {k} observed coordinates",
+     "is below the {R.shape[1]} observed coordinates"),
+    # equivalent: Tᵀ D T is G (T⁻ᵀ D T⁻¹) G with G = diag(1, …, 1, −1), the new latent
+    # coordinate's sign flipped (a change inside the gauge): the same responses (the mode
+    # enters as φφᵀf/d), and the refinement's steps are the same up to that sign
+    ("identification/latent", "Ti = np.linalg.inv(T)\n", "Ti = T\n"),
+    # a ninth audit of modal_start: the residues' relative weights squared, the driven DOF
+    # looked for along the lines (no modal start is ever built)
+    ("identification/modal_start",
+     "w = np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 0)",
+     "w = np.divide(1.0, norm**2, out=np.zeros_like(norm), where=norm > 0)"),
+    ("identification/modal_start", "np.any(F_n[:, :, j] != 0, axis=0)",
+     "np.any(F_n[:, :, j] != 0, axis=1)"),
 ]
 
 def main() -> None:

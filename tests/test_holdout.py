@@ -549,6 +549,42 @@ def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
         assert kept["kept"] != "log-magnitude refit"
 
 
+@pytest.mark.parametrize("complex_kept", [True, False])
+def test_the_log_magnitude_pass_starts_from_the_better_of_the_two_fits(chain_frf, monkeypatch,
+                                                                      complex_kept):
+    """A spy halves (or doubles) the complex refit's median error over every line, so that
+    it is kept (or the held-out fit is): the log-magnitude probe starts from the model
+    kept — the complex refit's own object, or the sweep's held-out fit — and the reason
+    says which it started from."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    complex_fits, log_starts = [], []
+    real = order.refine
+
+    def spy(model, *args, **kwargs):
+        fit = real(model, *args, **kwargs)
+        ref = fit.info["refinement"]
+        if kwargs.get("objective") == "log-magnitude":
+            log_starts.append(model)
+            ref["db_after"] = tuple(0.1 * v for v in ref["db_before"])  # kept, named
+        else:
+            ref["db_after"] = tuple((0.5 if complex_kept else 2.0) * v for v in ref["db_before"])
+            complex_fits.append(fit)
+        return fit
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=5)
+    kept = model.info["refinement"]["final_refit"]
+    assert len(complex_fits) == 1 and len(log_starts) >= 1
+    started = complex_fits[0] if complex_kept else sweep.fit(2).model
+    assert log_starts[0] is started
+    assert kept["kept"] == "log-magnitude refit"
+    assert kept["reason"].endswith("from the complex refit" if complex_kept
+                                   else "from the held-out fit")
+
+
 def test_a_log_magnitude_probe_that_ties_the_median_ends_the_pass(chain_frf, monkeypatch):
     """The pass goes on past its probe only where the probe lowered the median error:
     a spy keeps the complex refit (its median halved) and makes the probe end at exactly

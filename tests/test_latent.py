@@ -64,6 +64,9 @@ def test_observation_matrix_is_the_basis_then_zero_columns():
     assert observed_count(R) == 3
     with pytest.raises(ValueError, match="below the 3 observed coordinates"):
         pr.observation_matrix(Q, 2)
+    # given back with its four zero columns, the basis still has 3 observed coordinates
+    with pytest.raises(ValueError, match="order m = 2 is below the 3 observed coordinates"):
+        pr.observation_matrix(R, 2)
     with pytest.raises(ValueError, match="orthonormal"):
         pr.observation_matrix(2 * Q, 4)
     bad = R.copy()
@@ -524,6 +527,21 @@ def test_an_order_the_data_cannot_determine_is_refused():
                        rf"{free_parameters(limit + 1, 1)} free parameters, more than the "
                        rf"{2 * lines} real equations"):
         sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m=limit + 1)
+
+
+def test_without_m_max_the_sweep_goes_no_further_than_the_order_limit():
+    """Six lines of the 6-mass chain at one sensor, every fourth held out: five fitted
+    lines, 2·5 = 10 real equations, which determine the 7 free parameters of order 2
+    (3·2·3/2 less a gauge of 1·1 + 1²) but not the 12 of order 3 (18 less 2 + 4). With
+    neither m nor m_max the sweep stops at that limit, not at the default of 40 — the
+    patience (100) is larger than every order, so only the limit ends it."""
+    _, data = chain_data(6, [0], np.linspace(5, 150, 6))
+    assert int(np.sum(np.arange(6) % 4 != 2)) == 5
+    assert free_parameters(2, 1) == 7 <= 10 < free_parameters(3, 1) == 12
+    assert order_limit(5, 1, 1, 1) == 2
+    sweep = sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), patience=100,
+                         max_iter=5, threads=1)
+    assert [f.m for f in sweep.fits] == [1, 2]
 
 
 def test_downstream_outputs_see_the_model_on_the_measured_dofs(tmp_path):
