@@ -2374,6 +2374,41 @@ AUDIT = [
      "w = np.divide(1.0, norm**2, out=np.zeros_like(norm), where=norm > 0)"),
     ("identification/modal_start", "np.any(F_n[:, :, j] != 0, axis=0)",
      "np.any(F_n[:, :, j] != 0, axis=1)"),
+    # a ninth audit of pod: the memory guard of the snapshots' correlation sized by the
+    # samples instead of the DOFs, the Gram matrix's eigenvectors left ascending against
+    # descending eigenvalues, project's shape check on the last axis, basis handing out
+    # a view of the modes, the spectra's correlation side without its 2/r², the
+    # warning's DOF count the number of DOFs
+    ("pod", "_require_correlation(u.shape[1])", "_require_correlation(u.shape[0])"),
+    ("pod", "mu, V = mu[::-1], V[:, ::-1]", "mu, V = mu[::-1], V"),
+    ("pod", "if Xa.ndim not in (2, 3) or Xa.shape[1] != self.n:",
+     "if Xa.ndim not in (2, 3) or Xa.shape[-1] != self.n:"),
+    ("pod", "return self._modes[:, :m].copy()", "return self._modes[:, :m]"),
+    ("pod", "R = scale * (A.T @ A)", "R = A.T @ A"),
+    ("pod", "on {int(over.sum())} DOF(s)", "on {over.size} DOF(s)"),
+    # a ninth audit of simulation: Simulation.pod ignoring its method, the white-noise
+    # draws' loop one row short, the histories' size from the lines instead of the
+    # samples, H1's cross-spectrum without its conjugate, the overlap correlation of
+    # the window with itself unshifted
+    ("simulation", "self.n_samples, method=method)", "self.n_samples, method=\"auto\")"),
+    ("simulation", "for i in range(0, shape[0], block):",
+     "for i in range(0, shape[0] - 1, block):"),
+    ("simulation", "history_bytes = 2 * 8 * r * system.n",
+     "history_bytes = 2 * 8 * lines.size * system.n"),
+    ("simulation", "Syx = Y @ Xh", "Syx = Y @ X.transpose(0, 2, 1)"),
+    ("simulation", "np.sum(w[: N - j * step] * w[j * step:])",
+     "np.sum(w[: N - j * step] * w[: N - j * step])"),
+    # a ninth audit of identification/lines: the budget's shares rounded up, the
+    # block's peak indexed from the band's start instead of the block's
+    ("identification/lines", "extra = np.floor(budget", "extra = np.ceil(budget"),
+    ("identification/lines", "keep[a + int(np.argmax(level[a:b]))] = True",
+     "keep[int(np.argmax(level[a:b]))] = True"),
+    # a ninth audit of identification/holes: the targets divided by √λ instead of λ,
+    # every load case's metric from the first one's mask
+    ("identification/holes", "((Vk.T @ B) / lam[keep, None])",
+     "((Vk.T @ B) / np.sqrt(lam[keep, None]))"),
+    ("identification/holes", "d, lam, V, _ = _column_solve(R, measured[:, j])",
+     "d, lam, V, _ = _column_solve(R, measured[:, 0])"),
 ]
 
 def main() -> None:
