@@ -1830,8 +1830,8 @@ AUDIT = [
     ),
     (
         "identification/result",
-        "if not 0 <= threads <= MAX_THREADS:",
-        "if not 0 <= threads < MAX_THREADS:",
+        "if not 1 <= threads <= MAX_THREADS:",
+        "if not 1 <= threads < MAX_THREADS:",
     ),
     (
         "identification/result",

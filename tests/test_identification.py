@@ -426,6 +426,9 @@ def test_threads_up_to_the_core_bound_and_the_refusal_quotes_the_value():
     assert MAX_THREADS == 1024 and _check_threads(1024) == 1024 and _check_threads(1) == 1
     with pytest.raises(ValueError, match=r"^threads must be between 1 and 1024, got 1025$"):
         identify(*good_data(), threads=1025)
+    # all cores is None, as the systems' threads: 0 is refused as the message says
+    with pytest.raises(ValueError, match=r"^threads must be between 1 and 1024, got 0$"):
+        identify(*good_data(), threads=0)
 
 
 def test_warnings_point_at_the_line_that_called_identify():

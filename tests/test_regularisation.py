@@ -257,6 +257,7 @@ def test_memory_guard_switches_to_repeated_solves(monkeypatch):
         ({"n": 3.5}, "n must be an integer >= 3, got 3.5"),
         ({"method": "cg"}, "method must be"),
         ({"threads": -1}, "threads"),
+        ({"threads": 0}, "^threads must be between 1 and 1024, got 0$"),
     ],
 )
 def test_bad_options_raise(kwargs, match):

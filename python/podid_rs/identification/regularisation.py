@@ -431,8 +431,9 @@ def _evaluator(
     if solve is None:
 
         def solve(lam: float) -> IdentificationResult:
+            # 0 is the core's "all cores", which identify_fixed takes as None
             return identify_fixed(
-                data.U, data.F, data.omega, lam, backend=backend, threads=threads
+                data.U, data.F, data.omega, lam, backend=backend, threads=threads or None
             )
 
     if method == "repeated":

@@ -191,7 +191,7 @@ def _check_threads(threads: object) -> int:
         return 0
     if isinstance(threads, bool) or not isinstance(threads, int | np.integer):
         raise ValueError(f"threads must be None or a positive integer, got {threads!r}")
-    if not 0 <= threads <= MAX_THREADS:
+    if not 1 <= threads <= MAX_THREADS:
         raise ValueError(f"threads must be between 1 and {MAX_THREADS}, got {threads}")
     return int(threads)
 
