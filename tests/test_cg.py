@@ -244,3 +244,10 @@ def test_progress_bar_fraction_is_the_residuals_decades_over_the_tolerances():
         bar(1, residual)
         assert bar.bar.n == percent, residual
     bar.close(1, 1e-9)
+
+
+def test_auto_rule_with_one_penalised_block():
+    # one positive λ already needs the 3m² normal matrix: the size rule, as for three
+    assert choose_solver(10, (0.0, 1.0, 0.0), False) == "direct"
+    assert choose_solver(11, (0.0, 1.0, 0.0), False) == "cg"
+    assert choose_solver(11, (2.0, 0.0, 0.0), False) == "cg"
