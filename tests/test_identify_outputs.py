@@ -345,3 +345,21 @@ def test_an_overlays_farthest_dof_is_measured_from_its_driven_dof(tmp_path, monk
     run = IdentifyRun(Path(tmp_path / "far.uff"), data, model, model, np.eye(6))
     identify_module._overlays(run, tmp_path)
     assert calls == [[("4X", "4X"), ("1X", "4X")], [("1X", "1X"), ("6X", "1X")]]
+
+
+def test_pole_kinds_judge_the_measured_entries_only():
+    """Five equal masses driven at masses 2 and 4, the nodes of the third mode (22.5 Hz):
+    no measured FRF shows it, so it is weak and the other four are the structure's. One
+    response is not measured (mass 1 under the first force): its hole holds a zero, which
+    a judge blind to the holes would take for a level the mode's zero residue reaches."""
+    from podid_rs.apps.identify import pole_kinds
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(5, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    w = 2 * np.pi * np.arange(1.0, 60.0, 0.05)
+    mask = np.ones((5, 2), dtype=bool)
+    mask[0, 0] = False
+    data = from_frf(chain.frf(w)[:, :, [1, 3]], w, inputs=[1, 3], measured=mask)
+    assert np.allclose(modal_parameters(chain).frequencies_hz[2], 22.5, rtol=1e-3)
+    kinds = pole_kinds(chain, np.eye(5), data)  # the chain itself on the identity basis
+    assert kinds.tolist() == ["structural", "structural", "weak", "structural", "structural"]
