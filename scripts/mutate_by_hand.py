@@ -2326,6 +2326,11 @@ AUDIT = [
      'stab = "stable" if modal_parameters(ls).stable else "unstable"'),
     ("apps/identify", "modes = modal_parameters(r)\n", "modes = modal_parameters(ls)\n"),
     ("apps/identify", "measured=None if data.complete else data.measured)", "measured=None)"),
+    # the lattice's memory message with nx and ny swapped (square lattices only); an overlay
+    # per driven DOF for data that are not FRFs (their load cases are not the driven DOFs)
+    ("systems", 'f"a lattice of {nx} × {ny} masses"', 'f"a lattice of {ny} × {nx} masses"'),
+    ("apps/identify", "for k in range(min(d.inputs.size if d.is_frf else 1, MAX_OVERLAYS)):",
+     "for k in range(min(d.inputs.size, MAX_OVERLAYS)):"),
 ]
 
 def main() -> None:
