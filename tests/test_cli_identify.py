@@ -355,6 +355,9 @@ def test_frf_errors_and_the_residual_ratio_of_forces_that_are_not_unit_loads(tmp
     assert p95 == pytest.approx(np.percentile(e, 95), rel=1e-9)
     y = np.linalg.norm(np.einsum("bm,sbp->smp", R[[1, 4]], d.F))
     assert f"({model.residual_norm / y:.3g} of ‖y‖)" in run.summary()
+    # no measured FRF, and load cases that are not the driven DOFs: one overlay (the
+    # model's response to the first driven DOF's unit force), not one per driven DOF
+    assert [f.name for f in run.files if f.name.startswith("frf_input")] == ["frf_input1.png"]
 
 
 def test_identify_with_holes_predicts_them_from_the_measured_entries(tmp_path):

@@ -429,6 +429,9 @@ def test_memory_refusals_say_how_much():
         mass_spring_chain(10**6, sparse=False)
     with pytest.raises(MemoryError, match=r"100000 × 100000 masses needs 5.4e\+03 GB"):
         mass_spring_lattice(10**5, 10**5)
+    # nx before ny: 10⁵ × 2·10⁵ masses, twice the rows, 1.08e13 B
+    with pytest.raises(MemoryError, match=r"100000 × 200000 masses needs 1.08e\+04 GB"):
+        mass_spring_lattice(10**5, 2 * 10**5)
 
 
 def test_lattice_dofs_are_numbered_along_x_first():
