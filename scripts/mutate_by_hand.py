@@ -2331,6 +2331,10 @@ AUDIT = [
     ("systems", 'f"a lattice of {nx} × {ny} masses"', 'f"a lattice of {ny} × {nx} masses"'),
     ("apps/identify", "for k in range(min(d.inputs.size if d.is_frf else 1, MAX_OVERLAYS)):",
      "for k in range(min(d.inputs.size, MAX_OVERLAYS)):"),
+    # solvers: a tol given to CG honoured by the solve but the default reported, in the
+    # result's info and in the warning (every CG test of either ran at the default)
+    ("identification/solvers", '"tol": tol}', '"tol": CG_TOL}'),
+    ("identification/solvers", "above tol = {tol:.1e}", "above tol = {CG_TOL:.1e}"),
 ]
 
 def main() -> None:
