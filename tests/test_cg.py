@@ -244,3 +244,22 @@ def test_progress_bar_fraction_is_the_residuals_decades_over_the_tolerances():
         bar(1, residual)
         assert bar.bar.n == percent, residual
     bar.close(1, 1e-9)
+
+
+def test_auto_rule_with_one_penalised_block():
+    # one positive λ already needs the 3m² normal matrix: the size rule, as for three
+    assert choose_solver(10, (0.0, 1.0, 0.0), False) == "direct"
+    assert choose_solver(11, (0.0, 1.0, 0.0), False) == "cg"
+    assert choose_solver(11, (2.0, 0.0, 0.0), False) == "cg"
+
+
+def test_a_tol_given_is_the_tol_reported():
+    """CG at tol = 1e-6, not the default: a converged run records it in its info, and a run
+    stopped at max_iter records and quotes it."""
+    _, U, F, omega = chain(20, "wide", 0.05)
+    res = identify(U, F, omega, 100.0, solver="cg", tol=1e-6)
+    assert res.info["converged"] and res.info["tol"] == 1e-6
+    assert res.relative_residual <= 1e-6
+    with pytest.warns(ConvergenceWarning, match=r"above tol = 1\.0e-06;"):
+        stopped = identify(U, F, omega, 100.0, solver="cg", tol=1e-6, max_iter=3)
+    assert stopped.info["tol"] == 1e-6 and not stopped.info["converged"]

@@ -285,6 +285,11 @@ def test_frf_errors_are_those_of_r_h_rt_at_the_driven_columns(uff_file, tmp_path
     assert median == pytest.approx(np.median(e), rel=1e-9)
     assert p95 == pytest.approx(np.percentile(e, 95), rel=1e-9)
     assert median < p95  # not a degenerate spread
+    # the residual's ‖y‖ = ‖R[inputs]ᵀ F‖, the rows of the driven DOFs 2 and 5 (at m = 3 < 6
+    # the rows of R differ in norm: the first two DOFs' would give another ratio)
+    y = np.linalg.norm(np.einsum("bm,sbp->smp", R[[1, 4]], d.F))
+    assert abs(np.linalg.norm(R[:2]) / np.linalg.norm(R[[1, 4]]) - 1) > 0.01
+    assert f"({model.residual_norm / y:.3g} of ‖y‖)" in run.summary()
 
 
 def test_the_chart_shows_the_written_model_at_the_chosen_order(uff_file, tmp_path):
@@ -302,6 +307,12 @@ def test_the_chart_shows_the_written_model_at_the_chosen_order(uff_file, tmp_pat
     assert {r["m"] for r in chosen} == {"4"}
     written = [float(r["f_hz"]) for r in read_rows(out / "modes.csv")]
     assert np.allclose(sorted(float(r["f_hz"]) for r in chosen), sorted(written), rtol=1e-12)
+    # the summary's FRF-error line quotes each model's own errors, and they differ here
+    errors = [run.frf_errors(model) for model in (run.least_squares, run.result)]
+    assert errors[0] != errors[1]
+    (med_ls, p95_ls), (med, p95) = errors
+    assert (f"paper's estimator {med_ls:.2f} / {p95_ls:.1f} dB" in run.summary()
+            and f"refined model {med:.2f} / {p95:.1f} dB" in run.summary())
 
 
 def test_the_paper_estimator_keeps_99_percent_of_the_energy_by_default(uff_file, tmp_path):
@@ -313,3 +324,70 @@ def test_the_paper_estimator_keeps_99_percent_of_the_energy_by_default(uff_file,
     pod = run.data.pod()
     assert pod.order_for_energy(0.9) < pod.order_for_energy(0.99)  # the default shows
     assert run.result.m == pod.order_for_energy(0.99)
+
+
+def test_frf_errors_and_the_residual_ratio_of_forces_that_are_not_unit_loads(tmp_path):
+    """Random forces on DOFs 2 and 5 in three load cases (saved data, not FRFs: F is not
+    I, and n_in = 2 ≠ p = 3), m = 3 < 6: the errors are those of R H_m R[inputs]ᵀ F
+    against U, and the residual's ‖y‖ is ‖R[inputs]ᵀ F‖, both from the full FRF of the
+    reduced model here. Tolerance as above (1e-9 relative); the ratio to its 3 digits."""
+    from podid_rs.apps.identify import run_identify
+    from podid_rs.io.npz import save_data
+    from podid_rs.measured import MeasuredData
+
+    chain = mass_spring_chain(6)
+    rng = np.random.default_rng(5)
+    omega = 2 * np.pi * np.arange(5.0, 201.0, 1.0)
+    F = rng.standard_normal((omega.size, 2, 3)) + 1j * rng.standard_normal((omega.size, 2, 3))
+    Fn = np.zeros((omega.size, 6, 3), dtype=complex)
+    Fn[:, [1, 4]] = F
+    data = MeasuredData(omega, chain.response(omega, Fn), F, inputs=[1, 4])
+    path = save_data(tmp_path / "random.npz", data)
+    run = run_identify(path, tmp_path / "o", band_hz=(5.0, 200.0), m=3, paper_estimator=True,
+                       progress=False)
+    d, model = run.data, run.least_squares
+    assert not d.is_frf and d.F.shape[1:] == (2, 3) and d.inputs.tolist() == [1, 4]
+    R = run.basis[:, :3]
+    X = np.einsum("am,smk,bk,sbp->sap", R, model.system().frf(d.omega), R[[1, 4]], d.F)
+    e = np.abs(20 * np.log10(np.abs(X) / np.abs(d.U)))
+    median, p95 = run.frf_errors(model)
+    assert median == pytest.approx(np.median(e), rel=1e-9)
+    assert p95 == pytest.approx(np.percentile(e, 95), rel=1e-9)
+    y = np.linalg.norm(np.einsum("bm,sbp->smp", R[[1, 4]], d.F))
+    assert f"({model.residual_norm / y:.3g} of ‖y‖)" in run.summary()
+    # no measured FRF, and load cases that are not the driven DOFs: one overlay (the
+    # model's response to the first driven DOF's unit force), not one per driven DOF
+    assert [f.name for f in run.files if f.name.startswith("frf_input")] == ["frf_input1.png"]
+
+
+def test_identify_with_holes_predicts_them_from_the_measured_entries(tmp_path):
+    """The exact 6-DOF chain driven at DOFs 1 and 3, three of its twelve FRFs not measured
+    (one a driving point), saved as a data set: the refined model at full order, fitted
+    to the measured entries alone, reproduces the chain's FRFs at the holes too. A fit
+    that read the holes as zero responses would pull the model towards zero there.
+    Tolerance: exact data in doubles; the fit stops at ~1e-12 relative, asserted 1e-8."""
+    from podid_rs.apps.identify import run_identify
+    from podid_rs.io.npz import save_data
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(6, m1=1.0, m2=1.0)
+    w = 2 * np.pi * np.arange(5.0, 250.0, 1.0)
+    mask = np.ones((6, 2), dtype=bool)
+    holes = ((5, 0), (2, 1), (0, 1))
+    for j, k in holes:
+        mask[j, k] = False
+    data = from_frf(chain.frf(w)[:, :, [0, 2]], w, inputs=[0, 2], measured=mask)
+    path = save_data(tmp_path / "holes.npz", data)
+    run = run_identify(path, tmp_path / "o", band_hz=(5.0, 249.0), m=6, progress=False)
+    R = run.basis
+    P = np.einsum("am,smk,bk->sab", R, run.result.system().frf(run.data.omega), R[[0, 2]])
+    truth = chain.frf(run.data.omega)[:, :, [0, 2]]
+    for j, k in holes:
+        assert np.abs(P[:, j, k] - truth[:, j, k]).max() < 1e-8 * np.abs(truth[:, j, k]).max()
+    # the summary judges each model by its own poles: the paper's estimator (the holes read
+    # as zeros in its projection) is unstable here, the refined model stable
+    assert not modal_parameters(run.least_squares).stable and modal_parameters(run.result).stable
+    med, p95 = run.frf_errors(run.result)
+    text = run.summary()
+    assert f"(unstable) → refined model {med:.2f} / {p95:.1f} dB (stable)" in text
+    assert "- stable: yes" in text

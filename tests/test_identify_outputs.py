@@ -217,6 +217,10 @@ def test_source_ordinate_of_a_saved_data_set(tmp_path):
     assert source_ordinate(tmp_path / "velocity.npz") == "velocity"
     assert source_ordinate(tmp_path / "plain.npz") == "displacement"
     assert source_ordinate(tmp_path / "notes.txt") == "displacement"
+    # a suffix in capitals names the same format, as load_data reads it
+    with open(tmp_path / "LOUD.NPZ", "wb") as fh:
+        np.savez(fh, quantity=np.array("acceleration"))
+    assert source_ordinate(tmp_path / "LOUD.NPZ") == "acceleration"
 
 
 def holed_run(tmp_path):
@@ -257,3 +261,105 @@ def test_an_overlay_says_when_its_driving_point_was_not_measured(tmp_path, monke
     assert first_entries == [("1X", "1X"), ("5X", "1X")]
     assert "not measured" not in first
     assert "; H(3X,3X) was not measured" in second
+
+
+def test_an_overlay_draws_and_bands_the_column_of_its_driven_dof(tmp_path, monkeypatch):
+    """The second force is load case 2 but drives DOF 3: its overlay draws column 3X of
+    H — the model's (the chain itself) at the driving point and at node 6, the measured
+    one blank at the hole H(3X,3X) — and asks the confidence band for that column. (With
+    load case k driving DOF k, as in the other layouts, the two indices coincide.) The
+    model's curve solves the same systems as chain.frf: round-off apart (1e-12)."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from podid_rs.apps import identify as identify_module
+
+    drawn, asked = [], []
+
+    def fake_overlay(freq, curves, path, *, title, entries):
+        drawn.append((freq, curves))
+        return path
+
+    def frf(omega, *, rows, cols, level):
+        asked.append((list(rows), list(cols)))
+        shape = (omega.size, len(rows), len(cols))
+        return SimpleNamespace(lower=np.zeros(shape), upper=np.ones(shape))
+
+    monkeypatch.setattr(identify_module, "plot_frf_comparison", fake_overlay)
+    run = dataclasses.replace(holed_run(tmp_path), uncertainty=SimpleNamespace(frf=frf))
+    identify_module._overlays(run, tmp_path)
+    assert asked == [([0, 4], [0]), ([2, 5], [2])]
+    freq, (measured, model) = drawn[1]
+    omega = run.data.omega[np.searchsorted(run.data.freq_hz, freq)]  # the lines drawn
+    H = mass_spring_chain(6, m1=1.0, m2=1.0).frf(omega)
+
+    def rel_err(a, b):
+        return float(np.abs(a - b).max() / np.abs(b).max())
+
+    assert rel_err(model.values, H[:, [2, 5], 2]) < 1e-12
+    assert np.all(np.isnan(measured.values[:, 0]))
+    assert rel_err(measured.values[:, 1], H[:, 5, 2]) < 1e-12
+
+
+def test_pole_kinds_take_each_residue_at_the_driven_dof():
+    """Three equal masses in a chain, the middle one numbered first: the second mode has a
+    node at DOF 0 and none at the end mass driven, DOF 1 (the one load case). Each mode
+    shows in the driving-point FRF, so all three are the structure's; a residue taken at
+    DOF 0 (the load case's index) would call the second weak."""
+    from podid_rs import SecondOrderSystem
+    from podid_rs.apps.identify import pole_kinds
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(3, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    order = [1, 0, 2]
+    system = SecondOrderSystem(*(X[np.ix_(order, order)] for X in (chain.M, chain.C, chain.K)))
+    w = 2 * np.pi * np.arange(1.0, 60.0, 0.05)  # the modes at 12, 22.5 and 29.4 Hz
+    data = from_frf(system.frf(w)[:, :, [1]], w, inputs=[1])
+    result, R = data.identify(m=3, symmetric=True)  # exact data: the chain itself
+    assert pole_kinds(result, R, data).tolist() == ["structural"] * 3
+
+
+def test_an_overlays_farthest_dof_is_measured_from_its_driven_dof(tmp_path, monkeypatch):
+    """Load case 1 drives node 4 of nodes 1–6: its farthest DOF is node 1 (3 away), not
+    node 6 (the farthest from node 1, which the load case's index would name); load case
+    2 drives node 1, whose farthest is node 6."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from podid_rs.apps import identify as identify_module
+    from podid_rs.apps.identify import IdentifyRun
+    from podid_rs.measured import from_frf
+
+    calls = []
+
+    def fake_overlay(freq, curves, path, *, title, entries):
+        calls.append(entries)
+        return path
+
+    monkeypatch.setattr(identify_module, "plot_frf_comparison", fake_overlay)
+    chain = mass_spring_chain(6)
+    w = 2 * np.pi * np.arange(5.0, 201.0, 1.0)
+    data = from_frf(chain.frf(w)[:, :, [3, 0]], w, inputs=[3, 0],
+                    dofs=[(k + 1, 1) for k in range(6)])
+    model = SimpleNamespace(m=6, system=lambda: chain, info={})  # what the overlays ask
+    run = IdentifyRun(Path(tmp_path / "far.uff"), data, model, model, np.eye(6))
+    identify_module._overlays(run, tmp_path)
+    assert calls == [[("4X", "4X"), ("1X", "4X")], [("1X", "1X"), ("6X", "1X")]]
+
+
+def test_pole_kinds_judge_the_measured_entries_only():
+    """Five equal masses driven at masses 2 and 4, the nodes of the third mode (22.5 Hz):
+    no measured FRF shows it, so it is weak and the other four are the structure's. One
+    response is not measured (mass 1 under the first force): its hole holds a zero, which
+    a judge blind to the holes would take for a level the mode's zero residue reaches."""
+    from podid_rs.apps.identify import pole_kinds
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(5, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    w = 2 * np.pi * np.arange(1.0, 60.0, 0.05)
+    mask = np.ones((5, 2), dtype=bool)
+    mask[0, 0] = False
+    data = from_frf(chain.frf(w)[:, :, [1, 3]], w, inputs=[1, 3], measured=mask)
+    assert np.allclose(modal_parameters(chain).frequencies_hz[2], 22.5, rtol=1e-3)
+    kinds = pole_kinds(chain, np.eye(5), data)  # the chain itself on the identity basis
+    assert kinds.tolist() == ["structural", "structural", "weak", "structural", "structural"]

@@ -417,3 +417,66 @@ def test_identify_passes_an_snr_on_to_the_discrepancy_rule():
     with pytest.raises(ValueError, match="^noise and snr_db set the discrepancy target; they "
                                          "need lam='discrepancy'$"):
         identify(U, F, omega, 1.0, snr_db=snr)
+
+
+def test_the_discrepancy_target_is_the_noise_seen_through_the_fit_over_every_load_case():
+    """δ = σ (p Σ_i ‖D̂(ω_i)‖²_F)^½ is the expected norm of the noise on U through the
+    λ = 0 fit's dynamic stiffness, over the s·p response vectors. The noise this case added
+    is known (U minus the exact responses): through D̂ its norm is δ up to sampling (720
+    complex samples, ~2 % on the norm) and D̂'s own error (6 % off in all here; 10 %
+    allowed, where a δ without the p = 2 load cases would be 29 % short). An SNR of 0 dB or
+    below is a noise level too (σ ≥ RMS |U|): the same δ as that σ, to round-off."""
+    truth, U, F, omega, sigma = skew_mass_case(4, noise=0.001, on="U")
+    M, C, K = truth
+    exact = np.linalg.solve(-(omega**2)[:, None, None] * M + 1j * omega[:, None, None] * C + K,
+                            F)
+    pilot = identify(U, F, omega, 0.0)
+    D = (-(omega**2)[:, None, None] * pilot.M + 1j * omega[:, None, None] * pilot.C
+         + pilot.K)
+    curve = lambda_curve(U, F, omega, rule="discrepancy", noise=sigma)
+    assert np.linalg.norm(D @ (U - exact)) == pytest.approx(curve.target_residual, rel=0.1)
+    rms = np.sqrt(np.mean(np.abs(U) ** 2))
+    for snr in (0.0, -3.0):
+        by_snr = quiet_curve(U, F, omega, snr_db=snr)
+        by_sigma = quiet_curve(U, F, omega, noise=rms * 10 ** (-snr / 20))
+        assert by_snr.target_residual == pytest.approx(by_sigma.target_residual, rel=1e-12)
+
+
+def test_the_smallest_default_grid_and_a_grid_of_repeated_values():
+    """n = 3 is the smallest grid the docs allow; a grid of three values of which two are
+    equal has two distinct ones, and is refused (in any order)."""
+    _, U, F, omega, _ = skew_mass_case(0, m=3, s=10, p=1)
+    assert quiet_curve(U, F, omega, n=3).lams.size == 3
+    for lams in ([1.0, 1.0, 2.0], [2.0, 1.0, 1.0]):
+        with pytest.raises(ValueError, match="at least 3 distinct finite positive values"):
+            lambda_curve(U, F, omega, lams)
+    assert quiet_curve(U, F, omega, [3.0, 1.0, 2.0]).lams.tolist() == [1.0, 2.0, 3.0]
+
+
+def test_identify_with_a_rule_keeps_the_numpy_backend_on_the_repeated_path():
+    """A rank-deficient unregularised problem falls back to repeated solves: they are the
+    backend's asked for, like the spectral path's (whose numpy answer is a solve too)."""
+    _, U, F, omega, _ = skew_mass_case(7, s=8, p=1)
+    with pytest.warns(LambdaSelectionWarning, match="rank deficient"):
+        res = identify(U, F, omega, "lcurve", backend="numpy")
+    assert res.info["lambda_curve"].method == "repeated" and res.backend == "numpy"
+    ref = identify(U, F, omega, res.lam[0], backend="numpy")
+    assert ref.backend == "numpy" and res.method == ref.method
+    for X, Y in zip((res.M, res.C, res.K), (ref.M, ref.C, ref.K), strict=True):
+        assert np.array_equal(X, Y)
+
+
+def test_a_degenerate_repeated_l_curve_answers_at_the_grids_middle():
+    """A solve whose answers are exactly symmetric has zero penalty everywhere (ln 0 is no
+    point of the L-curve): no corner, the grid's middle λ returned, and the warning says
+    why."""
+    _, U, F, omega, _ = skew_mass_case(0, m=3, s=10, p=1)
+    sym = identify(U, F, omega, symmetric=True)
+    assert sym.penalty_norm == 0.0
+    grid = [0.1, 1.0, 10.0, 100.0, 1000.0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # numpy's log(0)
+        with pytest.warns(NoCornerWarning, match=r"degenerate \(zero penalty or residual\); "
+                                                 r"λ = 10 returned"):
+            curve = lambda_curve(U, F, omega, grid, method="repeated", solve=lambda lam: sym)
+    assert curve.lam == 10.0 and np.isnan(curve.corner_curvature)

@@ -97,6 +97,18 @@ def test_a_sparse_non_symmetric_system_projects_as_the_explicit_products():
         assert rel(R.T @ X.T @ R, R.T @ X @ R) > 0.1
         assert rel(getattr(reduced, name), R.T @ X @ R) < 1e-12
 
+def test_a_sparse_non_symmetric_systems_dynamic_stiffness_is_the_dense_ones():
+    """Z(ω) = −ω²M + iωC + K formed from sparse non-symmetric matrices (the chain's
+    symmetric ones cannot tell Z from Zᵀ): the dense system's, bit for bit (the same
+    operations on the same doubles)."""
+    dense = random_system(5, 7)
+    sparse = SecondOrderSystem(*(sp.csr_array(X) for X in (dense.M, dense.C, dense.K)))
+    omega = np.array([0.5, 3.0])
+    Z = sparse.dynamic_stiffness(omega)
+    np.testing.assert_array_equal(Z, dense.dynamic_stiffness(omega))
+    assert not np.allclose(Z[1], Z[1].T)  # a transpose would show
+
+
 @pytest.mark.parametrize("n", [1, 5, 6])
 def test_chain_matrices_follow_eqs_51_52(n):
     system = mass_spring_chain(n, m1=0.1, m2=1.0, ku=4e5, a0=0.5, a1=3e-5)
@@ -323,6 +335,8 @@ def test_todense_gives_dense_arrays_of_the_same_entries():
         assert np.array_equal(X, Y.toarray())
     again = dense.todense()
     assert again is not dense and np.array_equal(again.K, dense.K)
+    # the chain's M and C differ (C = a0 M + a1 K): each copied to its own place
+    assert np.array_equal(again.M, dense.M) and np.array_equal(again.C, dense.C)
 
 
 @pytest.mark.parametrize(
@@ -415,6 +429,9 @@ def test_memory_refusals_say_how_much():
         mass_spring_chain(10**6, sparse=False)
     with pytest.raises(MemoryError, match=r"100000 × 100000 masses needs 5.4e\+03 GB"):
         mass_spring_lattice(10**5, 10**5)
+    # nx before ny: 10⁵ × 2·10⁵ masses, twice the rows, 1.08e13 B
+    with pytest.raises(MemoryError, match=r"100000 × 200000 masses needs 1.08e\+04 GB"):
+        mass_spring_lattice(10**5, 2 * 10**5)
 
 
 def test_lattice_dofs_are_numbered_along_x_first():
@@ -451,3 +468,15 @@ def test_lattice_parameters_are_checked_by_name():
         mass_spring_lattice(2, 2, k=0.0)
     with pytest.raises(ValueError, match=r"ny must be >= 1, got 0"):
         mass_spring_lattice(2, 0)
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_an_frf_too_large_names_its_lines_rows_and_columns(sparse, monkeypatch):
+    """3 lines × 2 rows × 4 columns of complex doubles are 384 B; with 100 B available the
+    request is refused, quoted as lines × rows × columns on both paths (rows ≠ columns)."""
+    import podid_rs._memory as memory
+
+    chain = mass_spring_chain(5, sparse=sparse)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 100)
+    with pytest.raises(MemoryError, match=r"^the FRF of 3 lines × 2 × 4 entries needs 3.84e-07 GB"):
+        chain.frf([1.0, 2.0, 3.0], rows=[0, 1], cols=[0, 1, 2, 3])
