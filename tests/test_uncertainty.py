@@ -1276,3 +1276,18 @@ def test_the_band_in_blocks_of_lines_is_the_band_in_one_block(monkeypatch):
         # the same products per line, batched otherwise: round-off
         np.testing.assert_allclose(getattr(parts, name), getattr(whole, name), rtol=1e-12,
                                    err_msg=name)
+
+
+def test_the_convergence_warning_counts_the_solves_that_missed(monkeypatch):
+    """One CG iteration, no restart: a gradient's solve misses the tolerance, a zero
+    gradient's (X = 0 solves it) does not — "1 of 2", and only the first variance is NaN."""
+    monkeypatch.setattr(covariance, "CG_MAX_ITER", 1)
+    monkeypatch.setattr(covariance, "CG_RESTARTS", 0)
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var,
+                               solver="matrix-free")
+    G = np.zeros((2, unc.n_parameters))
+    G[0] = np.random.default_rng(9).standard_normal(unc.n_parameters)
+    with pytest.warns(pr.ConvergenceWarning, match=re.escape("1 of 2 matrix-free solves")):
+        v = unc._cov.variances(G)
+    assert np.isnan(v[0]) and v[1] == 0.0
