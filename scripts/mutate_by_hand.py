@@ -2471,6 +2471,74 @@ AUDIT = [
     # result's info and in the warning (every CG test of either ran at the default)
     ("identification/solvers", '"tol": tol}', '"tol": CG_TOL}'),
     ("identification/solvers", "above tol = {tol:.1e}", "above tol = {CG_TOL:.1e}"),
+    # second hardening pass, uncertainty and identification/covariance: written with their
+    # tests (a check, not a measurement). Options reaching more than one output: summary's
+    # level not given to its modes, the band's level and z, the matrices' z; the lines of
+    # the fit not reaching the band's default lines, the given and the H1 variance, the
+    # grid of correlated lines (dense, matrix-free)
+    ("uncertainty", "modes = self.modes(level)\n", "modes = self.modes()\n"),
+    ("uncertainty", "z = self.z(level)\n        w = self.omega",
+     "z = self.z()\n        w = self.omega"),
+    ("uncertainty", "corr, _check_level(level), z,", "corr, LEVEL, z,"),
+    ("uncertainty", "z = self.z(level)\n        if self.latent:",
+     "z = self.z()\n        if self.latent:"),
+    ("uncertainty", "                    w, driven, T)", "                    w[keep], driven, T)"),
+    ("uncertainty", "variance = check_variance(noise_variance, Ua.shape)[keep]",
+     "variance = check_variance(noise_variance, Ua.shape)"),
+    ("uncertainty", "variance = h1_variance(Ua, coherence, averages)[keep]",
+     "variance = h1_variance(Ua, coherence, averages)"),
+    ("uncertainty", "objective,\n                            grid=np.flatnonzero(keep))",
+     "objective)"),
+    ("uncertainty", "objective, grid=np.flatnonzero(keep),\n", "objective,\n"),
+    # the residuals' dof with the parameters for the rank (equal without latent
+    # coordinates); a uniform refit read as relative; fit_uncertainty's solver, line
+    # correlation, averages and variance not passed on
+    ("uncertainty", "residual_variance(fit, cov.rank, noise)",
+     "residual_variance(fit, fit.n_params, noise)"),
+    ("uncertainty", "if label in (\"relative\", \"uniform\"):\n        return label, objective",
+     "if label in (\"relative\", \"uniform\"):\n        return \"relative\", objective"),
+    ("uncertainty", "line_correlation=line_correlation, solver=solver,",
+     "line_correlation=line_correlation,"),
+    ("uncertainty", "noise=noise, line_correlation=line_correlation,",
+     "noise=noise, line_correlation=(),"),
+    ("uncertainty",
+     "noise_variance=noise_variance, coherence=coherence,\n        averages=averages,",
+     "noise_variance=noise_variance, coherence=coherence,\n        averages=None,"),
+    ("uncertainty", "noise_variance=noise_variance, coherence=coherence,\n        averages",
+     "noise_variance=None, coherence=coherence,\n        averages"),
+    # degenerate inputs: real roots in summary's typical interval, a repeated eigenvalue's
+    # shapes given a σ, an undamped model (C = 0) refused as not symmetric, an empty
+    # selection given a median
+    ("uncertainty", "osc = modes.determined & (np.abs(modes.eigenvalues.imag) > 0) & chosen",
+     "osc = modes.determined & (np.abs(modes.eigenvalues.imag) >= 0) & chosen"),
+    ("uncertainty",
+     "            if np.any(near):\n                var_re[:], var_im[:] = np.nan, np.nan",
+     "            if False:\n                var_re[:], var_im[:] = np.nan, np.nan"),
+    ("uncertainty", "if np.linalg.norm(X - X.T) > 1e-10 * np.linalg.norm(X):",
+     "if np.linalg.norm(X - X.T) >= 1e-10 * np.linalg.norm(X):"),
+    ("uncertainty", "        if np.any(osc):\n", "        if osc.size:\n"),
+    # the covariance: a zero diagonal of N not guarded, a coherence of 0 without its floor,
+    # a zero column's relative weight 1/0, (s, n) weights taken per load case when n = p, a
+    # channel's mean over lines it was not fitted on, the local noise counting those lines,
+    # the log-magnitude meat's pairs tested on one side
+    ("identification/covariance", "        d[d == 0] = 1.0\n", ""),
+    ("identification/covariance", "g = np.maximum(g, COHERENCE_FLOOR)", "g = np.maximum(g, 0.0)"),
+    ("identification/covariance", "w[norms > 0] = 1.0 / norms[norms > 0]\n",
+     "w[norms >= 0] = 1.0 / norms[norms >= 0]\n"),
+    ("identification/covariance",
+     "elif a.shape == (s, p) and (a.shape != (s, n) or not observed_basis):",
+     "elif a.shape == (s, p):"),
+    ("identification/covariance", "v = e2.sum(axis=0, keepdims=True) / count",
+     "v = e2.mean(axis=0, keepdims=True)"),
+    ("identification/covariance", "u_all = np.pad(used.astype(float), pad)",
+     "u_all = np.pad(np.ones(used.shape), pad)"),
+    ("identification/covariance", "used = (self.W[lft] > 0) & (self.W[rgt] > 0)",
+     "used = self.W[lft] > 0"),
+    # one block of lines in every dense band: the blocks' loop one line short
+    ("uncertainty", "for start in range(0, s, block):", "for start in range(0, s - 1, block):"),
+    # every solve of every test missed its tolerance: the warning's count of those that did
+    ("identification/covariance", '{int(bad.sum())} of {ok.size} matrix-free',
+     '{ok.size} of {ok.size} matrix-free'),
 ]
 
 def main() -> None:

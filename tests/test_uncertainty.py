@@ -979,3 +979,315 @@ def test_the_meat_of_correlated_lines_is_rho_times_both_lines_deviations():
     sd = np.sqrt(v) / fit.su
     expected = 0.5 * fit.W[lft] ** 2 * fit.W[rgt] ** 2 * 0.44 * sd[lft] * sd[rgt]
     np.testing.assert_allclose(meat.hermitian[pairs], expected, rtol=1e-13)
+
+
+# ------------------------------------------------------------------ second hardening pass
+# Coincidences of the fixtures broken (a layout with n = p, a channel fitted on part of its
+# lines, a rank below the parameters, uniform weights in fit_uncertainty, several blocks of
+# lines), degenerate but valid inputs (an undamped model, a repeated eigenvalue, real roots,
+# an empty selection, a coherence of 0, a column without response, a coordinate no data
+# touch, an exact zero under the log-magnitude objective) and options that reach more than
+# one output (level, lines, the noise options and the solver of fit_uncertainty).
+
+
+def test_the_summary_at_another_level_takes_that_levels_z():
+    """summary(level=0.9): the text names 90 % and the median half-width is z σ_f / f with
+    the 90 % z = 1.645 (σ_f = 1 % of f: 1.6 %; at 95 % it would read 2 %)."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    modal = pr.modal_parameters(system)
+    f, zeta = modal.frequencies_hz, modal.damping_ratios
+    _with_variances(unc, (0.01 * f) ** 2, np.full(f.size, 1e-6))  # σ_ζ = 0.001
+    z = scipy.stats.norm.ppf(0.95)
+    text = unc.summary(level=0.9)
+    assert text.startswith("90 % intervals from the sandwich covariance")
+    hz = 100 * np.median(z * 1e-3 / zeta)
+    assert (f"over {f.size} mode(s): {100 * z * 0.01:.2g} % of the natural frequency, "
+            f"{hz:.2g} % of the damping ratio") in text
+
+
+def test_the_band_and_the_matrix_intervals_at_another_level_take_its_z():
+    """level=0.9 reaches the band (its z, its level, its upper end |Ĥ| + z σ_r with σ_r the
+    radial deviation from the band's own parts) and the matrices' intervals."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    z = scipy.stats.norm.ppf(0.95)  # a two-sided 90 %
+    band = unc.frf(omega[::10], level=0.9)
+    assert band.level == 0.9 and band.z == pytest.approx(z, rel=1e-12)
+    a, b = band.values.real, band.values.imag
+    sr = np.sqrt(a**2 * band.std_real**2 + b**2 * band.std_imag**2
+                 + 2 * a * b * band.corr * band.std_real * band.std_imag) / np.abs(band.values)
+    # the same few roundings in another order
+    np.testing.assert_allclose(band.upper, np.abs(band.values) + z * sr, rtol=1e-12)
+    mats = unc.matrices(level=0.9)
+    assert mats.level == 0.9 and mats.z == pytest.approx(z, rel=1e-12)
+
+
+def test_a_fit_on_part_of_the_lines_takes_their_noise_and_bands_every_line():
+    """lines = every other line: the given variance (per line) and the H1 variance are those
+    of the fitted lines; the band's default lines are still all the data's."""
+    system, omega, H, U, F, var = _frf_data()
+    lines = np.arange(40) % 2 == 0
+    per_line = np.linspace(1.0, 2.0, 40) * np.mean(var)
+    kw = dict(basis=np.eye(4), lines=lines)
+    a = pr.model_uncertainty(system, U, F, omega, noise_variance=per_line, **kw)
+    np.testing.assert_array_equal(
+        a.variance, np.broadcast_to(per_line[lines][:, None, None], (20, 4, 2)))
+    np.testing.assert_array_equal(a.frf().omega, omega)
+    g = np.linspace(0.5, 0.95, 40)[:, None] * np.array([1.0, 0.9, 0.8, 1.0])
+    b = pr.model_uncertainty(system, U, F, omega, coherence=g, averages=11, **kw)
+    gamma = g[lines][:, :, None]
+    # the same few roundings in another order (every γ² above the coherence floor)
+    np.testing.assert_allclose(b.variance, np.abs(U[lines]) ** 2 * (1 - gamma) / (gamma * 10),
+                               rtol=1e-13)
+
+
+@pytest.mark.parametrize("solver", ["dense", "matrix-free"])
+def test_fitted_lines_apart_on_the_data_grid_are_no_neighbours(solver):
+    """Fitted on every other line, no two fitted lines are neighbours on the data's grid: a
+    correlation of neighbouring lines (lag 1) pairs none of them and the intervals are those
+    of independent lines; a lag of 2 pairs them and moves the intervals."""
+    system, omega, H, U, F, var = _frf_data()
+    kw = dict(basis=np.eye(4), noise_variance=var, lines=np.arange(40) % 2 == 0, solver=solver)
+    a = pr.model_uncertainty(system, U, F, omega, line_correlation=(0.4,), **kw).modes()
+    b = pr.model_uncertainty(system, U, F, omega, **kw).modes()
+    # the same sums (the lag-1 pairs are none): equal to round-off
+    np.testing.assert_allclose(a.std_frequency_hz, b.std_frequency_hz, rtol=1e-10)
+    np.testing.assert_allclose(a.std_damping, b.std_damping, rtol=1e-10)
+    c = pr.model_uncertainty(system, U, F, omega, line_correlation=(0.0, 0.4), **kw).modes()
+    assert not np.allclose(c.std_frequency_hz, b.std_frequency_hz, rtol=1e-3)
+
+
+def test_noise_from_the_residuals_of_a_model_with_latent_coordinates_counts_its_rank():
+    """Three of four coordinates observed: rank 30 − 4 (the gauge), so the 40 · 3 · 2 = 240
+    complex residuals (480 real numbers) leave 454 degrees of freedom, not 450."""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U[:, :3], F[:, :3], omega, basis=np.eye(3))
+    assert unc.rank == 26 and unc.dof == 454
+    assert unc.noise.endswith(", 454 degrees of freedom")
+
+
+def test_fit_uncertainty_of_a_fit_with_uniform_weights_takes_them():
+    """The report of a complex refit with uniform weights says "uniform": fit_uncertainty
+    then weighs as model_uncertainty with weights="uniform", not "relative"."""
+    system, omega, H, U, F, var = _frf_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = pr.refine(system, U, F, omega, basis=np.eye(4), weights="uniform")
+    assert model.info["refinement"]["weights"] == "uniform"
+    data = from_frf(U, omega, inputs=[0, 2])
+    got = pr.fit_uncertainty(data, model, np.eye(4), noise_variance=var).modes()
+    kw = dict(basis=np.eye(4), noise_variance=var)
+    uniform = pr.model_uncertainty(model, U, F, omega, weights="uniform", **kw).modes()
+    relative = pr.model_uncertainty(model, U, F, omega, weights="relative", **kw).modes()
+    np.testing.assert_allclose(got.std_frequency_hz, uniform.std_frequency_hz, rtol=1e-12)
+    assert not np.allclose(relative.std_frequency_hz, uniform.std_frequency_hz, rtol=1e-3)
+
+
+def test_fit_uncertainty_passes_the_noise_and_the_solver_on():
+    """Each noise option and the solver given to fit_uncertainty reach model_uncertainty:
+    the same report and intervals as model_uncertainty given the same."""
+    system, omega, H, U, F, var = _frf_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = pr.refine(system, U, F, omega, basis=np.eye(4))
+    data = from_frf(U, omega, inputs=[0, 2])
+    g = np.linspace(0.5, 0.95, 40)[:, None] * np.array([1.0, 0.9, 0.8, 1.0])
+    cases = [dict(noise_variance=var), dict(coherence=g, averages=11),
+             dict(noise_variance=var, line_correlation=(0.4,)),
+             dict(noise_variance=var, solver="matrix-free")]
+    for options in cases:
+        got = pr.fit_uncertainty(data, model, np.eye(4), **options)
+        direct = pr.model_uncertainty(model, U, F, omega, basis=np.eye(4), **options)
+        assert (got.noise, got.solver, got.dof) == (direct.noise, direct.solver, direct.dof)
+        # the same computation twice (block CG too is deterministic)
+        np.testing.assert_allclose(got.modes().std_frequency_hz,
+                                   direct.modes().std_frequency_hz, rtol=1e-12)
+    assert got.solver == "matrix-free"
+    # the correlation moves the intervals (else its case above would prove nothing)
+    plain = pr.model_uncertainty(model, U, F, omega, basis=np.eye(4), noise_variance=var)
+    assert not np.allclose(
+        pr.fit_uncertainty(data, model, np.eye(4), noise_variance=var,
+                           line_correlation=(0.4,)).modes().std_frequency_hz,
+        plain.modes().std_frequency_hz, rtol=1e-3)
+
+
+def _overdamped_pair_and_a_mode():
+    """Two real roots (DOF 0 far beyond critical damping) and one oscillating mode."""
+    M, K = np.diag([1.0, 2.0]), np.array([[300.0, -100.0], [-100.0, 100.0]])
+    return pr.SecondOrderSystem(M, np.diag([80.0, 0.1]), K)
+
+
+def test_the_summary_leaves_out_real_roots_and_an_empty_selection():
+    """An overdamped pair (damping ratio 1) besides an oscillating mode: the typical interval
+    is the oscillating mode's alone; a selection of no mode has none, and nothing undetermined."""
+    system = _overdamped_pair_and_a_mode()
+    omega = 2 * np.pi * np.linspace(0.5, 3.0, 30)
+    U = system.frf(omega)
+    F = np.broadcast_to(np.eye(2), U.shape).astype(complex)
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(2), noise_variance=1e-12)
+    modal = pr.modal_parameters(system)
+    f, zeta = modal.frequencies_hz, modal.damping_ratios
+    oscillating = np.abs(modal.eigenvalues.imag) > 0
+    assert f.size == 3 and oscillating.sum() == 1
+    _with_variances(unc, (0.01 * f) ** 2, np.full(3, 1e-6))  # σ_f = 1 % of f, σ_ζ = 0.001
+    z = unc.z()
+    hz = 100 * z * 1e-3 / zeta[oscillating][0]
+    assert (f"over 1 mode(s): {100 * z * 0.01:.2g} % of the natural frequency, {hz:.2g} % "
+            "of the damping ratio") in unc.summary()
+    text = unc.summary(select=np.zeros(3, dtype=bool))
+    assert "median" not in text and "not determined" not in text
+
+
+def test_the_shapes_of_a_repeated_eigenvalue_have_no_interval():
+    """Two identical uncoupled oscillators share an eigenvalue: their shapes (any mix of the
+    two) have no derivative and get NaN; the third mode's shape has its σ."""
+    M, C, K = np.eye(3), 0.5 * np.eye(3), np.diag([100.0, 100.0, 400.0])
+    system = pr.SecondOrderSystem(M, C, K)
+    omega = 2 * np.pi * np.linspace(1.0, 4.0, 30)
+    U = system.frf(omega)
+    F = np.broadcast_to(np.eye(3), U.shape).astype(complex)
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(3), noise_variance=1e-12)
+    _uncertainty_with_covariance(unc, np.random.default_rng(8).standard_normal(unc.n_parameters))
+    modes = unc.modes(shapes=True)
+    assert np.isclose(modes.eigenvalues[0], modes.eigenvalues[1], rtol=1e-12)
+    assert np.all(np.isnan(modes.std_shapes_real[:, :2]))
+    assert np.all(np.isnan(modes.std_shapes_imag[:, :2]))
+    assert np.all(np.isfinite(modes.std_shapes_real[:, 2]))
+    assert np.any(modes.std_shapes_real[:, 2] > 0)
+
+
+def test_an_undamped_model_is_symmetric():
+    """C = 0 exactly (an undamped model) is symmetric, not refused: its covariance is
+    formed, its modes are modal_parameters' with damping ratio 0."""
+    system, omega, H, U, F, var = _frf_data()
+    undamped = pr.SecondOrderSystem(system.M, np.zeros((4, 4)), system.K)
+    unc = pr.model_uncertainty(undamped, U, F, omega, basis=np.eye(4), noise_variance=var)
+    modes = unc.modes()
+    np.testing.assert_allclose(modes.frequencies_hz,
+                               pr.modal_parameters(undamped).frequencies_hz, rtol=1e-12)
+    assert np.all(np.abs(modes.damping_ratios) < 1e-12)
+
+
+def test_a_coordinate_no_data_touch_has_no_variance_and_leaves_the_others_theirs():
+    """N with a zero row and column (a coordinate no data touch: its diagonal 0, nothing to
+    scale by): that coordinate has no variance, the others N⁺ S N⁺'s (S = N: 1/2, 1/0.5)."""
+    N = np.diag([2.0, 0.0, 0.5])
+    cov = DenseCovariance(N)
+    cov.set_meat(N)
+    assert cov.rank == 2
+    var = cov.variances(np.eye(3))
+    assert var[0] == pytest.approx(0.5) and np.isnan(var[1]) and var[2] == pytest.approx(2.0)
+
+
+def test_a_coherence_of_zero_is_taken_at_the_floor():
+    """γ² = 0 (the bottom of [0, 1]): the variance of COHERENCE_FLOOR, huge but finite."""
+    system, omega, H, U, F, var = _frf_data()
+    g = np.full((40, 4), 0.9)
+    g[:, 3] = 0.0
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), coherence=g, averages=5)
+    floor = covariance.COHERENCE_FLOOR
+    np.testing.assert_allclose(unc.variance[:, 3],
+                               np.abs(U[:, 3]) ** 2 * (1 - floor) / (floor * 4), rtol=1e-13)
+
+
+def test_relative_weights_of_a_column_without_response_are_zero():
+    """1/‖u_c‖ per column (line and load case): 1/5 and 1/√3 here; a column that is all
+    zero (no response at that line) weighs 0, not 1/0."""
+    U = np.zeros((2, 3, 2), dtype=complex)
+    U[0, :, 0] = [3.0, 4.0j, 0.0]
+    U[1] = 1.0
+    W = entry_weights("relative", U, "complex", True)
+    np.testing.assert_allclose(W[0, :, 0], 0.2, rtol=1e-15)
+    np.testing.assert_array_equal(W[0, :, 1], 0.0)
+    np.testing.assert_allclose(W[1], 1 / np.sqrt(3), rtol=1e-15)
+
+
+def test_weights_of_a_square_layout_are_per_dof_on_measured_dofs():
+    """n = p = 2: an (s, n) array on measured DOFs weighs each DOF, as refine takes it; on
+    reduced coordinates (no measured DOFs) the same array weighs each load case."""
+    U = np.ones((3, 2, 2), dtype=complex)
+    a = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
+    np.testing.assert_array_equal(entry_weights(a, U, "complex", True),
+                                  np.repeat(a[:, :, None], 2, 2))
+    np.testing.assert_array_equal(entry_weights(a, U, "complex", False),
+                                  np.repeat(a[:, None, :], 2, 1))
+
+
+def test_noise_per_channel_is_the_mean_over_the_lines_it_was_fitted_on():
+    """Weight 0 on the first ten lines of DOF 1, load case 0: that channel's variance is the
+    mean square of its residuals over its other 30 lines (scaled by 2·entries/dof)."""
+    system, omega, H, U, F, var = _frf_data()
+    w = np.ones(U.shape)
+    w[:10, 1, 0] = 0.0
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), weights=w, noise="channel")
+    used = w > 0
+    n_used = int(used.sum())
+    assert unc.dof == 2 * n_used - unc.rank
+    mean = np.where(used, np.abs(U - H) ** 2, 0.0).sum(axis=0) / used.sum(axis=0)
+    # ŷ = the chain's own FRF to ~1e-13 of |H|, the noise 30 dB below it (as above)
+    np.testing.assert_allclose(unc.variance, np.broadcast_to(mean, U.shape) * 2 * n_used
+                               / unc.dof, rtol=1e-8)
+
+
+def test_local_noise_leaves_out_the_lines_of_weight_zero():
+    """Squared residuals 2 on the fitted lines, every third line not fitted (weight 0, its
+    residual set to 0 as residual_variance does): the local estimate is 2 on every line —
+    a line left out is no zero residual."""
+    s = 90
+    used = np.ones((s, 1, 1), dtype=bool)
+    used[::3] = False
+    e2 = np.where(used, 2.0, 0.0)
+    y2 = np.linspace(1.0, 5.0, s)[:, None, None]
+    out = _local_floor_and_proportional(e2, y2, used, LOCAL_HALF_WIDTH)
+    # a constant fitted exactly (b = 0) by a few weighted sums: round-off
+    np.testing.assert_allclose(out, 2.0, rtol=1e-10)
+
+
+def test_an_exact_zero_under_the_log_magnitude_objective_weighs_nothing_on_correlated_lines():
+    """Log-magnitude objective: an entry exactly 0 (no ln of it) is left out like one below
+    the dynamic range, also from the pairs of neighbouring lines of correlated noise: the
+    same finite intervals as with 1e-30 there."""
+    system, omega, H, U, F, var = _frf_data()
+    kw = dict(basis=np.eye(4), objective="log-magnitude", weights="uniform",
+              noise_variance=var, line_correlation=(0.4,))
+    zero, tiny = U.copy(), U.copy()
+    zero[10, 1, 0] = 0.0
+    tiny[10, 1, 0] = 1e-30  # 1e-12 of the line's largest is the limit
+    a = pr.model_uncertainty(system, zero, F, omega, **kw).modes()
+    b = pr.model_uncertainty(system, tiny, F, omega, **kw).modes()
+    assert np.all(np.isfinite(a.std_frequency_hz)) and np.all(np.isfinite(a.std_damping))
+    np.testing.assert_allclose(a.std_frequency_hz, b.std_frequency_hz, rtol=1e-12)
+    np.testing.assert_allclose(a.std_damping, b.std_damping, rtol=1e-12)
+
+
+def test_the_band_in_blocks_of_lines_is_the_band_in_one_block(monkeypatch):
+    """Three lines per block (40 lines: 14 blocks, the last of one line) give the band of
+    one block of every line: every line computed, each in its place. (The blocks first: a
+    line they missed cannot then hold the one block's leftovers.)"""
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var)
+    with monkeypatch.context() as patch:
+        # r · c = 4 · 2 entries per line
+        patch.setattr(pr.uncertainty, "FRF_BLOCK_ELEMENTS", 3 * 4 * 2 * unc.n_parameters)
+        parts = unc.frf()
+    whole = unc.frf()
+    for name in ("values", "std_real", "std_imag", "corr", "lower", "upper"):
+        # the same products per line, batched otherwise: round-off
+        np.testing.assert_allclose(getattr(parts, name), getattr(whole, name), rtol=1e-12,
+                                   err_msg=name)
+
+
+def test_the_convergence_warning_counts_the_solves_that_missed(monkeypatch):
+    """One CG iteration, no restart: a gradient's solve misses the tolerance, a zero
+    gradient's (X = 0 solves it) does not — "1 of 2", and only the first variance is NaN."""
+    monkeypatch.setattr(covariance, "CG_MAX_ITER", 1)
+    monkeypatch.setattr(covariance, "CG_RESTARTS", 0)
+    system, omega, H, U, F, var = _frf_data()
+    unc = pr.model_uncertainty(system, U, F, omega, basis=np.eye(4), noise_variance=var,
+                               solver="matrix-free")
+    G = np.zeros((2, unc.n_parameters))
+    G[0] = np.random.default_rng(9).standard_normal(unc.n_parameters)
+    with pytest.warns(pr.ConvergenceWarning, match=re.escape("1 of 2 matrix-free solves")):
+        v = unc._cov.variances(G)
+    assert np.isnan(v[0]) and v[1] == 0.0

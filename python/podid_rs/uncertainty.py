@@ -505,7 +505,9 @@ class ModelUncertainty:
         Parameters
         ----------
         omega : array_like, (s,), optional
-            Lines (rad/s); default the fitted data's.
+            Lines (rad/s); default every line of the data given to
+            :func:`model_uncertainty`, also those a fit on part of them (``lines``) left
+            out.
         rows, cols : array_like of int, optional
             Measured DOFs (indices into the observation matrix's rows) of the
             responses and of the forces; default every DOF, and every DOF where the
