@@ -2539,6 +2539,57 @@ AUDIT = [
     # every solve of every test missed its tolerance: the warning's count of those that did
     ("identification/covariance", '{int(bad.sum())} of {ok.size} matrix-free',
      '{ok.size} of {ok.size} matrix-free'),
+    # second hardening pass, identification/refinement, order, latent, modal_start: written
+    # with their tests (a check, not a measurement)
+    ("identification/latent", "np.real(r[i] @ r[i].conj().T)", "np.real(r[i] @ r[i].T)"),
+    ("identification/latent", "(s - 1, [omega[-1] * RESIDUAL_FACTOR]",
+     "(0, [omega[-1] * RESIDUAL_FACTOR]"),
+    ("identification/latent", "X = X * measured  # a hole", "X = X  # a hole"),
+    ("identification/modal_start", "keep = (wn >= w_lo)", "keep = (wn > w_lo)"),
+    ("identification/modal_start", "& (wn <= w_hi)", "& (wn < w_hi)"),
+    ("identification/refinement", "np.ascontiguousarray(X.transpose(0, 2, 1).reshape(s * p, n))",
+     "np.ascontiguousarray(X.reshape(s * p, n))"),
+    ("identification/refinement", "X = rows.reshape(data.s, p, m).transpose(0, 2, 1)",
+     "X = rows.reshape(data.s, m, p)"),
+    # (equivalent: the holes of U3 are zeroed before, and db_errors drops every entry
+    # whose data are 0, so the mask changes nothing; kept as the check it was)
+    ("identification/refinement", "after = db_errors(returned(out.responses), measured, mask)",
+     "after = db_errors(returned(out.responses), measured)"),
+    ("identification/refinement", "A.max(axis=1, keepdims=True)", "A.max(axis=0, keepdims=True)"),
+    ("identification/refinement", "elif W.shape == (s, p) and W.shape != (s, n):",
+     "elif W.shape == (s, p):"),
+    ("identification/refinement", "norms = np.linalg.norm(base, axis=1).reshape(-1)",
+     "norms = np.linalg.norm(base, axis=1).T.reshape(-1)"),
+    ("identification/refinement", "[:, None] * V.T)", "[:, None] * V)"),
+    ("identification/order",
+     "modal_cost = _relative_cost(rebuilt, R, U_n[lines], F_n[lines], omega[lines], measured)",
+     "modal_cost = _relative_cost(rebuilt, R, U_n[lines], F_n[lines], omega[lines])"),
+    ("identification/order",
+     "held_cost = _relative_cost(start, R, U_n[lines], F_n[lines], omega[lines], measured)",
+     "held_cost = _relative_cost(start, R, U_n, F_n, omega, measured)"),
+    # (equivalent: sweep_orders takes its holes as zeros in U_n, and db_errors drops
+    # every entry whose data are 0, so the mask changes nothing)
+    ("identification/order", "test_db=_median_db(model, R, F, omega, U_n, test, measured)",
+     "test_db=_median_db(model, R, F, omega, U_n, test)"),
+    ("identification/modal_start", "not np.all(F_n[:, nonzero[0], j] == 1)",
+     "not np.all(np.abs(F_n[:, nonzero[0], j]) == 1)"),
+    ("identification/latent", "f = np.einsum(\"nk,snp->skp\", Rp, F_n)",
+     "f = np.einsum(\"nk,snp->skp\", Rp, F_n.real)"),
+    ("identification/order", "filled = np.where(measured, U_n, np.einsum(\"nm,smp->snp\", R, X))",
+     "filled = np.where(measured, U_n, 0.0)"),
+    ("identification/refinement", 'and not label.endswith("per entry")',
+     'and label == "relative"'),
+    ("identification/refinement", "base = data.U if measured is None else measured",
+     "base = data.U"),
+    ("identification/order", "if order == observed < m_max:", "if order == observed:"),
+    ("identification/order", "best = min(fits[:-1], key=lambda f: f.train_db)",
+     "best = min(fits[:-1], key=lambda f: f.test_db)"),
+    ("identification/latent", "model[0].T))[-1])", "model[0].T))[0])"),
+    ("identification/latent", "T[: shape.size, m] = shape", "T[m - shape.size : m, m] = shape"),
+    ("identification/refinement", "rank=n_unk - gauge_dimension(m, observed),", "rank=n_unk,"),
+    ("identification/refinement", "/ ref_norm if ref_norm > 0 else 0.0",
+     "/ ref_norm if ref_norm > 0 else 1.0"),
+    ("identification/latent", "latent = max(m - k, 0)", "latent = abs(m - k)"),
 ]
 
 def main() -> None:

@@ -783,3 +783,28 @@ def test_by_default_a_test_is_thinned_beyond_a_thousand_lines():
     assert informative_lines(U[:1000]).all()
     thinned = informative_lines(U)
     assert 16 <= thinned.sum() <= 1000 and thinned[0] and thinned[-1]
+
+
+def test_the_modal_start_and_the_held_out_fit_are_weighed_on_the_lines_fitted(
+        chain_frf, monkeypatch):
+    """On thinned lines (40 of 120) the complex refit's start is the held-out fit or the
+    modal start, whichever costs less on the lines the pass fits: both costs are taken
+    on those lines, the informative ones — not one of them on every line, whose sum
+    over three times the lines would decide the choice by the count alone."""
+    from podid_rs.identification import order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    assert not sweep.lines.all()
+    seen = []
+    real = order._relative_cost
+
+    def spy(model, R, U, F, omega, measured=None):
+        seen.append(omega)
+        return real(model, R, U, F, omega, measured)
+
+    monkeypatch.setattr(order, "_relative_cost", spy)
+    final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3, log_magnitude=False)
+    assert len(seen) == 2  # the held-out fit's cost and the modal start's
+    for omega in seen:
+        np.testing.assert_array_equal(omega, w[sweep.lines])

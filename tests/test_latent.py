@@ -576,3 +576,30 @@ def test_downstream_outputs_see_the_model_on_the_measured_dofs(tmp_path):
     path = pr.write_uff(tmp_path / "latent.uff", fit, R, data)
     back = pr.read_uff(path)
     np.testing.assert_allclose(back.U[:, :, 0], H[data.omega > 0], rtol=1e-5)
+
+
+def test_a_second_latent_mode_shows_at_the_sensor_not_at_the_first_latent_coordinate():
+    """A model that has a latent coordinate already (order 2: one observed DOF, 2 % at
+    10 Hz, and a decoupled latent one at 500 Hz that nothing sees), and data with one
+    more mode at the 50 Hz candidate: the new mode's shape goes on the observed
+    coordinate (T = [[I, φ̂], [0, 1]], φ̂ zero on the latent ones), so the start's
+    response at the sensor is the data's (1e-8: round-off of the congruence), not the
+    old model's as it would be with the mode on the latent coordinate."""
+    from podid_rs.identification.latent import PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta = omega[i] * (1 + PEAK_OFFSETS[1]), PEAK_ZETAS[1]
+    w1, w_latent = 2 * np.pi * 10.0, 2 * np.pi * 500.0
+    model = (np.eye(2), np.diag([2 * 0.02 * w1, 2 * 0.01 * w_latent]),
+             np.diag([w1**2, w_latent**2]))
+    R = np.array([[1.0, 0.0]])  # the second coordinate is latent
+    U = model_response(model, omega) + (1 / (wc**2 - omega**2 + 2j * zeta * wc * omega)
+                                        )[:, None, None]
+    starts = latent_starts(model, U, np.ones_like(U), omega, R, np.ones((omega.size, 1)))
+    _, start, name = min(starts, key=lambda c: c[0])
+    assert name == f"latent DOF at {wc / (2 * np.pi):.4g} Hz"
+    F3 = np.zeros((omega.size, 3, 1))
+    F3[:, 0, 0] = 1.0
+    X = pr.SecondOrderSystem(*start).response(omega, F3)[:, :1, :]
+    assert np.max(np.abs(X - U)) < 1e-8 * np.max(np.abs(U))

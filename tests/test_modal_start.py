@@ -7,8 +7,9 @@ round-off — observed at every DOF, with a hole in the grid, and from one drivi
 point through latent coordinates; with only two modes in the band it keeps those two
 poles exactly, stands in for the others with one pole below and one above the band
 (none below a band from 0 rad/s), and stays physical, also from a model with an unstable
-pole, which it leaves out; forces that are not unit forces at one DOF (no FRFs) give no
-start; and the final fit starts from it when it fits better than the held-out fit —
+pole, which it leaves out; a pole exactly on the band's edge is in the band; forces that
+are not unit forces at one DOF (no FRFs, a force with a phase among them) give no start;
+and the final fit starts from it when it fits better than the held-out fit —
 never reading a hole, and judging the first pass against the held-out fit — and says
 nothing of it otherwise; it keeps the held-out fit when the refit raises the median
 error over every line, and quotes the medians it decided on.
@@ -110,6 +111,23 @@ def test_modes_outside_the_band_become_residual_poles():
     assert w_start[0] < omega[0] and w_start[3] > omega[-1]
     # it explains the band far better than the in-band modes alone would: a few %
     assert _relative_cost(start, R, U, F, omega) < 0.05 * omega.size
+
+
+def test_poles_on_the_band_s_edges_are_in_the_band():
+    """The band [ω_lo, ω_hi] is closed: lines from exactly mode 2's natural frequency to
+    exactly mode 3's (the same eigenvalues as the start reads them, so equal to the
+    last bit) keep both poles exactly, and the residual poles go below and above them."""
+    wn, zeta = natural(M4, C4, K4)
+    omega = np.linspace(wn[1], wn[2], 400)
+    assert omega[0] == wn[1] and omega[-1] == wn[2]  # the edges are the poles, bit for bit
+    U, F = frf_data(omega, [0, 1, 2, 3], [0])
+    w_start, z_start = natural(*modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4),
+                                            U, F, omega))
+    # 1e-12, 1e-9: the rebuilt matrices' round-off, as for the in-band poles above
+    np.testing.assert_allclose(w_start[1:3], wn[1:3], rtol=1e-12)
+    np.testing.assert_allclose(z_start[1:3], zeta[1:3], rtol=1e-9)
+    assert w_start[0] < omega[0] and w_start[3] > omega[-1]
+
 
 def test_the_residual_poles_sit_at_the_band_s_edges_not_at_the_model_s_poles_outside():
     """The band of modes 2 and 3 again: the model's own poles outside it (modes 1 and 4)
@@ -278,6 +296,13 @@ def test_no_start_without_unit_forces(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
     F[:, :, 1] = 0.0  # a load case without a force: no FRF either
     assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega_all) is None
+    # a force of modulus one with a phase (complex forces, as the "spectra" estimator
+    # gives; i: a quarter period, of modulus exactly 1): the responses are H f, not H,
+    # so residues fitted to them as an FRF's would be H's turned by 90°
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
+    F[:, 0, 0] = 1j
+    assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U * F[:, :1],
+                       F, omega_all) is None
 
 
 def test_one_line_is_no_band_and_gives_no_start(omega_all):

@@ -15,6 +15,9 @@ What is asserted and why the tolerances:
   than the order give the exact model back from a start 3 % off (1e-6: magnitudes
   alone, with the half Gauss–Newton matrix, converge linearly), and on noisy data it
   lowers the median dB error it targets;
+- holes weigh nothing whatever scalar weights are given (the exact start costs the
+  core floor's round-off), and a start with no weighted error has a relative residual
+  of 0;
 - bad input is refused by name, inputs are not modified.
 """
 
@@ -1087,3 +1090,59 @@ def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses
     a, b = given.info["refinement"]["db_before"], computed.info["refinement"]["db_before"]
     assert a[0] > 0.1  # the start is off: a real error to compare
     np.testing.assert_allclose(b, a, rtol=1e-9)
+
+
+@pytest.mark.parametrize("weights", ["relative", "uniform", "per line", "per column"])
+def test_every_scalar_weighting_leaves_the_holes_out(weights):
+    """The exact model of a 4-DOF chain driven at DOFs 0 and 2, observed at every DOF
+    (basis I) with one response of each load case not measured (zeros there): whatever
+    scalar weights are given — by name, per line (s,) or per column (s, p) — the holes
+    weigh nothing, so the exact start's cost is next to nothing (below 1e-12 of the
+    weighted data: the core's floor of 1e-10 · tr on M and K, START_KEEP's, moves the
+    exact model's response by about 1e-9 near its resonances, a cost near 1e-17 of the
+    data's), where reading the holes as measured zeros would cost the model's response
+    there, a sizeable part of the data's."""
+    chain = pr.mass_spring_chain(4)
+    w = 2 * np.pi * np.linspace(5.0, 120.0, 60)
+    F_n = np.zeros((w.size, 4, 2), dtype=complex)
+    F_n[:, 0, 0] = F_n[:, 2, 1] = 1.0
+    mask = np.ones((4, 2), dtype=bool)
+    mask[3, 0] = mask[1, 1] = False
+    U_n = np.where(mask, chain.response(w, F_n), 0.0)
+    rng = np.random.default_rng(4)
+    W = {"relative": "relative", "uniform": "uniform", "per line": 1 + rng.random(w.size),
+         "per column": 1 + rng.random((w.size, 2))}[weights]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        fit = refine((chain.M, chain.C, chain.K), U_n, F_n, w, basis=np.eye(4), weights=W,
+                     measured=mask, max_iter=1)
+    ref = fit.info["refinement"]
+    assert ref["weights"].endswith(", measured entries")
+    scale = (np.ones((w.size, 2)) if weights == "uniform" else
+             1 / np.linalg.norm(U_n, axis=1) ** 2 if weights == "relative" else
+             np.broadcast_to(np.reshape(W, (w.size, -1)) ** 2, (w.size, 2)))
+    data = float(np.sum(scale * np.linalg.norm(U_n, axis=1) ** 2))
+    assert ref["cost_start"] < 1e-12 * data
+
+
+
+def test_a_start_with_no_weighted_error_has_a_relative_residual_of_zero():
+    """Weights that weigh only one line, a quiet one (no force, no response: the start's
+    response there is exactly 0 too): the start's weighted error is exactly 0, and so is
+    the fit's; the relative residual √(cost / cost_start) is then 0 — nothing was left
+    to lower — not 0/0, nor the 1 of a fit that lowered nothing."""
+    chain = pr.mass_spring_chain(3)
+    w = 2 * np.pi * np.linspace(5.0, 100.0, 30)
+    rng = np.random.default_rng(0)
+    F = rng.standard_normal((w.size, 3, 1)) + 0j
+    F[7] = 0.0
+    U = chain.response(w, F)
+    weights = np.zeros(w.size)
+    weights[7] = 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine((chain.M, chain.C, 1.05 * chain.K), U, F, w, weights=weights,
+                       max_iter=2, threads=1)
+    ref = model.info["refinement"]
+    assert ref["cost_start"] == ref["cost"] == 0.0
+    assert model.relative_residual == 0.0
