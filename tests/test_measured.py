@@ -190,7 +190,8 @@ def test_is_frf_only_for_unit_forces_one_case_per_driven_dof(chain_frf):
 def test_a_band_from_zero_is_a_band_and_an_empty_one_is_refused():
     freq = np.arange(0.0, 11.0)
     assert measured.band_lines(freq, (0.0, 3.0)).tolist() == [True] * 4 + [False] * 7
-    for band in [(5.0, 5.0), (6.0, 5.0), (-1.0, 5.0)]:
+    # a band is a pair: three edges (whose first two would make a band) are refused too
+    for band in [(5.0, 5.0), (6.0, 5.0), (-1.0, 5.0), (1.0, 5.0, 8.0)]:
         with pytest.raises(ValueError, match=r"^band_hz must be a pair \(lo, hi\) in Hz with "
                            r"0 <= lo < hi, got "):
             measured.band_lines(freq, band)

@@ -27,6 +27,7 @@ from podid_rs import (  # noqa: E402
 from podid_rs.io.npz import load_data, load_model, save_data, save_model  # noqa: E402
 from podid_rs.io.uff import read_uff  # noqa: E402
 from podid_rs.measured import (  # noqa: E402
+    QUANTITIES,
     MeasuredData,
     from_frf,
     from_time_histories,
@@ -403,6 +404,19 @@ def test_a_time_history_npz_file_keeps_its_estimator_and_names_what_it_lacks(tmp
     with pytest.raises(ValueError, match=rf"^{re.escape(str(half))}: a measured data set "
                        r"needs the arrays \['omega'\] \(found \['F', 'U'\]\)$"):
         load_data(half)
+    # every array of each required set is named when it alone is missing, not the first
+    # ones only: a time-history file without dt, or without its forces (responses alone
+    # make a time-history file, not a data set), and a data set without its responses
+    cases = [
+        ("a time-history file", {"forces": sim.forces, "responses": sim.response}, "dt"),
+        ("a time-history file", {"responses": sim.response, "dt": sim.dt}, "forces"),
+        ("a measured data set", {"omega": data.omega, "F": data.F}, "U"),
+    ]
+    for kind, given, absent in cases:
+        np.savez(half, **given)
+        message = f"{half}: {kind} needs the arrays [{absent!r}] (found {sorted(given)})"
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            load_data(half)
 
 
 # ----------------------------------------------------------------- data and .npz
@@ -417,6 +431,20 @@ def test_projection_puts_forces_only_on_driven_dofs(chain6):
     assert np.array_equal(Fn[:, [0, 1, 3, 4]], np.zeros_like(Fn[:, [0, 1, 3, 4]]))
     assert np.allclose(F_m, np.einsum("nm,snp->smp", R, Fn))
     assert np.allclose(U_m, np.einsum("nm,snp->smp", R, data.U))
+
+
+def test_one_driven_dof_may_be_given_as_a_scalar(chain6):
+    """inputs=2 for the one driven DOF of a single-shaker test is inputs=[2]: the index
+    array is 1-D, the unit force sits on row 2 alone, and the reduced force is R's row 2
+    on every line (F = 1)."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, [2]], 2 * np.pi * freq[1:], inputs=2)
+    assert data.inputs.shape == (1,) and data.inputs.tolist() == [2]
+    Fn = data.forces_on_dofs()
+    assert np.array_equal(Fn[:, :, 0], np.broadcast_to(np.eye(6)[2], (data.s, 6)))
+    R = data.pod().basis(3)
+    _, F_m = data.project(R)
+    assert np.array_equal(F_m[:, :, 0], np.broadcast_to(R[2], (data.s, 3)))
 
 
 def test_forces_on_dofs_keep_complex_forces_on_their_driven_dofs():
@@ -459,6 +487,8 @@ def test_data_and_model_npz_round_trip(tmp_path, chain6):
     assert loaded.residual_norm == result.residual_norm and loaded.method == result.method
     assert loaded.info["scaling"] == result.info["scaling"]
     assert np.array_equal(extras["basis"], R) and np.array_equal(extras["dofs"], data.dofs)
+    # the extra arrays and nothing else: not the file's format tag, its JSON or the fields
+    assert sorted(extras) == ["basis", "dofs"]
     with pytest.raises(ValueError, match="not a model file"):
         load_model(path)
     (tmp_path / "junk.npz").write_bytes(b"not a zip file")
@@ -601,11 +631,23 @@ def test_to_receptance_names_an_unknown_quantity():
         to_receptance(np.ones((2, 1)), [1.0, 2.0], "strain")
 
 
+def test_to_receptance_refuses_a_scalar_and_takes_one_spectrum_of_its_lines():
+    """A scalar has no lines: refused with the same message as X of other lines (not an
+    IndexError from its empty shape). One spectrum of the lines, X of shape (s,), is the
+    degenerate case that is allowed: 2 ÷ i·2 = −i and 4 ÷ −(2²) = −1 exactly."""
+    for quantity in QUANTITIES:
+        with pytest.raises(ValueError, match=r"^X must be frequency-first with 2 lines, "
+                                             r"got shape \(\)$"):
+            to_receptance(2.0, [1.0, 2.0], quantity)
+    assert to_receptance([1.0, 2.0], [1.0, 2.0], "velocity").tolist() == [-1j, -1j]
+    assert to_receptance([1.0, 4.0], [1.0, 2.0], "acceleration").tolist() == [-1.0, -1.0]
+
+
 def test_load_data_reads_a_uff_file_whatever_the_case_of_its_suffix(tmp_path, chain6):
     """Windows tools write FRF.UFF / FRF.UNV: the suffix names the format in any case."""
     _, freq, H = chain6
     dofs = [(k + 1, 3) for k in range(6)]
-    for name in ("frf.UFF", "frf.Unv"):
+    for name in ("frf.UFF", "frf.Unv", "frf.uf"):  # .uf: the short form some tools write
         path = write_uff(tmp_path / name, freq, H, dofs, dofs, quantity="displacement")
         data = load_data(path)
         assert data.dofs.tolist() == [list(d) for d in dofs] and data.p == 6

@@ -315,6 +315,24 @@ def test_an_frf_over_time_is_refused_by_its_abscissa(tmp_path):
         read_uff(path)
 
 
+def test_every_kind_of_force_is_a_denominator(tmp_path):
+    """A denominator of general force (1) or reaction force (9) is a force as much as an
+    excitation force (13): records over each are read, the same receptances as the file
+    whose records are all over excitation forces (the same values written the same way)."""
+    path, freq, H = write_chain(tmp_path / "chain.uff")
+    expected = read_uff(path)
+    records = []
+    for k, (o, r) in enumerate((o, r) for o in range(3) for r in range(3)):
+        record = frf_record(DOFS[o], DOFS[r], freq, H[:, o, r])
+        record.update(orddenom_spec_data_type=(1, 9, 13)[k % 3])
+        records.append(record)
+    forces = tmp_path / "forces.uff"
+    pyuff.UFF(str(forces)).write_sets(records, "add")
+    data = read_uff(forces)
+    assert data.measured.all()
+    np.testing.assert_array_equal(data.U, expected.U)
+
+
 def test_two_frequency_lines_are_data(tmp_path):
     """The fewest lines an FRF can have: two are read, not refused."""
     chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
@@ -731,6 +749,49 @@ def test_records_labelled_in_part_are_compared_on_the_part_they_give(tmp_path):
         read_uff(write_labelled(tmp_path / "part_mm.uff", labels, denominators))
 
 
+def test_records_labelled_on_different_parts_agree(tmp_path):
+    """No record says both units: records 1–5 say m over NONE, 6 and 7 NONE over N, 8 and
+    9 nothing. The unit is then the most common label, m over nothing, and a record that
+    gives only the part the unit lacks (the force's N) has nothing to disagree with: every
+    record is kept, and the data are those of the clean file."""
+    labels = ["m"] * 5 + ["NONE"] * 4
+    denominators = ["NONE"] * 5 + ["N"] * 2 + ["NONE"] * 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        data = read_uff(write_labelled(tmp_path / "halves.uff", labels, denominators))
+    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
+    assert data.measured.all()
+    np.testing.assert_array_equal(data.U, clean.U)
+
+
+def test_records_of_another_ordinate_are_compared_with_their_own_kind_only(tmp_path):
+    """The driving points (records 1, 5, 9) are accelerances labelled m/s^2 over N among
+    receptances labelled m over N: each ordinate has its own unit, so none is left out,
+    and the data are the clean file's receptances. The accelerances are −ω² H written to
+    12 significant digits (E20.11) and divided by −ω² again: 1e-10 relative holds that."""
+    chain = pr.mass_spring_chain(3, m1=1.0, m2=1.0)
+    freq = np.arange(0.0, 301.0, 1.0)
+    H = np.zeros((freq.size, 3, 3), dtype=complex)
+    H[1:] = chain.frf(2 * np.pi * freq[1:])
+    records = []
+    for o in range(3):
+        for r in range(3):
+            record = frf_record(DOFS[o], DOFS[r], freq, H[:, o, r])
+            record.update(ordinate_axis_units_lab="m", orddenom_axis_units_lab="N")
+            if o == r:
+                record.update(data=-((2 * np.pi * freq) ** 2) * H[:, o, r],
+                              ordinate_spec_data_type=12, ordinate_axis_units_lab="m/s^2")
+            records.append(record)
+    path = tmp_path / "mixed.uff"
+    pyuff.UFF(str(path)).write_sets(records, "add")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        data = read_uff(path)
+    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
+    assert data.measured.all()
+    np.testing.assert_allclose(data.U, clean.U, rtol=1e-10, atol=0)
+
+
 def test_the_unit_is_the_most_common_full_label(tmp_path):
     """Records 2, 3 and 6 say m/s over NONE (velocity labels on displacement data), records
     1 and 5 m/N, the rest nothing: the full label m/N is the unit, and the three half labels,
@@ -766,6 +827,10 @@ def test_how_far_apart_two_records_are_counts_the_lines_both_hold():
 
     assert _median_db_apart(np.array([1.0, 10.0, 0.0]), np.array([1.0, 1.0, 5.0])) == 10.0
     assert _median_db_apart(np.zeros(3), np.ones(3)) == 0.0
+    # and the same with the zero in the other record: no line of either is counted where
+    # the other is zero (a ratio to zero would be an infinite dB)
+    assert _median_db_apart(np.array([1.0, 1.0, 5.0]), np.array([1.0, 10.0, 0.0])) == 10.0
+    assert _median_db_apart(np.ones(3), np.zeros(3)) == 0.0
 
 
 def test_labels_none_or_empty_are_no_units():

@@ -76,6 +76,33 @@ def test_modes_without_a_number_or_a_damping_ratio(tmp_path, monkeypatch):
                                rtol=1e-14)
 
 
+def complex_mode(analysis_type: int, mode_n: int, eig: complex, r1, nodes):
+    n = len(nodes)
+    return pyuff.prepare_55(
+        id1="a modal-analysis program", id2="NONE", id3="NONE", id4="NONE", id5="NONE",
+        model_type=1, analysis_type=analysis_type, data_ch=2, spec_data_type=8, data_type=5,
+        n_data_per_node=3, r1=np.asarray(r1, complex), r2=np.zeros(n, complex),
+        r3=np.zeros(n, complex), load_case=1, mode_n=mode_n, eig=eig, modal_a=0j,
+        modal_b=0j, node_nums=list(nodes),
+    )
+
+
+def test_complex_modes_of_first_and_second_order_analyses_give_their_eigenvalue(tmp_path):
+    """Analysis type 7 (complex eigenvalue, second order) holds modes as type 3 (first
+    order) does: both are read, with the file's eigenvalue, number and complex shape. The
+    values are exact in the file's E13.5 fields (a few digits each)."""
+    path = write(
+        tmp_path / "complex.uff",
+        complex_mode(7, 2, complex(-1.5, 60.0), [1.0, 0.5j], [5, 6]),
+        complex_mode(3, 5, complex(-0.25, 10.0), [0.0, 1.0], [5, 6]),
+    )
+    modes = read_uff_modes(path)
+    assert modes.eigenvalues.tolist() == [complex(-1.5, 60.0), complex(-0.25, 10.0)]
+    assert modes.mode_numbers.tolist() == [2, 5]
+    assert modes.dofs.tolist() == [[5, 1], [6, 1]]
+    assert modes.shapes.tolist() == [[1, 0], [0.5j, 1]]
+
+
 def exactly(text: str) -> str:
     return "^" + re.escape(text) + "$"
 

@@ -137,11 +137,28 @@ def test_dataset_58_holds_the_identified_accelerances(written):
         err = np.abs(d["data"] - H[:, i, k])
         assert np.max(err / np.abs(H[:, i, k])) < 1e-10
     assert len(seen) == 12 and uff_quantity(path) == "acceleration"
+    # in the documented order: one driven DOF (nodes 2, 5) at a time, each with every
+    # measured DOF in the data's order, as a shaker run writes its reference's FRFs
+    assert [(d["ref_node"], d["rsp_node"]) for d in s58] == [
+        (ref, node) for ref in (2, 5) for node in range(1, 7)]
     # read_uff reads it back as the identified receptance: the loop closes
     again = pr.read_uff(path)
     assert again.dofs.tolist() == data.dofs.tolist() and again.inputs.tolist() == [1, 4]
     H_id = identified_frf(result, R, data)
     assert np.max(np.abs(again.U - H_id)) < 1e-10 * np.max(np.abs(H_id))
+
+
+def test_frfs_beyond_one_batch_are_all_written(written, tmp_path, monkeypatch):
+    """The 58 records are made and written WRITE_BATCH at a time (to bound the memory of
+    a large scan); in batches of 5 the 12 records are 5 + 5 + 2, and the file is byte for
+    byte the one written in a single batch."""
+    import podid_rs.io.uff as uff_module
+
+    _, data, result, R, path, _ = written
+    monkeypatch.setattr(uff_module, "WRITE_BATCH", 5)
+    batched = write_uff(tmp_path / "batched.uff", result, R, data, quantity="acceleration",
+                        geometry=GEOMETRY)
+    assert batched.read_bytes() == path.read_bytes()
 
 
 def test_binary_58_is_exact_and_receptance_is_the_default(written, tmp_path):
@@ -249,6 +266,11 @@ def test_bad_input_is_named(written, tmp_path):
     with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
                                          r"z\], got \(0, 4\)$"):
         write_uff(out, result, R, data, geometry=GEOMETRY[:0])
+    # one node's row alone, flat, is no table of nodes either (refused by name, not an
+    # IndexError from its missing second axis)
+    with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
+                                         r"z\], got \(4,\)$"):
+        write_uff(out, result, R, data, geometry=GEOMETRY[0])
     assert not out.exists()
     # one node is a geometry (the others simply have no coordinates)
     one = write_uff(tmp_path / "one.uff", result, R, data, geometry=GEOMETRY[:1])

@@ -904,7 +904,8 @@ def write_uff(
     """Write the identified model to a Universal File: datasets 15, 55 and 58.
 
     Dataset 15 holds the geometry, 55 one set per mode (translations, directions
-    1–3, only), 58 the identified FRFs ``R H_m(ω) Rᵀ`` (module docstring). FRFs from
+    1–3, only), 58 the identified FRFs ``R H_m(ω) Rᵀ`` (module docstring), one driven
+    DOF at a time, each with every measured DOF in the labels' order. FRFs from
     data read by reciprocity (a roving-hammer file) say so in their third ID line; the
     FRF of an entry the test did not measure (a hole of ``data.measured``) is written
     too, and says in its fourth ID line that it is the model's prediction.
