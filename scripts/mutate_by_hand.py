@@ -2672,7 +2672,39 @@ AUDIT = [
      "for key, group in groups.items() if len(group) > 2]"),
     ("measured", "0.99 if energy is None else energy", "0.99"),
     ("io/npz", "if k.startswith(\"extra.\")}", "if not k.startswith(\"result.\")}"),
+    # second hardening pass, pod, simulation, identification/lines, identification/holes:
+    # written with their tests (a check, not a measurement).
+    # pod: a basis from the snapshot side handed out as a view of the kept modes, the
+    # FRF correlation's memory guard sized by the inputs, the spectra's correlation side
+    # without its own guard, project taking a 4-D X, pod on the snapshot side taking an
+    # empty array, pod_from_frf's auto side without the inputs (one input in its test),
+    # the full basis m = n refused, pod's auto side with r and n swapped
+    ("pod", "return self._snapshot_modes(m).copy()", "return self._snapshot_modes(m)"),
+    ("pod", "_require_correlation(Ha.shape[1])", "_require_correlation(Ha.shape[2])"),
+    ("pod", "        _require_correlation(n)\n        A = _stacked_rows(Xa)",
+     "        A = _stacked_rows(Xa)"),
+    ("pod", "if Xa.ndim not in (2, 3) or Xa.shape[1] != self.n:",
+     "if Xa.ndim < 2 or Xa.shape[1] != self.n:"),
+    ("pod", "    if u.ndim != 2 or u.shape[0] == 0 or u.shape[1] == 0:\n        raise ValueError("
+     "f\"snapshots must have shape (r, n), time first, got {u.shape}\")\n    if _choose",
+     "    if u.ndim != 2 or u.shape[0] == 0:\n        raise ValueError("
+     "f\"snapshots must have shape (r, n), time first, got {u.shape}\")\n    if _choose"),
+    ("pod",
+     "if _choose(method, 2 * s * p, n) == \"correlation\":\n        return pod_from_correlation",
+     "if _choose(method, 2 * s, n) == \"correlation\":\n        return pod_from_correlation"),
+    ("pod", "m = as_count(m, \"m\", 1, self.n)", "m = as_count(m, \"m\", 1, self.n - 1)"),
+    ("pod", "if _choose(method, *u.shape) == \"correlation\":",
+     "if _choose(method, u.shape[1], u.shape[0]) == \"correlation\":"),
+    # simulation: a dead response channel's coherence left 0/0 = NaN
+    ("simulation", "gamma2 = np.clip(np.nan_to_num(gamma2), 0.0, 1.0)",
+     "gamma2 = np.clip(gamma2, 0.0, 1.0)"),
+    # identification/lines: ln|U| of an exact zero unguarded (−∞: NaN shares, a loop
+    # without end), a NumPy integer target refused
+    ("identification/lines", "np.log(np.maximum(np.abs(flat), tiny))", "np.log(np.abs(flat))"),
+    ("identification/lines", "not isinstance(target, int | np.integer)",
+     "not isinstance(target, int)"),
 ]
+
 
 def main() -> None:
     """Run the mutants named on the command line (all without arguments)."""

@@ -681,6 +681,25 @@ def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_i
     assert kept["passes"][0]["db_before"] == log["db_before"] == kept["db_all_lines"]
 
 
+def test_an_exact_zero_is_a_dip_like_any_other():
+    """The peak test's active block with its dip exactly 0 (a line where an entry reads
+    nothing) instead of 1e-3: ln|U| is taken at the smallest positive float there
+    (ln ≈ −708), not −∞, so no floating-point warning, the block is still the only
+    active one, and it keeps the same lines — the 13 evenly spaced ones, its peak and
+    the zero. (Unguarded, ln 0 makes the activity ∞ and the budget's shares NaN.)"""
+    active = np.ones(1000)
+    active[234], active[777] = 0.0, 1e3
+    flat = np.ones(1000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        keep = informative_lines(four_blocks(flat, active, flat, flat), target=16)
+    grid = np.linspace(1000, 1999, 13).round().astype(int)
+    assert np.array_equal(np.flatnonzero(keep[1000:2000]) + 1000,
+                          np.sort(np.concatenate([grid, [1234, 1777]])))
+    assert np.array_equal(np.flatnonzero(keep[:1000]), [0])
+    assert np.array_equal(np.flatnonzero(keep[2000:]) + 2000, [2000, 3000, 3999])
+
+
 def test_a_block_given_three_lines_keeps_its_peak_and_its_dip():
     """64 lines, a target of 16: four blocks of 16 and 12 lines to share beyond one each.
     Log-magnitude ranges 6, 2, 0 and 0 (a peak at the 4th line of a block and a dip at
@@ -772,6 +791,8 @@ def test_a_target_that_is_not_an_integer_is_refused():
         with pytest.raises(ValueError, match=re.escape(
                 f"target must be an integer of at least 16, got {target!r}")):
             informative_lines(U, target)
+    # a NumPy integer is an integer (a count computed with NumPy): taken as the same int
+    assert np.array_equal(informative_lines(U, np.int64(16)), informative_lines(U, 16))
 
 
 def test_by_default_a_test_is_thinned_beyond_a_thousand_lines():

@@ -18,7 +18,7 @@ import pytest
 
 import podid_rs._memory as memory
 from podid_rs import mass_spring_chain, simulate_white_noise
-from podid_rs.pod import pod, pod_from_frf, pod_from_spectra
+from podid_rs.pod import correlation_from_frf, pod, pod_from_frf, pod_from_spectra
 
 FLOAT, COMPLEX = 8, 16
 
@@ -50,6 +50,19 @@ def test_correlation_matrix(one_byte):
         "use method='snapshots' (POD from the snapshots' Gram matrix)",
     )):
         pod(np.ones((3, n)), method="correlation")
+    # from an FRF the matrix is n × n in the responses, whatever the inputs (3 here)
+    with pytest.raises(MemoryError, match=refusal(
+        f"the {n} × {n} correlation matrix and its eigenvectors", 3 * FLOAT * n**2,
+        "use method='snapshots' (POD from the snapshots' Gram matrix)",
+    )):
+        correlation_from_frf(np.ones((2, n, 3), dtype=complex), [1.0, 2.0])
+    # and from spectra on the correlation side: asked before the (smaller) stacked
+    # snapshots are formed
+    with pytest.raises(MemoryError, match=refusal(
+        f"the {n} × {n} correlation matrix and its eigenvectors", 3 * FLOAT * n**2,
+        "use method='snapshots' (POD from the snapshots' Gram matrix)",
+    )):
+        pod_from_spectra(np.ones((2, n, 3), dtype=complex), 100, method="correlation")
 
 
 def test_stacked_real_snapshots_of_spectra(one_byte):

@@ -42,6 +42,15 @@ def test_pod_modes_are_orthonormal_and_eigenvalues_sorted():
     np.testing.assert_allclose(phi @ np.diag(lam) @ phi.T, R, atol=1e-12 * np.abs(R).max())
 
 
+def test_by_default_pod_takes_the_smaller_side_of_the_snapshots():
+    """method="auto": the r × r Gram matrix with fewer snapshots r than DOFs n, the
+    n × n correlation otherwise (r = n included). (A long record decomposed on the
+    snapshot side would form an r × r matrix of its samples.)"""
+    assert pod(snapshots(r=5, n=8)).method == "snapshots"
+    assert pod(snapshots(r=8, n=8)).method == "correlation"
+    assert pod(snapshots(r=50, n=4)).method == "correlation"
+
+
 def test_mode_signs_are_deterministic():
     result = pod(snapshots())
     lead = result.modes[np.argmax(np.abs(result.modes), axis=0), np.arange(6)]
@@ -108,6 +117,23 @@ def test_basis_and_projection():
     Pc = result.project(Xc, 2)
     for j in range(2):
         np.testing.assert_allclose(Pc[:, :, j], Xc[:, :, j] @ result.basis(2), rtol=1e-13)
+
+
+def test_the_basis_of_every_mode_is_the_modes():
+    """m = n, the top of the documented range 1 ≤ m ≤ the modes available: the full
+    basis, every mode in order."""
+    result = pod(snapshots(), method="correlation")  # 6 DOFs of full rank: 6 modes
+    np.testing.assert_array_equal(result.basis(6), result.modes)
+
+
+def test_a_basis_from_the_snapshot_side_is_a_copy_too():
+    """On the snapshot side the modes are formed on first use and kept: the basis handed
+    out is a copy of them, so writing into it leaves the next basis alone."""
+    P = pod(snapshots(r=4, n=10), method="snapshots")
+    R = P.basis(2)
+    before = R.copy()
+    R[:] = 0.0
+    np.testing.assert_array_equal(P.basis(2), before)
 
 
 def test_basis_and_projection_reject_bad_input():
@@ -421,10 +447,13 @@ def test_pod_takes_one_snapshot_or_one_channel_and_refuses_empty_or_complex():
     np.testing.assert_allclose(np.abs(one.basis(1)[:, 0]), [0.6, 0.8], rtol=1e-12)
     single = pod(np.array([[1.0], [-3.0]]))  # one channel: ⟨u²⟩ = 5
     assert single.eigenvalues.tolist() == pytest.approx([5.0]) and single.n == 1
+    # refused the same way whichever side is asked for (the snapshot side would see a
+    # zero Gram matrix of no DOFs, not an empty array)
     for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3)):
         message = f"snapshots must have shape (r, n), time first, got {bad.shape}"
-        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
-            pod(bad)
+        for method in ("auto", "correlation", "snapshots"):
+            with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+                pod(bad, method=method)
     for method in ("correlation", "snapshots"):
         with pytest.raises(ValueError, match="^snapshots must be real"):
             pod(np.ones((3, 2)) + 1j, method=method)
@@ -603,6 +632,11 @@ def test_project_names_a_bad_x():
     with pytest.raises(ValueError, match=r"^X must have shape \(s, n\) or \(s, n, p\) with n = 4, "
                                          r"got \(3, 5\)$"):
         P.project(np.ones((3, 5)), 2)
+    # a 4-D X is refused, also one whose third axis happens to be n (it would multiply
+    # through as a stack of (n, q) matrices)
+    with pytest.raises(ValueError, match=r"^X must have shape \(s, n\) or \(s, n, p\) with n = 4, "
+                                         r"got \(3, 4, 4, 2\)$"):
+        P.project(np.ones((3, 4, 4, 2)), 2)
 
 
 def test_order_for_energy_names_a_bad_fraction():
@@ -681,9 +715,11 @@ def test_the_warning_counts_every_clipped_dof_and_names_the_first():
 
 def test_pod_from_frf_takes_the_snapshot_side_by_its_real_rows():
     """Each complex FRF column gives two real rows (real and imaginary parts): 2 lines ×
-    1 input are 4 rows, so 4 DOFs take the correlation side and 5 the snapshot side."""
+    1 input are 4 rows, so 4 DOFs take the correlation side and 5 the snapshot side;
+    with 3 inputs, 12 rows: 12 DOFs the correlation side, 13 the snapshot side."""
     rng = np.random.default_rng(5)
     omega = [1.0, 2.0]
-    for n, side in ((4, "correlation"), (5, "snapshots")):
-        H = rng.standard_normal((2, n, 1)) + 1j * rng.standard_normal((2, n, 1))
+    for n, n_in, side in ((4, 1, "correlation"), (5, 1, "snapshots"),
+                          (12, 3, "correlation"), (13, 3, "snapshots")):
+        H = rng.standard_normal((2, n, n_in)) + 1j * rng.standard_normal((2, n, n_in))
         assert pod_from_frf(H, omega).method == side

@@ -682,6 +682,22 @@ def test_h1_coherence_of_a_noise_free_channel_is_at_most_one():
         assert np.allclose(stats.coherence, 1.0, rtol=0, atol=1e-12)
 
 
+def test_h1_coherence_of_a_dead_channel_is_zero_not_nan():
+    """A response channel that reads exactly zero has S_yx = S_yy = 0: γ² is 0/0, taken
+    as 0 (nothing of it is explained by the input), so that model_uncertainty, which
+    refuses a NaN coherence, takes it; the live channel's coherence is the one it has
+    alone."""
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal((4096, 1))
+    live = 2 * x + rng.standard_normal((4096, 1))
+    stats = pr.h1_coherence(x, np.concatenate([live, np.zeros_like(x)], axis=1), 1e-2,
+                            nperseg=512)
+    assert np.all(stats.coherence[:, 1] == 0.0)
+    alone = pr.h1_coherence(x, live, 1e-2, nperseg=512)
+    # the same up to round-off (the FFT of two channels at once differs by ~1e-15)
+    np.testing.assert_allclose(stats.coherence[:, :1], alone.coherence, rtol=1e-12)
+
+
 def test_holes_weigh_nothing_in_the_covariance():
     """Entries a test did not measure enter neither N nor S nor the noise's degrees of
     freedom: whatever the holes hold, the intervals are the same."""
