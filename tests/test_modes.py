@@ -67,6 +67,8 @@ def test_mac_definition_and_invariances():
         (np.ones((4, 2)), np.ones((4, 0)),
          r"non-empty \(n, k\) arrays, got \(4, 2\) and \(4, 0\)$"),
         (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
+        # either side: a NaN in B would give NaN MAC values, not a message
+        (np.ones((4, 2)), np.array([[1.0, np.nan]] * 4), "^B contains non-finite"),
         (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
         (np.ones((4, 2)), np.ones((4, 2, 2)), r"non-empty \(n, k\) arrays, got \(4, 2\) and"),
     ],

@@ -403,6 +403,21 @@ def test_a_model_that_is_not_symmetric_is_judged_by_its_symmetric_part(noisy_ban
     np.testing.assert_allclose(phys.C, np.eye(m), rtol=0, atol=1e-13)
 
 
+def test_an_undamped_model_keeps_its_zero_damping_with_no_change(noisy_band3):
+    """C = 0 (an undamped model) is positive semidefinite: nothing is raised, C stays
+    exactly zero, and its relative change is 0, not 0 / 0."""
+    _, data, result, R = noisy_band3
+    U, F = data.project(R)
+    undamped = replace(result, C=np.zeros((result.m, result.m)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no 0 / 0 on the way
+        phys = make_physical(undamped, U, F, data.omega)
+    rep = phys.info["physical"]
+    assert rep["eigenvalues_raised"][1] == 0
+    np.testing.assert_array_equal(phys.C, 0.0)
+    assert rep["relative_change"][1] == 0.0
+
+
 def test_nearest_psd_names_its_argument():
     square = r"must be a non-empty square matrix, got shape"
     with pytest.raises(ValueError, match=rf"^A {square} \(2, 3\)$"):
