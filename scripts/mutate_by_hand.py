@@ -2438,6 +2438,12 @@ AUDIT = [
      'a, b = as_array(A, "A"), np.asarray(B)'),
     ('physical', 'max(np.linalg.norm(old), np.finfo(float).tiny)',
      'np.linalg.norm(old)'),
+    ('physical', 'before = residual_norm(result.M, result.C, result.K, data)',
+     'before = result.residual_norm'),
+    ('stabilisation', 'return identify(U_m, F_m, data.omega, lam, symmetric)',
+     'return identify(U_m, F_m.real, data.omega, lam, symmetric)'),
+    ('physical', 'int(np.sum(~finite))',
+     'int(np.any(~finite))'),
 ]
 
 def main() -> None:

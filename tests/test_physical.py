@@ -315,6 +315,11 @@ def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
     assert got[2:] == pytest.approx(d[2:], rel=1e-9)
     assert phys.info["physical"]["eigenvalues_raised"][2] == 2
     assert phys.info["physical"]["rtol"] == rtol
+    # the residual before is of the matrices given, measured on the data given: the
+    # result built by hand still carries its fit's residual_norm, of the original K
+    before = _data_residual(bad, U, F, data.omega)
+    assert before != pytest.approx(bad.residual_norm, rel=1e-6)
+    assert phys.info["physical"]["residual_before"] == pytest.approx(before, rel=1e-10)
     # the residual reported is the corrected K's (not the one with negative eigenvalues)
     assert phys.residual_norm == pytest.approx(_data_residual(phys, U, F, data.omega),
                                                rel=1e-10)
