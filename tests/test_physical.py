@@ -134,6 +134,20 @@ def test_modes_are_sorted_by_the_natural_frequency_not_the_damped_one():
     assert modes.damping_ratios == pytest.approx([0.01, 0.9], rel=1e-12)
 
 
+def test_a_massless_dof_has_one_infinite_root_with_a_damper_and_two_without():
+    """M = diag(1, 0), K = 4I: the second DOF has no mass. With a damper on it (C =
+    diag(0, 1)) its equation q̇ + 4q = 0 is of first order: one root at −4, one at
+    infinity. Without (C = 0) it is 4q = 0: both its roots are infinite. The first DOF's
+    undamped pair ±2i gives the mode 2i either way (sorted by |λ|: 2i before −4)."""
+    M, K = np.diag([1.0, 0.0]), 4 * np.eye(2)
+    damped = modal_parameters(SecondOrderSystem(M, np.diag([0.0, 1.0]), K))
+    assert damped.n_infinite == 1
+    np.testing.assert_allclose(damped.eigenvalues, [2j, -4.0], rtol=0, atol=1e-12)
+    bare = modal_parameters(SecondOrderSystem(M, np.zeros((2, 2)), K))
+    assert bare.n_infinite == 2
+    np.testing.assert_allclose(bare.eigenvalues, [2j], rtol=0, atol=1e-12)
+
+
 def test_chain_modes_match_rayleigh_theory():
     chain = mass_spring_chain(20)
     wk = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(chain.M, chain.K)).real))
