@@ -2444,6 +2444,7 @@ AUDIT = [
      'return identify(U_m, F_m.real, data.omega, lam, symmetric)'),
     ('physical', 'int(np.sum(~finite))',
      'int(np.any(~finite))'),
+    ('physical', 'rtol: float = 1e-8,', 'rtol: float = 1e-6,'),
 ]
 
 def main() -> None:

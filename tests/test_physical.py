@@ -329,6 +329,11 @@ def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
     assert got[2:] == pytest.approx(d[2:], rel=1e-9)
     assert phys.info["physical"]["eigenvalues_raised"][2] == 2
     assert phys.info["physical"]["rtol"] == rtol
+    # the default floor is 1e-8 of the largest magnitude (as the signature says)
+    default = make_physical(bad, U, F, data.omega)
+    assert default.info["physical"]["rtol"] == 1e-8
+    assert np.linalg.eigvalsh(default.K)[:2] == pytest.approx([1e-8 * np.abs(d).max()] * 2,
+                                                              rel=1e-6)
     # the residual before is of the matrices given, measured on the data given: the
     # result built by hand still carries its fit's residual_norm, of the original K
     before = _data_residual(bad, U, F, data.omega)
