@@ -67,6 +67,8 @@ def test_mac_definition_and_invariances():
         (np.ones((4, 2)), np.ones((4, 0)),
          r"non-empty \(n, k\) arrays, got \(4, 2\) and \(4, 0\)$"),
         (np.full((4, 2), np.nan), np.ones((4, 2)), "A contains non-finite"),
+        # either side: a NaN in B would give NaN MAC values, not a message
+        (np.ones((4, 2)), np.array([[1.0, np.nan]] * 4), "^B contains non-finite"),
         (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
         (np.ones((4, 2)), np.ones((4, 2, 2)), r"non-empty \(n, k\) arrays, got \(4, 2\) and"),
     ],
@@ -424,6 +426,9 @@ def test_shape_mac_names_an_empty_set():
     empty = modes.select(np.array([False]))
     with pytest.raises(ValueError, match=r"^nothing to compare: 1 and 0 modes$"):
         shape_mac(modes, empty)
+    # either side: an empty first set is named as such, not left to the MAC's own check
+    with pytest.raises(ValueError, match=r"^nothing to compare: 0 and 1 modes$"):
+        shape_mac(empty, modes)
 
 
 def test_companion_modes_return_vectors_only_when_asked():
@@ -713,3 +718,95 @@ def test_shape_mac_refuses_anything_but_two_mode_shapes_on_either_side():
     for left, right in ((a, a.shapes), (a.shapes, a), (a.shapes, a.shapes)):
         with pytest.raises(ValueError, match=r"^shape_mac compares two ModeShapes"):
             shape_mac(left, right)
+
+
+def test_a_selection_of_a_selection_keeps_the_original_numbers():
+    """Numbers survive a second selection: of modes 1–4, oscillatory() drops the real
+    root (mode 2) and in_band() then the 10 Hz mode (mode 1). The survivors are modes 3
+    and 4 of the model, not the 2nd and 3rd of the first selection — counting from the
+    selection at hand would say [2, 3]."""
+    lam = np.array([2 * np.pi * 10.0 * complex(-0.01, 1.0), -3.0 + 0j,
+                    2 * np.pi * 20.0 * complex(-0.01, 1.0), 2 * np.pi * 30.0 * complex(-0.01, 1.0)])
+    modes = ModeShapes(lam, np.eye(4, dtype=complex), modal_a=np.array([1.0, 2.0, 3.0, 4.0]))
+    twice = modes.oscillatory().in_band((15.0, 35.0))
+    assert twice.mode_numbers.tolist() == [3, 4]
+    assert twice.modal_a.tolist() == [3.0, 4.0]
+    np.testing.assert_array_equal(twice.eigenvalues, lam[[2, 3]])
+
+
+def test_modal_a_of_a_non_proportionally_damped_model_is_a_residue_model():
+    """A dashpot at one end of a 3-DOF chain (C not a combination of M and K) gives
+    complex modes: their shapes are not real multiples of a real vector, so the modal
+    constants a = ψᵀ(2λM + C)ψ need the plain transpose (not ψᴴ). With a 4 × 3 basis
+    (orthonormal columns, not the identity) the poles' residues Σ φφᵀ/(a(iω − λ)) plus
+    conjugates must give R H(ω) Rᵀ of the model's own receptance. The model is exact:
+    the sum agrees to round-off of the eigensolver (1e-10 of its largest entry is ample)."""
+    M = np.diag([1.0, 2.0, 1.5])
+    K = np.array([[300.0, -100.0, 0.0], [-100.0, 250.0, -150.0], [0.0, -150.0, 150.0]])
+    C = np.diag([0.0, 0.0, 4.0])
+    model = SecondOrderSystem(M, C, K)
+    R = np.linalg.qr(np.random.default_rng(3).standard_normal((4, 3)))[0]
+    modes = mode_shapes(model, R)
+    assert modes.modal_a is not None and np.all(modes.eigenvalues.imag > 0)
+    # the shapes really are complex (non-proportional damping), the case the test is for
+    assert np.max(np.abs(modes.shapes.imag)) > 1e-3
+    omega = np.linspace(1.0, 30.0, 60)
+    s = 1j * omega[:, None, None]
+    terms = np.einsum("ak,bk->kab", modes.shapes, modes.shapes) / modes.modal_a[:, None, None]
+    H = sum(terms[k] / (s - lam) + terms[k].conj() / (s - lam.conj())
+            for k, lam in enumerate(modes.eigenvalues))
+    H_n = np.einsum("am,smk,bk->sab", R, model.frf(omega), R)
+    assert np.max(np.abs(H - H_n)) < 1e-10 * np.max(np.abs(H_n))
+
+
+def test_a_hole_holding_zeros_is_no_peak_of_the_data():
+    """The pole λ = −1 + 100i at two sensors, the second a hole holding zeros (as
+    MeasuredData keeps them). The measured entry is flat at the term's own peak value:
+    the pole is visible there (its term reaches the level at all three nearest lines)
+    but the data do not rise (1 < 2 × 1) — weak. The hole's zeros "rise" (0 ≥ 2 × 0):
+    judged there too, the peak test would call the pole a resonance of the data."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = -1.0 + 100.0j
+    a = 2j * lam.imag
+    shapes = ModeShapes(eigenvalues=np.array([lam]), shapes=np.ones((2, 1)),
+                        modal_a=np.array([a]))
+    U = np.zeros((w.size, 2, 1), dtype=complex)
+    U[:, 0, 0] = 1 / abs(a)  # the term's modulus at its own line, 1 / |a · 1|
+    measured = np.array([[True], [False]])
+    assert list(mode_kinds(shapes, w, U, inputs=[0], measured=measured)) == ["weak"]
+    assert list(mode_kinds(shapes, w, U, inputs=[0])) == ["structural"]
+
+
+def test_a_sharp_poles_ring_is_counted_in_the_lines_usual_spacing():
+    """Lines 60, 61, …, 140 rad/s and one stray line at 1 rad/s: their spacing is 1 rad/s
+    (the median), not the first gap of 59. A pole 0.1 rad/s from the axis at 100 rad/s
+    has its ring 2 to 6 lines away, where the flat data equal the pole's: no peak. With
+    the first gap as the spacing the ring would start 118 rad/s away, hold no line, and
+    the pole would go unjudged (a peak by default)."""
+    from podid_rs.modes import _data_peak
+
+    w = np.r_[1.0, np.arange(60.0, 141.0)]
+    assert not _data_peak(w, np.ones((w.size, 1)), np.array([True]), complex(-0.1, 100.0))
+
+
+def test_a_term_exactly_at_the_visibility_level_is_seen():
+    """λ = −1 + 100i on lines 1, 2, …, 200 rad/s, a = 2i·Im λ, one sensor, driven. The
+    term 1/|a(iω − λ)| is 1/200 on line 100 and c = 1/(200√2) on lines 99 and 101
+    (computed here as the code does, so equal to the last bit). The data: 2c on the lines
+    within ±2 % (98–102), c/10 elsewhere; with visible_fraction = 1/2 the level is exactly
+    c (products by powers of two are exact), which the term reaches at all three nearest
+    lines (the level included), and the data rise from c/10 to 2c: structural. A strict
+    level would see the pole at line 100 alone and call it weak."""
+    from podid_rs.modes import mode_kinds
+
+    w = np.arange(1.0, 201.0)
+    lam = np.complex128(-1.0 + 100.0j)
+    a = np.complex128(2j * lam.imag)
+    c = 1.0 / abs(a * (1j * 99.0 - lam))
+    assert c == 1.0 / abs(a * (1j * 101.0 - lam)) < 1.0 / abs(a * (1j * 100.0 - lam))
+    shapes = ModeShapes(np.array([lam]), np.ones((1, 1)), modal_a=np.array([a]))
+    U = np.full((w.size, 1, 1), c / 10, dtype=complex)
+    U[np.abs(w - 100.0) <= 2.0] = 2 * c
+    assert list(mode_kinds(shapes, w, U, [0], visible_fraction=0.5)) == ["structural"]

@@ -56,6 +56,13 @@ def noisy_band3():
     return chain, data, result, R
 
 
+def _data_residual(model, U, F, omega) -> float:
+    """‖(−ω²M + iωC + K) u − f‖ over every line and load case (eq. 28), written out."""
+    w = np.asarray(omega)[:, None, None]
+    Z = -(w**2) * model.M + 1j * w * model.C + model.K
+    return float(np.linalg.norm(np.einsum("sij,sjp->sip", Z, U) - F))
+
+
 def test_make_physical_on_noisy_chain(noisy_band3):
     chain, data, result, R = noisy_band3
     U, F = data.project(R)
@@ -69,11 +76,19 @@ def test_make_physical_on_noisy_chain(noisy_band3):
     rep = phys.info["physical"]
     assert rep["residual_before"] == pytest.approx(result.residual_norm, rel=1e-12)
     assert rep["residual_after"] == phys.residual_norm
+    # of the corrected matrices (C was changed: it was indefinite). The residual is of
+    # noisy data (10 dB), far above the sum's round-off: rel=1e-10 is ample
+    assert phys.residual_norm == pytest.approx(_data_residual(phys, U, F, data.omega),
+                                               rel=1e-10)
     # the nearest correction costs little residual here (measured: +0.003 %)
     assert result.residual_norm <= phys.residual_norm < 1.05 * result.residual_norm
     assert rep["eigenvalues_raised"][0] == 0 and rep["eigenvalues_raised"][1] >= 1
     assert rep["relative_change"][0] < 1e-12  # M was already SPD: untouched
     assert phys.penalty_norms == (0.0, 0.0, 0.0) and phys.m == result.m
+    # the report is added to what the fit recorded (its scaling, its timings), which stays
+    assert set(result.info) and "physical" not in result.info
+    assert set(phys.info) == set(result.info) | {"physical"}
+    assert all(phys.info[key] is value for key, value in result.info.items())
 
 
 def test_make_physical_refuses_mismatched_or_degenerate_input(noisy_band3):
@@ -117,6 +132,20 @@ def test_modes_are_sorted_by_the_natural_frequency_not_the_damped_one():
     modes = modal_parameters(model)
     assert 2 * np.pi * modes.frequencies_hz == pytest.approx([5.0, 10.0], rel=1e-12)
     assert modes.damping_ratios == pytest.approx([0.01, 0.9], rel=1e-12)
+
+
+def test_a_massless_dof_has_one_infinite_root_with_a_damper_and_two_without():
+    """M = diag(1, 0), K = 4I: the second DOF has no mass. With a damper on it (C =
+    diag(0, 1)) its equation q̇ + 4q = 0 is of first order: one root at −4, one at
+    infinity. Without (C = 0) it is 4q = 0: both its roots are infinite. The first DOF's
+    undamped pair ±2i gives the mode 2i either way (sorted by |λ|: 2i before −4)."""
+    M, K = np.diag([1.0, 0.0]), 4 * np.eye(2)
+    damped = modal_parameters(SecondOrderSystem(M, np.diag([0.0, 1.0]), K))
+    assert damped.n_infinite == 1
+    np.testing.assert_allclose(damped.eigenvalues, [2j, -4.0], rtol=0, atol=1e-12)
+    bare = modal_parameters(SecondOrderSystem(M, np.zeros((2, 2)), K))
+    assert bare.n_infinite == 2
+    np.testing.assert_allclose(bare.eigenvalues, [2j], rtol=0, atol=1e-12)
 
 
 def test_chain_modes_match_rayleigh_theory():
@@ -300,6 +329,19 @@ def test_make_physical_raises_eigenvalues_to_the_relative_floor(noisy_band3):
     assert got[2:] == pytest.approx(d[2:], rel=1e-9)
     assert phys.info["physical"]["eigenvalues_raised"][2] == 2
     assert phys.info["physical"]["rtol"] == rtol
+    # the default floor is 1e-8 of the largest magnitude (as the signature says)
+    default = make_physical(bad, U, F, data.omega)
+    assert default.info["physical"]["rtol"] == 1e-8
+    assert np.linalg.eigvalsh(default.K)[:2] == pytest.approx([1e-8 * np.abs(d).max()] * 2,
+                                                              rel=1e-6)
+    # the residual before is of the matrices given, measured on the data given: the
+    # result built by hand still carries its fit's residual_norm, of the original K
+    before = _data_residual(bad, U, F, data.omega)
+    assert before != pytest.approx(bad.residual_norm, rel=1e-6)
+    assert phys.info["physical"]["residual_before"] == pytest.approx(before, rel=1e-10)
+    # the residual reported is the corrected K's (not the one with negative eigenvalues)
+    assert phys.residual_norm == pytest.approx(_data_residual(phys, U, F, data.omega),
+                                               rel=1e-10)
     # −K: its largest eigenvalue is negative, its largest magnitude max |d|; the floor is
     # relative to ‖K‖₂ = max |d|, so every raised eigenvalue lands on the same positive
     # floor and the corrected K is positive definite
@@ -366,6 +408,38 @@ def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):
         with pytest.raises(ValueError, match=f"^{name} must be real, got complex dtype"):
             make_physical(replace(result, **{name: getattr(result, name) + 0j}), U, F,
                           data.omega)
+
+
+def test_a_model_that_is_not_symmetric_is_judged_by_its_symmetric_part(noisy_band3):
+    """An asymmetric C (a fit with ``symmetric=False``): I + 3(e₁e₀ᵀ − e₀e₁ᵀ) has the
+    symmetric part I, positive definite, so no eigenvalue is raised and the correction
+    only drops the skew part. Its lower triangle read as a symmetric matrix would have
+    the block [[1, 3], [3, 1]], eigenvalue −2: counting from it would report one."""
+    _, data, result, R = noisy_band3
+    U, F = data.project(R)
+    m = result.m
+    skew = np.zeros((m, m))
+    skew[1, 0], skew[0, 1] = 3.0, -3.0
+    phys = make_physical(replace(result, C=np.eye(m) + skew), U, F, data.omega)
+    assert phys.info["physical"]["eigenvalues_raised"][1] == 0
+    # the nearest symmetric PSD matrix is the symmetric part itself, to round-off of
+    # the eigendecomposition (~1e-15 of its unit eigenvalues)
+    np.testing.assert_allclose(phys.C, np.eye(m), rtol=0, atol=1e-13)
+
+
+def test_an_undamped_model_keeps_its_zero_damping_with_no_change(noisy_band3):
+    """C = 0 (an undamped model) is positive semidefinite: nothing is raised, C stays
+    exactly zero, and its relative change is 0, not 0 / 0."""
+    _, data, result, R = noisy_band3
+    U, F = data.project(R)
+    undamped = replace(result, C=np.zeros((result.m, result.m)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no 0 / 0 on the way
+        phys = make_physical(undamped, U, F, data.omega)
+    rep = phys.info["physical"]
+    assert rep["eigenvalues_raised"][1] == 0
+    np.testing.assert_array_equal(phys.C, 0.0)
+    assert rep["relative_change"][1] == 0.0
 
 
 def test_nearest_psd_names_its_argument():

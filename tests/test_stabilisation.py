@@ -194,6 +194,17 @@ def test_pod_fit_is_eq_49_on_the_given_basis(chain_data):
     Uh, Fh = data.project(half.basis(3))
     np.testing.assert_array_equal(pod_fit(data, basis=half)(3).K,
                                   identify(Uh, Fh, data.omega, 0.0, True).K)
+    # spectra with complex forces (FRF data have the real identity): the same receptances
+    # with each line's forces and responses turned by its own phase. The forces reach the
+    # estimator with their phase; without it the fit would be of other data
+    from dataclasses import replace
+
+    phase = np.exp(1j * np.linspace(0.3, 2.5, data.s))[:, None, None]
+    turned = replace(data, U=phase * data.U, F=phase * data.F)
+    Ut, Ft = turned.project(turned.pod().basis(3))
+    assert np.max(np.abs(Ft.imag)) > 0.5 * np.max(np.abs(Ft))
+    np.testing.assert_array_equal(pod_fit(turned)(3).K,
+                                  identify(Ut, Ft, data.omega, 0.0, True).K)
 
 
 def test_pole_marks_at_their_boundaries_and_the_charts_band(chain_data):
@@ -461,3 +472,39 @@ def test_a_previous_order_without_poles_leaves_every_pole_unmatched():
     none = ModalParameters(np.zeros(0, dtype=complex), np.zeros(0), np.zeros(0), 2)
     cf, c = _match_previous(one, none, 0.5, 0.5)
     assert cf.tolist() == [False] and c.tolist() == [False]
+
+
+def test_a_pole_at_either_end_of_the_charts_band_is_in_it():
+    """The band is the data's first and last line, 0.5 and 1 Hz, ends included: poles
+    at exactly 0.5 and 1 Hz are in band, ones at 0.49 and 1.01 Hz are not (margins of
+    1 %, far above rounding; the rows take f from the modes as given)."""
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import StabilisationChart, StabilisationOrder
+
+    f = np.array([0.49, 0.5, 1.0, 1.01])
+    lam = 2 * np.pi * f * complex(-0.01, np.sqrt(1 - 1e-4))
+    modes = ModalParameters(lam, f, np.full(4, 0.01), 0)
+    order = StabilisationOrder(4, model_with_modes(f, 0.01), modes, True,
+                               np.zeros(4, bool), np.zeros(4, bool))
+    chart = StabilisationChart((order,), np.array([0.5, 0.75, 1.0]), np.ones(3), True,
+                               0.01, 0.05)
+    assert [r["in_band"] for r in chart.rows()] == [False, True, True, False]
+
+
+def test_each_pole_is_matched_with_the_previous_orders_nearest_in_frequency():
+    """Order m − 1 has poles at 10 and 30 Hz, order m at 5, 10 and 30 Hz (a new pole
+    below the others): the 10 Hz pole, second of its order, matches the first of the
+    previous one and the 30 Hz pole the second; the new 5 Hz pole is 50 % from its
+    nearest (10 Hz) and matches nothing. Pairing by position would compare 10 Hz with
+    30 Hz. Equal damping ratios: consistent follows consistent_f."""
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    def modes(f_hz):
+        f = np.asarray(f_hz, dtype=float)
+        lam = 2 * np.pi * f * complex(-0.01, np.sqrt(1 - 1e-4))
+        return ModalParameters(lam, f, np.full(f.size, 0.01), 0)
+
+    cf, c = _match_previous(modes([5.0, 10.0, 30.0]), modes([10.0, 30.0]), F_TOL, ZETA_TOL)
+    assert cf.tolist() == [False, True, True]
+    assert c.tolist() == [False, True, True]
