@@ -82,7 +82,8 @@ class IdentificationResult:
     relative_residual : float or None
         For ``"cg"``, ‖b − Gx‖/‖b‖ of the scaled normal equations; for
         ``"output-error"`` (:func:`~podid_rs.refine`), √(cost / cost_start), the
-        weighted output error's norm relative to the start's; None for the direct path.
+        weighted output error's norm relative to the start's (0 when the start's is 0);
+        None for the direct path.
     penalty_norm : float
         The root sum of squares of ``penalty_norms``.
     m : int
