@@ -2739,6 +2739,42 @@ AUDIT = [
     ('physical', 'int(np.sum(~finite))',
      'int(np.any(~finite))'),
     ('physical', 'rtol: float = 1e-8,', 'rtol: float = 1e-6,'),
+    # the tenth audit, intervals: the magnitude band's ellipse with the cross term's sign
+    # flipped, the modes ordered by their imaginary part, not |λ|, the damping ratio's
+    # gradient with its second term's sign flipped, a shape's gradient without the
+    # normalisation's (the reference entry's) part, the band's gradient in C without its i,
+    # the unmeasured entries weighing in the covariance
+    ("uncertainty", "(vi * a**2 - 2 * cri * a * b + vr * b**2)",
+     "(vi * a**2 + 2 * cri * a * b + vr * b**2)"),
+    ("uncertainty", 'pick = pick[np.argsort(np.abs(lam[pick]), kind="stable")]',
+     'pick = pick[np.argsort(lam[pick].imag, kind="stable")]'),
+    ("uncertainty", "+ sel.real[:, None] * (np.conj(sel)", "- sel.real[:, None] * (np.conj(sel)"),
+    ("uncertainty", "dphi = (dy - phi[:, None] * dy[ref][None, :]) / y[ref]",
+     "dphi = dy / y[ref]"),
+    ("uncertainty", "phis = (-(wb**2), 1j * wb, np.ones_like(wb))",
+     "phis = (-(wb**2), wb, np.ones_like(wb))"),
+    ("uncertainty", "W_all = W_all * mask", "W_all = W_all"),
+    # the tenth audit, covariance: a symmetric matrix's off-diagonal coordinates without
+    # their 1/sqrt 2, correlated pairs of lines not checked to be that far apart on the
+    # grid, the log-magnitude meat's u_r unconjugated, the noise's draws of twice the
+    # variance, a single average accepted, the residuals' degrees of freedom counted per
+    # complex entry, the local noise's |y|^2 taken half a window early, the FRF's real and
+    # imaginary parts' covariance their variance, relative log-magnitude weights 1/||u||
+    ("identification/covariance", "off = theta[..., ~diag] / np.sqrt(2.0)",
+     "off = theta[..., ~diag]"),
+    ("identification/covariance",
+     "ok = (pos < self.s) & (self.grid[np.minimum(pos, self.s - 1)] == self.grid + lag)",
+     "ok = pos < self.s"),
+    ("identification/covariance", "np.real(c / (ul * np.conj(ur)))", "np.real(c / (ul * ur))"),
+    ("identification/covariance", "        white /= np.sqrt(2.0)\n", ""),
+    ("identification/covariance", "if not np.isfinite(nd) or nd <= 1:",
+     "if not np.isfinite(nd) or nd < 1:"),
+    ("identification/covariance", "dof = 2 * n_used - rank", "dof = n_used - rank"),
+    ("identification/covariance", "x0 = x_all[start + half:stop + half]",
+     "x0 = x_all[start:stop]"),
+    ("identification/covariance", "cov = np.sum(GC * H, axis=1)", "cov = np.sum(GC * G, axis=1)"),
+    ("identification/covariance", 'if weights == "relative" and objective == "complex":',
+     'if weights == "relative":'),
 ]
 
 

@@ -1219,6 +1219,30 @@ def test_relative_weights_of_a_column_without_response_are_zero():
     np.testing.assert_allclose(W[1], 1 / np.sqrt(3), rtol=1e-15)
 
 
+def test_relative_weights_under_the_log_magnitude_objective_are_one_per_entry():
+    """refine's log-magnitude objective takes "relative" as 1 per entry (ln|u| is already
+    relative), not 1/‖u_c‖: so does the covariance, whose default weights are "relative" —
+    an entry exactly 0 (no ln of it) still weighs nothing."""
+    U = np.zeros((2, 3, 2), dtype=complex)
+    U[0, :, 0] = [3.0, 4.0j, 0.0]
+    U[1] = 2.0
+    W = entry_weights("relative", U, "log-magnitude", True)
+    np.testing.assert_array_equal(W[0, :, 0], [1.0, 1.0, 0.0])
+    np.testing.assert_array_equal(W[0, :, 1], 0.0)
+    np.testing.assert_array_equal(W[1], 1.0)
+    # the model's intervals by default are those of uniform weights ...
+    system, omega, H, U, F, var = _frf_data()
+    kw = dict(basis=np.eye(4), objective="log-magnitude", noise_variance=var)
+    default = pr.model_uncertainty(system, U, F, omega, **kw).modes()
+    uniform = pr.model_uncertainty(system, U, F, omega, weights="uniform", **kw).modes()
+    np.testing.assert_array_equal(default.std_frequency_hz, uniform.std_frequency_hz)
+    np.testing.assert_array_equal(default.std_damping, uniform.std_damping)
+    # ... and 1/‖u_c‖ per column would change them (else the comparison proves nothing)
+    per_column = np.broadcast_to(1 / np.linalg.norm(U, axis=1)[:, None, :], U.shape)
+    other = pr.model_uncertainty(system, U, F, omega, weights=per_column, **kw).modes()
+    assert not np.allclose(other.std_damping, uniform.std_damping, rtol=1e-3)
+
+
 def test_weights_of_a_square_layout_are_per_dof_on_measured_dofs():
     """n = p = 2: an (s, n) array on measured DOFs weighs each DOF, as refine takes it; on
     reduced coordinates (no measured DOFs) the same array weighs each load case."""
