@@ -2775,6 +2775,42 @@ AUDIT = [
     ("identification/covariance", "cov = np.sum(GC * H, axis=1)", "cov = np.sum(GC * G, axis=1)"),
     ("identification/covariance", 'if weights == "relative" and objective == "complex":',
      'if weights == "relative":'),
+    # tenth audit, systems: the chain's two masses swapped, the lattice's mass draws on one
+    # side of the nominal mass, one DOF index given as a plain integer refused
+    ("systems", "    return m1, m2, ku, a0, a1", "    return m2, m1, ku, a0, a1"),
+    ("systems", "masses = mass * (1.0 + dm * rng.uniform(-1.0, 1.0, n))",
+     "masses = mass * (1.0 + dm * rng.uniform(0.0, 1.0, n))"),
+    ("systems", "    if a.ndim == 0:\n        a = a.reshape(1)\n", ""),
+    # tenth audit, identify: the physical correction's change as a fraction under a % sign,
+    # every overlay's measured FRF from the first load case, m_max not reaching the sweep,
+    # modes.md's table of the structure's modes holding every pole
+    ("apps/identify", "({100 * change:+.2f} %)", "({change:+.2f} %)"),
+    ("apps/identify", "seen = np.where(d.measured[rows, k], d.U[:, rows, k], np.nan)",
+     "seen = np.where(d.measured[rows, k], d.U[:, rows, 0], np.nan)"),
+    ("apps/identify", "m=order, m_max=m_max,", "m=order, m_max=None,"),
+    ("apps/identify", 'text += table_markdown(structural) if structural else "None.\\n"',
+     'text += table_markdown(rows) if structural else "None.\\n"'),
+    # tenth audit, λ rules: the golden-section corner search stepping towards the smaller
+    # curvature, D(ω) of the discrepancy's δ without its i, lambda_curve's solve= and
+    # identify_with_rule's snr_db ignored, a δ below the smallest residual given the
+    # largest λ
+    ("identification/regularisation", "        if c2 > c3:\n            t4, t3 = t3, t2",
+     "        if c2 < c3:\n            t4, t3 = t3, t2"),
+    ("identification/regularisation", "D = -(w**2) * pilot.M + 1j * w * pilot.C + pilot.K",
+     "D = -(w**2) * pilot.M + w * pilot.C + pilot.K"),
+    ("identification/regularisation", "ev = _evaluator(data, method, solve, nthreads)",
+     "ev = _evaluator(data, method, None, nthreads)"),
+    ("identification/regularisation", "target = _target_residual(data, noise, snr_db, None)",
+     "target = _target_residual(data, noise, None, None)"),
+    ("identification/regularisation", "return float(grid[0]), [", "return float(grid[-1]), ["),
+    # tenth audit, solvers: the NumPy backend's penalty 2λ² for 4λ², an exactly determined
+    # problem refused as too few equations, an explicit solver="cg" redone by the direct
+    # path when it stalls
+    ("identification/solvers", "+= 4.0 * lam_s[blocks[skew]] ** 2",
+     "+= 2.0 * lam_s[blocks[skew]] ** 2"),
+    ("identification/solvers", "if n_eq < n_unk:", "if n_eq <= n_unk:"),
+    ("identification/solvers", "if auto and stalled and _direct_fits(",
+     "if stalled and _direct_fits("),
 ]
 
 

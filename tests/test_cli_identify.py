@@ -112,6 +112,18 @@ def test_identify_chooses_the_order_on_held_out_lines(uff_file, tmp_path, capsys
     assert model.m == 6 and (out / "order.png").read_bytes()[:8] == PNG
 
 
+
+def test_m_max_bounds_the_order_sweep(uff_file, tmp_path):
+    """Exact FRFs of the 6-DOF chain choose m = 6 (the test above); with --m-max 3 no
+    order above 3 is tried, so the model written has m ≤ 3."""
+    chain, path = uff_file
+    out = tmp_path / "out"
+    argv = ["identify", str(path), "--band-hz", "5", "200", "--m-max", "3", "--no-progress",
+            "--out", str(out)]
+    assert main(argv) == 0
+    model, _ = load_model(out / "model.npz")
+    assert 1 <= model.m <= 3
+
 def test_identify_time_histories_with_lambda_and_physical(tmp_path, capsys):
     system = mass_spring_chain(4, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
     x, Y, _, r = periodic_test(system, [0, 2], r=2**14)

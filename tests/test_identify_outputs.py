@@ -160,6 +160,42 @@ def test_modes_markdown_names_the_interval_level_and_keeps_rows_without_a_kind()
     assert "None." not in md and "Other poles" not in md and "| 1 | 10 |" in md
 
 
+
+def test_modes_markdown_lists_only_the_structures_modes_under_their_heading():
+    """A structural mode, a residual term and a weak pole: the first table (the modes of
+    the structure, what model.uff holds) has the structural row alone, the second the
+    other two."""
+    from podid_rs.apps.identify import modes_markdown
+
+    rows = [{"mode": 1, "f_hz": 10.0, "zeta": 0.02, "kind": "structural"},
+            {"mode": 2, "f_hz": 500.0, "zeta": 0.3, "kind": "residual"},
+            {"mode": 3, "f_hz": 40.0, "zeta": 0.01, "kind": "weak"}]
+    md = modes_markdown("- run\n", rows)
+    structure, others = md.split("## Other poles")
+    assert "| 1 | 10 |" in structure
+    assert "| 2 | 500 |" not in structure and "| 3 | 40 |" not in structure
+    assert "| 2 | 500 |" in others and "| 3 | 40 |" in others and "| 1 | 10 |" not in others
+
+
+def test_the_summary_quotes_the_physical_corrections_change_in_percent():
+    """A model whose physical correction took the residual from 2 to 3: +50 %, by hand
+    (the report's numbers stand in for a correction; the rest of the run is the exact
+    3-DOF chain's)."""
+    import dataclasses
+    from pathlib import Path
+
+    from podid_rs.apps.identify import IdentifyRun
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(3, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    w = 2 * np.pi * np.arange(1.0, 60.0, 0.5)
+    data = from_frf(chain.frf(w)[:, :, [0]], w, inputs=[0])
+    ls, R = data.identify(m=3, symmetric=True)
+    report = {"residual_before": 2.0, "residual_after": 3.0, "eigenvalues_raised": (0, 1, 0)}
+    written = dataclasses.replace(ls, info={**ls.info, "physical": report})
+    text = IdentifyRun(Path("chain.uff"), data, ls, written, R).summary()
+    assert "residual 2 → 3 (+50.00 %), eigenvalues raised in M, C, K: (0, 1, 0)" in text
+
 def test_the_mac_compares_the_chosen_order_with_the_next(beam_like, tmp_path, capsys,
                                                          monkeypatch):
     """m = 7 of an 8-DOF chart: the MAC's other order is 8 (m + 1 up to the chart's top)."""

@@ -442,6 +442,22 @@ def test_the_discrepancy_target_is_the_noise_seen_through_the_fit_over_every_loa
         assert by_snr.target_residual == pytest.approx(by_sigma.target_residual, rel=1e-12)
 
 
+
+def test_the_discrepancy_target_of_exact_data_is_the_true_dynamic_stiffness():
+    """On noise-free data the λ = 0 fit is the truth itself (to 1e-11 on this case), so
+    δ = σ (p Σ_i ‖D(ω_i)‖²_F)^½ with D(ω) = −ω²M + iωC + K of the true M, C, K, by hand;
+    1e-8 allows that round-off. The damping term is imaginary: a real ωC would move δ by
+    0.15 % here."""
+    from podid_rs._validation import check_frequency_data
+
+    (M, C, K), U, F, omega, _ = skew_mass_case(4, noise=0.0, on="U")
+    w = omega[:, None, None]
+    D = -(w**2) * M + 1j * w * C + K
+    sigma = 0.01
+    expected = sigma * np.sqrt(F.shape[2] * np.sum(np.abs(D) ** 2))
+    data = check_frequency_data(U, F, omega)
+    assert reg._target_residual(data, sigma, None, None) == pytest.approx(expected, rel=1e-8)
+
 def test_the_smallest_default_grid_and_a_grid_of_repeated_values():
     """n = 3 is the smallest grid the docs allow; a grid of three values of which two are
     equal has two distinct ones, and is refused (in any order)."""

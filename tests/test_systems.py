@@ -462,6 +462,23 @@ def test_lattice_variations_draw_each_property_alone_and_follow_the_seed():
     assert not np.array_equal(other.K.toarray(), stiff.K.toarray())
 
 
+
+def test_lattice_variations_spread_on_both_sides_of_the_nominal_values():
+    """(1 ± variation) times the nominal value: of 100 masses and 180 springs some are
+    lighter (softer) and some heavier (stiffer) than nominal, and their mean is the nominal
+    value. A uniform draw on one side only would leave every ratio above 1 (probability
+    2^-100 for a symmetric draw); the mean of n uniform draws on ±0.5 has standard deviation
+    0.5/√(3n) ≤ 0.029 here, so 0.1 is over three of them, and a one-sided draw's mean
+    (1.25) is far outside."""
+    nominal = mass_spring_lattice(10, 10, mass=2.0, k=10.0).K.toarray()
+    lat = mass_spring_lattice(10, 10, mass=2.0, k=10.0, mass_variation=0.5,
+                              stiffness_variation=0.5, seed=2)
+    masses = lat.M.diagonal() / 2.0
+    springs = -lat.K.toarray()[nominal < 0] / 10.0  # each spring between two masses twice
+    for ratio in (masses, springs):
+        assert ratio.min() < 1.0 < ratio.max()
+        assert abs(ratio.mean() - 1.0) < 0.1
+
 def test_lattice_parameters_are_checked_by_name():
     assert mass_spring_lattice(2, 2, a0=0.0, a1=0.0).C.count_nonzero() == 0
     with pytest.raises(ValueError, match=r"k must be a positive number, got 0\.0"):
