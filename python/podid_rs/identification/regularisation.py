@@ -106,7 +106,8 @@ class LambdaCurve:
     Attributes
     ----------
     lams : numpy.ndarray, (k,)
-        The grid of λ, ascending, paper units (eq. 40).
+        The grid of λ, ascending, paper units (eq. 40); from repeated solves, the grid
+        and every λ the searches for the corner and the discrepancy solved at.
     residual_norms : numpy.ndarray, (k,)
         ‖Ax − y‖ (eq. 28) at each λ, exact (solves).
     penalty_norms : numpy.ndarray, (k,)
