@@ -2811,6 +2811,38 @@ AUDIT = [
     ("identification/solvers", "if n_eq < n_unk:", "if n_eq <= n_unk:"),
     ("identification/solvers", "if auto and stalled and _direct_fits(",
      "if stalled and _direct_fits("),
+    # tenth audit, pod, simulation, identification/lines, identification/holes: a
+    # measurement, written before their first run.
+    # pod: the repr calling a raw POD noise-corrected, a single line taken as a band, a
+    # corrected POD without its noise variance (corrected twice), negative energies kept
+    # after the correction, the variance check at four times the mean square (the message
+    # says twice), the snapshot side's singular values as their squares
+    ("pod", "noise = \"\" if self.noise_variance is None else",
+     "noise = \"\" if self.noise_variance is not None else"),
+    ("pod", "if w.size < 2 or np.any(np.diff(w) <= 0):",
+     "if w.size < 1 or np.any(np.diff(w) <= 0):"),
+    ("pod", "        out.noise_variance = d\n", ""),
+    ("pod", "return np.clip(theta[::-1], 0.0, None), W[:, ::-1]", "return theta[::-1], W[:, ::-1]"),
+    ("pod", "if np.any(d > 2 * measured):", "if np.any(d > 4 * measured):"),
+    ("pod", "V[:, :rank], np.sqrt(mu[:rank]))", "V[:, :rank], mu[:rank])"),
+    # simulation: a one-sample record let through, Welch's segment count one short, a bool
+    # axis taken as 1, the overlap correlation's last lag dropped, the window ignored
+    ("simulation", "if r < 2:", "if r < 1:"),
+    ("simulation", "n_avg = x.shape[0] * ((r - nperseg) // step + 1)",
+     "n_avg = x.shape[0] * ((r - nperseg) // step)"),
+    ("simulation", "isinstance(axis, bool)\n        or ", ""),
+    ("simulation", "for j in range(1, per_record) if", "for j in range(1, per_record - 1) if"),
+    ("simulation", "get_window(window, nperseg)", "get_window(\"hann\", nperseg)"),
+    # identification/lines: the typical block's activity as the mean (a few resonances
+    # raise it), a fully kept block losing its last line
+    ("identification/lines", "excess = np.maximum(activity - np.median(activity), 0.0)",
+     "excess = np.maximum(activity - np.mean(activity), 0.0)"),
+    ("identification/lines", "keep[a:b] = True", "keep[a : b - 1] = True"),
+    # identification/holes: the constant of every load case from the first one's targets,
+    # a DOF with one hole refused as never measured
+    ("identification/holes", "y = Y[:, :, j]", "y = Y[:, :, 0]"),
+    ("identification/holes", "unseen = np.flatnonzero(~mask.any(axis=1))",
+     "unseen = np.flatnonzero(~mask.all(axis=1))"),
 ]
 
 

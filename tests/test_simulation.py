@@ -500,3 +500,17 @@ def test_h1_coherence_takes_the_window_it_is_given():
     # the sums of unit phasors are zero to round-off (7e-33 and 8e-34 here)
     assert stats.line_correlation == pytest.approx((0.0, 0.0), abs=1e-12)
     assert stats.averages == pytest.approx(K / (1 + 2 * (1 - 1 / K) * 0.25), rel=1e-12)
+
+
+def test_h1_coherence_of_two_overlapping_segments_per_record():
+    """A 400-sample record at the default nperseg = 256 is cut into K = 2 Hann segments
+    (hop 128, (400 − 256) // 128 + 1), which share half their samples. For the periodic
+    Hann window w_n = sin²(πn/N), Σ w² = 3N/8 and the overlap Σ w_n w_{n+N/2} =
+    Σ_{n<N/2} sin²(2πn/N) / 4 = N/16, so ρ₁ = 1/6 and the pair is worth
+    K / (1 + 2 (1 − 1/K) ρ₁²) = 2 / (1 + 1/36) = 72/37 averages, not 2; two such records
+    twice that. (Sums of 256 terms: round-off of 1e-15, hence rel=1e-12.)"""
+    rng = np.random.default_rng(4)
+    x = rng.standard_normal((2, 400, 1))
+    y = 2 * x + rng.standard_normal((2, 400, 1))
+    assert h1_coherence(x[0], y[0], DT).averages == pytest.approx(72 / 37, rel=1e-12)
+    assert h1_coherence(x, y, DT).averages == pytest.approx(144 / 37, rel=1e-12)
