@@ -2843,6 +2843,37 @@ AUDIT = [
     ("identification/holes", "y = Y[:, :, j]", "y = Y[:, :, 0]"),
     ("identification/holes", "unseen = np.flatnonzero(~mask.any(axis=1))",
      "unseen = np.flatnonzero(~mask.all(axis=1))"),
+    # tenth audit, modal modules (physical, modes, stabilisation, statespace): physical —
+    # a negative floor let through, data of a larger order accepted, left vectors for
+    # right, the identified ζ reported as the truth's
+    ('physical', 'floor = as_scalar(floor, "floor", allow_zero=True)', 'floor = float(floor)'),
+    ('physical', 'if data.m != result.m:', 'if data.m > result.m:'),
+    ('physical', 'lam, Z = scipy.linalg.eig(A, B)', 'lam, Z = scipy.linalg.eig(A.T, B.T)'),
+    ('physical', '"zeta_true": float(truth.damping_ratios[j]),',
+     '"zeta_true": float(identified.damping_ratios[j]),'),
+    # modes — shapes scaled by |top| (not to 1), B's columns normalised by A's norms, a
+    # shape_mac of a against itself, residual poles judged again, the half-power band doubled
+    ('modes', '    phi = phi / top\n', '    phi = phi / np.abs(top)\n'),
+    ('modes', 'cross = np.abs((a / na).conj().T @ (b / nb)) ** 2',
+     'cross = np.abs((a / na).conj().T @ (b / na)) ** 2'),
+    ('modes', 'return mac(a.shapes, b.shapes), None', 'return mac(a.shapes, a.shapes), None'),
+    ('modes', 'for k in np.flatnonzero(kinds == STRUCTURAL):', 'for k in range(lam.size):'),
+    ('modes', 'half = abs(lam.real)  # half the half-power band',
+     'half = 2 * abs(lam.real)  # half the half-power band'),
+    # stabilisation — an absolute symmetry test, real_pole from Re λ, to_csv appending,
+    # the previous order never kept, m_max above n let through
+    ('stabilisation',
+     'if any(np.linalg.norm(X - X.T) > rtol * np.linalg.norm(X) for X in mats):',
+     'if any(np.linalg.norm(X - X.T) > rtol for X in mats):'),
+    ('stabilisation', '"real_pole": bool(lam.imag == 0),', '"real_pole": bool(lam.real == 0),'),
+    ('stabilisation', 'with path.open("w", newline="") as fh:',
+     'with path.open("a", newline="") as fh:'),
+    ('stabilisation', '            prev = modes\n', ''),
+    ('stabilisation', 'as_count(m_max, "m_max", m_min, data.n if fit is None else None)',
+     'as_count(m_max, "m_max", m_min, None)'),
+    # statespace — B without M⁻¹
+    ('statespace', 'B = np.vstack([np.zeros((m, R.shape[0])), MinvRt])',
+     'B = np.vstack([np.zeros((m, R.shape[0])), R.T])'),
 ]
 
 

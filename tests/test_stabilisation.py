@@ -393,6 +393,21 @@ def test_a_chart_of_one_mode_writes_one_row_under_its_header(chain_data, tmp_pat
     assert float(back[0]["f_hz"]) == rows[0]["f_hz"]
 
 
+def test_to_csv_replaces_a_file_that_exists(chain_data, tmp_path):
+    """The docstring's "replaced if it exists": a stale file, then the same chart written
+    twice, leave one header and the chart's one row — the bytes of a first write."""
+    _, data = chain_data
+    chart = stabilisation_chart(data, 1)
+    fresh = chart.to_csv(tmp_path / "fresh.csv").read_bytes()
+    stale = tmp_path / "stale.csv"
+    stale.write_text("an older chart\n" * 5)
+    chart.to_csv(stale)
+    chart.to_csv(stale)
+    assert stale.read_bytes() == fresh
+    with open(stale, newline="") as fh:
+        assert len(list(csv.DictReader(fh))) == len(chart.rows()) == 1
+
+
 def test_the_symmetry_and_damping_tolerances_are_the_given_rtol():
     """rtol reaches both tests of is_physical: a mass asymmetric by 10⁻⁸ of itself and a
     damping with an eigenvalue 10⁻⁸ of its largest below 0 are not physical at the default
