@@ -317,8 +317,8 @@ def mode_kinds(
     * ``"weak"`` — in band and lightly damped, but not a resonance of the data: its
       receptance term φ_i φ_d / (a (iω − λ)) (:attr:`ModeShapes.modal_a`) reaches
       ``visible_fraction`` of the largest measured |U| within ±``VISIBLE_WINDOW`` (2 %)
-      of its frequency, at some measured DOF i and input d, at fewer than two of the
-      three measured lines nearest its frequency — e.g. a pole the fit puts beside an
+      of its damped frequency Im λ, at some measured DOF i and input d, at fewer than
+      two of the three measured lines nearest Im λ — e.g. a pole the fit puts beside an
       anti-resonance to shape the dip, or a nearly undamped one on a single line to fit
       that line (judged only with measured FRFs ``U`` and a symmetric model's
       ``modal_a``);
