@@ -2874,6 +2874,37 @@ AUDIT = [
     # statespace — B without M⁻¹
     ('statespace', 'B = np.vstack([np.zeros((m, R.shape[0])), MinvRt])',
      'B = np.vstack([np.zeros((m, R.shape[0])), R.T])'),
+    # tenth audit, measured data (written from the source before any run): the model's
+    # response to the reduced responses instead of the forces, an order m refused, the
+    # forces' spectra outside the band, an unknown estimator taken as "spectra", the band
+    # message's last line the second
+    ("measured", "_, F_m = self.project(R)", "F_m, _ = self.project(R)"),
+    ("measured", "if m is not None and energy is not None:",
+     "if m is not None or energy is not None:"),
+    ("measured", "spectra(rec, dt, band_hz)[1] for rec in x",
+     "spectra(rec, dt, None)[1] for rec in x"),
+    ("measured", "raise ValueError(f\"estimator must be 'h1' or 'spectra', got {estimator!r}\")",
+     "pass"),
+    ("measured", "({freq_hz[0]:g}\u2013{freq_hz[-1]:g} Hz)",
+     "({freq_hz[0]:g}\u2013{freq_hz[1]:g} Hz)"),
+    # tenth audit, npz: the driven DOFs not saved, the missing-arrays message listing the
+    # arrays needed as the ones found
+    ("io/npz", "            inputs=data.inputs,\n", ""),
+    ("io/npz", "(found {sorted(z)})", "(found {sorted(keys)})"),
+    # tenth audit, UFF: a cut-off file's message naming the record before, the lines in Hz
+    # taken as rad/s, a unit labelled in part counted as full, one exact zero not warned
+    # about, the file's references no longer preferred as columns, the duplicates' distance
+    # the mean, a fractional node number accepted, uneven lines written as even
+    ("io/uff", "k = len(tags) // 2\n", "k = len(tags) // 2 - 1\n"),
+    ("io/uff", "omega = 2 * np.pi * freq[keep]", "omega = freq[keep]"),
+    ("io/uff", "if all(_unit_parts(k))}", "if any(_unit_parts(k))}"),
+    ("io/uff", "    if zero.size:\n", "    if zero.size > 1:\n"),
+    ("io/uff", "(count[v], v in references, (-v[0], -v[1]))", "(count[v], (-v[0], -v[1]))"),
+    ("io/uff", "return float(np.median(np.abs(20 * np.log10",
+     "return float(np.mean(np.abs(20 * np.log10"),
+    ("io/uff", "np.any(g[:, 0] != np.round(g[:, 0])) or ", ""),
+    ("io/uff", "even = bool(np.allclose(step, step[0], rtol=1e-9, atol=0.0))",
+     "even = bool(np.allclose(step, step[0], rtol=1e-3, atol=0.0))"),
 ]
 
 
