@@ -743,7 +743,7 @@ def test_load_data_names_a_file_of_another_format(tmp_path):
     path = tmp_path / "frf.csv"
     path.write_text("1,2\n")
     with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: unknown data format "
-                                         r"\(expected \.uff, \.unv or \.npz\)$"):
+                                         r"\(expected \.uff, \.unv, \.uf or \.npz\)$"):
         load_data(path)
 
 

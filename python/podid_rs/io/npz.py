@@ -121,7 +121,7 @@ def load_data(path: str | Path, *, band_hz: tuple[float, float] | None = None) -
     if path.suffix.lower() in (".uff", ".unv", ".uf"):
         return read_uff(path, band_hz=band_hz)
     if path.suffix.lower() != ".npz":
-        raise ValueError(f"{path}: unknown data format (expected .uff, .unv or .npz)")
+        raise ValueError(f"{path}: unknown data format (expected .uff, .unv, .uf or .npz)")
     z = _read_npz(path)
     if "forces" in z or "responses" in z:
         _need(z, ("forces", "responses", "dt"), path, "a time-history file")
