@@ -2905,6 +2905,47 @@ AUDIT = [
     ("io/uff", "np.any(g[:, 0] != np.round(g[:, 0])) or ", ""),
     ("io/uff", "even = bool(np.allclose(step, step[0], rtol=1e-9, atol=0.0))",
      "even = bool(np.allclose(step, step[0], rtol=1e-3, atol=0.0))"),
+    # tenth audit, the identification's output-error side: the start's squareness check
+    # skipped, the reported relative change of the start over the wrong norm, the shape
+    # message's numbers swapped, the per-entry metric's targets divided by √λ, the report's
+    # observed coordinates counting the latent ones too
+    ("identification/refinement", "if X.ndim != 2 or X.shape[0] != X.shape[1]:",
+     "if X.ndim != 2:"),
+    ("identification/refinement",
+     "change.append(float(np.linalg.norm(Y - X) / max(np.linalg.norm(X),",
+     "change.append(float(np.linalg.norm(Y - X) / max(np.linalg.norm(Y),"),
+    ("identification/refinement", "(s, p) = ({s}, {p}) for reduced data",
+     "(s, p) = ({p}, {s}) for reduced data"),
+    ("identification/refinement", "y = V[:, keep] @ ((V[:, keep].T @ b) / lam[keep])",
+     "y = V[:, keep] @ ((V[:, keep].T @ b) / np.sqrt(lam[keep]))"),
+    ("identification/refinement", '"coordinates": {"observed": observed,',
+     '"coordinates": {"observed": m,'),
+    # … the order sweep: the residual-peak start's damping without ω, the best earlier
+    # order's continuation only from order 4, the converged fit run on for the sweep's steps
+    # only, the latent patience the longer one, the message's free parameters with every
+    # coordinate observed, the final fit's error before judged on the wrong start
+    ("identification/order", "dof = (mu, 2 * zeta * wc * mu, wc**2 * mu)",
+     "dof = (mu, 2 * zeta * mu, wc**2 * mu)"),
+    ("identification/order", "    if len(fits) > 1:\n", "    if len(fits) > 2:\n"),
+    ("identification/order",
+     "fit = _refine_quietly(model, U_n, F_n, omega, R, CONVERGE_MAX_ITER, threads, measured)",
+     "fit = _refine_quietly(model, U_n, F_n, omega, R, SWEEP_MAX_ITER, threads, measured)"),
+    ("identification/order", "else min(patience, LATENT_PATIENCE)",
+     "else max(patience, LATENT_PATIENCE)"),
+    ("identification/order", "parameters(m, k)} free", "parameters(m, m)} free"),
+    ("identification/order", "if first is not start and not thinned:",
+     "if first is start and not thinned:"),
+    # … latent coordinates: every slope of the residual a peak, the mass in place of
+    # the damping and stiffness of the model the mode is added to
+    ("identification/latent", "(excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:])",
+     "(excess[1:-1] >= excess[:-2]) | (excess[1:-1] >= excess[2:])"),
+    ("identification/latent", "Y[:m, :m] = X", "Y[:m, :m] = model[0]"),
+    # … the modal start: the shape's scale from ‖a[inputs]‖² (the driving point's sign
+    # lost), the modes unseen at the sensors looked for over rows instead of columns
+    ("identification/modal_start", "scale2 = float(at_inputs @ b)",
+     "scale2 = float(at_inputs @ at_inputs)"),
+    ("identification/modal_start", "np.linalg.norm(A[observed], axis=0)",
+     "np.linalg.norm(A[observed], axis=1)"),
 ]
 
 
