@@ -331,6 +331,7 @@ def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
     stabilisation_chart(chain_data[1], 3, progress=True)
     last = screen.getvalue()[:-1].split("\r")[-1]
     assert last.startswith("stabilisation: 100%") and "| 3/3 [" in last
+    assert last.endswith(", m = 3]")  # the order last fitted, in the bar's postfix
 
 
 def test_symmetry_is_judged_relative_to_each_matrix_size():
