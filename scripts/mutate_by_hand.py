@@ -2946,6 +2946,38 @@ AUDIT = [
      "scale2 = float(at_inputs @ at_inputs)"),
     ("identification/modal_start", "np.linalg.norm(A[observed], axis=0)",
      "np.linalg.norm(A[observed], axis=1)"),
+    # eleventh audit, the modal modules: a relative floor applied as an absolute one, a
+    # report's own frequency replaced by the paired one, Im λ reported as Re λ, and the
+    # zero-K refusal naming M
+    ("physical", "return nearest_psd(X, floor, name)", "return nearest_psd(X, rtol, name)"),
+    ('physical', '"f_hz": float(f),', '"f_hz": float(f_true[j]),'),
+    ('physical', '"re_lambda": float(lam.real),', '"re_lambda": float(lam.imag),'),
+    ('physical', '_raise_eigenvalues(result.K, rtol, "K")',
+     '_raise_eigenvalues(result.K, rtol, "M")'),
+    # eleventh audit, modes: ζ of the shapes with the wrong sign, the shapes in POD
+    # coordinates, the DOF map of the wrong set, no check of U's lines, and the ring
+    # around a pole half as far
+    ("modes", "return np.where(mag > 0, -self.eigenvalues.real / mag, 0.0)",
+     "return np.where(mag > 0, self.eigenvalues.real / mag, 0.0)"),
+    ("modes", "return ModeShapes(lam, phi, labels, modal_a)",
+     "return ModeShapes(lam, psi, labels, modal_a)"),
+    ("modes", "where = {tuple(d): i for i, d in enumerate(b.dofs.tolist())}",
+     "where = {tuple(d): i for i, d in enumerate(a.dofs.tolist())}"),
+    ("modes", "if Ua.ndim != 3 or Ua.shape[0] != w.size or", "if Ua.ndim != 3 or"),
+    ("modes", "max(PEAK_RING[0] * 2 * half, 2 * spacing)", "max(PEAK_RING[0] * half, 2 * spacing)"),
+    # eleventh audit, stabilisation: an undamped pole marked stable, the band's lower end
+    # one line up, |λ| reported as Im λ, the fit's warnings dropped from the notes
+    ("stabilisation", "return self.modes.eigenvalues.real < 0",
+     "return self.modes.eigenvalues.real <= 0"),
+    ("stabilisation", "return float(self.freq_hz[0]), float(self.freq_hz[-1])",
+     "return float(self.freq_hz[1]), float(self.freq_hz[-1])"),
+    ("stabilisation", '"im_lambda": float(lam.imag),', '"im_lambda": float(abs(lam)),'),
+    ("stabilisation", "tuple(str(w.message) for w in caught),", "(),"),
+    # eleventh audit, statespace: M⁻¹ of Mᵀ (an unsymmetric M), and a nearly singular M
+    # let through
+    ("statespace", "lu = scipy.linalg.lu_factor(Mm, check_finite=False)",
+     "lu = scipy.linalg.lu_factor(Mm.T, check_finite=False)"),
+    ("statespace", "MAX_MASS_CONDITION = 1e14", "MAX_MASS_CONDITION = 1e16"),
 ]
 
 

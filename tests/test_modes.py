@@ -363,6 +363,10 @@ def _pole_on_a_grid(half: float, level, lower: int = 40, upper: int = 40):
         # half-power band 2 rad/s: the ring is 6 to 20 rad/s away on each side; its lines
         # 6-14 at 1 and 15-20 at 0.01 have the median 1 (the ring starts at 6, not 9)
         (1.0, lambda a, k: 1.5 if a <= 1 else (1.0 if a < 15 else 0.01), 40),
+        # the same ring (6 to 20 rad/s: 3, not 1.5, half-power bands) with lines 6-13 at 1
+        # and 14-20 at 0.01: its median is 1 (8 of 15 lines); the lines 2-5 at 0.01,
+        # nearer than the ring, would pull a ring from 3 rad/s to 0.01 (10 of 18 lines)
+        (1.0, lambda a, k: 1.5 if a <= 1 else (1.0 if 6 <= a < 14 else 0.01), 40),
         # a pole sharper than the lines: the ring is 2 to 6 lines away (not 7); lines 2-4
         # at 1 and 5-7 at 0.01 leave the median 1
         (0.1, lambda a, k: 1.5 if a == 0 else (1.0 if a < 5 else 0.01), 40),

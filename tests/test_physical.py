@@ -293,6 +293,8 @@ def test_compare_modes_pairs_by_log_frequency_and_refuses_what_it_cannot_pair():
     assert [r["zeta_true"] for r in rows] == list(truth.damping_ratios[[0, 1, 0]])
     f_id = np.array([0.0, 0.45, 0.21])
     assert [r["f_rel_error"] for r in rows] == pytest.approx((f_id - paired) / paired, rel=1e-12)
+    # each row reports the identified mode's own frequency, not the true one it pairs with
+    assert [r["f_hz"] for r in rows] == [0.0, 0.45, 0.21]
     assert [r["zeta"] for r in rows] == [0.0, 0.011, 0.03]
     # between the two true modes log f and f disagree: 0.33 Hz lies above their geometric
     # mean √(0.2 · 0.5) = 0.316 Hz, nearer 0.5 Hz in log f (ln(0.5/0.33) = 0.42 against
