@@ -2978,6 +2978,34 @@ AUDIT = [
     ("statespace", "lu = scipy.linalg.lu_factor(Mm, check_finite=False)",
      "lu = scipy.linalg.lu_factor(Mm.T, check_finite=False)"),
     ("statespace", "MAX_MASS_CONDITION = 1e14", "MAX_MASS_CONDITION = 1e16"),
+    # eleventh audit, the data side — MeasuredData: a negative driven-DOF index no longer
+    # refused, data with a single zero entry refused as all zero, from_frf's quantity
+    # ignored, acceleration divided by (ω/2π)² (Hz for rad/s), the POD of the first load
+    # case only
+    ("measured", "if np.any(a < 0) or np.any(a >= n):", "if np.any(a >= n):"),
+    ("measured", "if not np.any(U):", "if not np.all(U):"),
+    ("measured", "U = to_receptance(Ha, w, quantity)", 'U = to_receptance(Ha, w, "displacement")'),
+    ("measured", "return Xa / -(w**2)", "return Xa / -((w / (2 * np.pi)) ** 2)"),
+    ("measured", "return pod_from_frf(self.U, self.omega)",
+     "return pod_from_frf(self.U[:, :, :1], self.omega)"),
+    # … UFF: a 58 record holding more values than its header announces not refused, the
+    # record numbered from 0 in messages, an FRF with one zero line taken for a dead
+    # channel, the force-column ties broken towards responses instead of references, the
+    # layout note counting entries for FRFs, dataset 2411's geometry ignored, complex mode
+    # shapes read as their real part, rotational DOFs not refused by write_uff
+    ("io/uff", "    if held != expected:\n", "    if held < expected:\n"),
+    ("io/uff", 'where = f"{path}: FRF record {k + 1}"', 'where = f"{path}: FRF record {k}"'),
+    ("io/uff", "    if not np.any(v):\n", "    if not np.all(v):\n"),
+    ("io/uff", "references = {f.reference for f in records}",
+     "references = {f.response for f in records}"),
+    ("io/uff", 'f"{path.name}: the {len(records)} FRFs of',
+     'f"{path.name}: the {len(entries)} FRFs of'),
+    ("io/uff", "sets, _ = _read_sets(path, (15, 2411))", "sets, _ = _read_sets(path, (15,))"),
+    ("io/uff", "col[(int(node), k)] = complex(v)", "col[(int(node), k)] = complex(v.real)"),
+    ("io/uff", "if not 1 <= abs(d[1]) <= 3]", "if not 1 <= abs(d[1]) <= 6]"),
+    # … npz: measured data saved with ω in Hz, pickles allowed when reading
+    ("io/npz", "            omega=data.omega,\n", "            omega=data.freq_hz,\n"),
+    ("io/npz", "np.load(path, allow_pickle=False)", "np.load(path, allow_pickle=True)"),
 ]
 
 
