@@ -210,6 +210,8 @@ def test_every_bad_input_is_refused_with_its_whole_message(written, tmp_path):
          "inputs must index the 6 measured DOFs, got [0.5]"),
         ((result, R), {"dofs": dofs, "inputs": [], "omega": w},
          "inputs must index the 6 measured DOFs, got []"),
+        ((result, R), {"dofs": dofs, "inputs": [2, 0, 2], "omega": w},
+         "inputs must not repeat a DOF, got [2, 0, 2]"),
         ((result, R, data), {"quantity": "accelerance"},
          "quantity must be one of ('displacement', 'velocity', 'acceleration'), got "
          "'accelerance'"),

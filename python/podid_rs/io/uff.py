@@ -925,8 +925,8 @@ def write_uff(
     dofs : array_like, (n, 2), optional
         Without ``data``: the labels.
     inputs : array_like, optional
-        Without ``data``: indices of the driven DOFs, needed with ``omega`` for the
-        FRFs.
+        Without ``data``: indices of the driven DOFs, each once, needed with ``omega``
+        for the FRFs.
     omega : array_like, optional
         Without ``data``: the lines (rad/s) of the FRFs; without it no dataset 58 is
         written.
@@ -990,6 +990,8 @@ def write_uff(
         idx = as_array(inputs, "inputs", real=True).reshape(-1)
         if idx.size == 0 or np.any(idx != np.round(idx)) or np.any((idx < 0) | (idx >= len(R))):
             raise ValueError(f"inputs must index the {len(R)} measured DOFs, got {inputs!r}")
+        if np.unique(idx).size != idx.size:  # as MeasuredData: one load case per driven DOF
+            raise ValueError(f"inputs must not repeat a DOF, got {inputs!r}")
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {QUANTITIES}, got {quantity!r}")
     geom = _check_geometry(geometry)
