@@ -3006,6 +3006,42 @@ AUDIT = [
     # … npz: measured data saved with ω in Hz, pickles allowed when reading
     ("io/npz", "            omega=data.omega,\n", "            omega=data.freq_hz,\n"),
     ("io/npz", "np.load(path, allow_pickle=False)", "np.load(path, allow_pickle=True)"),
+    # eleventh audit, the POD: the lead signs read from the first column only, the
+    # noise-corrected modes left in the Ritz basis, the PSD message's eigenvalue the
+    # largest, the spectra's noise correction ignored on the snapshot side, the negative
+    # variance's DOF the largest, the snapshot modes' signs never set
+    ("pod", "np.sign(phi[np.argmax(np.abs(phi), axis=0), np.arange(phi.shape[1])])",
+     "np.sign(phi[np.argmax(np.abs(phi), axis=0), 0])"),
+    ("pod", "            phi = Q @ W\n", "            phi = W\n"),
+    ("pod", "f\"Ruu is not positive semi-definite: eigenvalue {lam[-1]:.3g} \"",
+     "f\"Ruu is not positive semi-definite: eigenvalue {lam[0]:.3g} \""),
+    ("pod",
+     "        P = _pod_of_snapshots(_stacked_rows(Xa), scale)\n"
+     "    return P if noise_variance is None else P.without_noise(noise_variance)",
+     "        P = _pod_of_snapshots(_stacked_rows(Xa), scale)\n    return P"),
+    ("pod", "j = int(np.argmin(d))", "j = int(np.argmax(d))"),
+    ("pod", "formed = self._formed = phi * _lead_signs(phi)", "formed = self._formed = phi"),
+    # … the simulation: the response without histories solved at Hz for rad/s, the seed
+    # ignored, the spectra's lines from the channel count, Welch's lines from the record
+    # length instead of the segment's, the coherence γ for γ²
+    ("simulation", "response_spectrum=system.response(omega, F, threads=threads)",
+     "response_spectrum=system.response(omega / (2 * np.pi), F, threads=threads)"),
+    ("simulation", "rng = np.random.default_rng(seed)\n    scale",
+     "rng = np.random.default_rng()\n    scale"),
+    ("simulation", "lines = _band_lines(a.shape[0], dt, band_hz)",
+     "lines = _band_lines(a.shape[1], dt, band_hz)"),
+    ("simulation", "lines = _band_lines(nperseg, dt, band_hz)",
+     "lines = _band_lines(r, dt, band_hz)"),
+    ("simulation", "gamma2 = np.abs(Syx) ** 2 / (Sxx[:, None] * Syy)",
+     "gamma2 = np.abs(Syx) / np.sqrt(Sxx[:, None] * Syy)"),
+    # … the informative lines: a block's activity the largest entry's instead of the mean,
+    # half a block per kept line
+    ("identification/lines", "activity[j] = np.mean(np.ptp", "activity[j] = np.max(np.ptp"),
+    ("identification/lines", "BLOCKS_PER_LINE = 0.25", "BLOCKS_PER_LINE = 0.5"),
+    # … holes: the fitted part of the metric's constant from L Lᵀ (= diag λ) instead of
+    # LᵀL, a complete mask returned instead of None
+    ("identification/holes", "Q = L.T @ L", "Q = L @ L.T"),
+    ("identification/holes", "return None if mask.all() else mask.copy()", "return mask.copy()"),
 ]
 
 
