@@ -795,6 +795,14 @@ def test_a_target_that_is_not_an_integer_is_refused():
     assert np.array_equal(informative_lines(U, np.int64(16)), informative_lines(U, 16))
 
 
+def test_responses_that_are_not_finite_are_refused():
+    for bad in (np.nan, np.inf):
+        U = np.ones((100, 1, 1), dtype=complex)
+        U[50, 0, 0] = bad
+        with pytest.raises(ValueError, match=r"^U must be finite \(no NaN or inf\)$"):
+            informative_lines(U, 16)
+
+
 def test_by_default_a_test_is_thinned_beyond_a_thousand_lines():
     """The documented budget (README, guide-measured-data: the ~1000 lines that carry a
     long test's information): by default 1000 lines are kept whole and 1001 thinned to

@@ -52,10 +52,12 @@ def informative_lines(U: np.ndarray, target: int = SWEEP_LINES) -> np.ndarray:
     Raises
     ------
     ValueError
-        If ``U`` is not 3-D or ``target`` is below 16.
+        If ``U`` is not 3-D or not finite, or ``target`` is below 16.
     """
     if U.ndim != 3:
         raise ValueError(f"U must be (s, n, p), got shape {U.shape}")
+    if not np.all(np.isfinite(U)):  # a NaN line would leave every block one line
+        raise ValueError("U must be finite (no NaN or inf)")
     if isinstance(target, bool) or not isinstance(target, int | np.integer) or target < 16:
         raise ValueError(f"target must be an integer of at least 16, got {target!r}")
     s = U.shape[0]
