@@ -3042,6 +3042,50 @@ AUDIT = [
     # LᵀL, a complete mask returned instead of None
     ("identification/holes", "Q = L.T @ L", "Q = L @ L.T"),
     ("identification/holes", "return None if mask.all() else mask.copy()", "return mask.copy()"),
+    # eleventh audit, the output-error refinement's Python side: K's near-zero eigenvalues
+    # kept unraised (C's zero floor for K too), the per-entry metric's rank cut absolute,
+    # a progress that is neither bool nor callable accepted, the report's metric from the
+    # solver asked for rather than the one used, the equation error of the start
+    ("identification/refinement",
+     'keep = d.min() >= (START_KEEP * np.abs(d).max() if name != "C" else 0.0)',
+     'keep = d.min() >= (START_KEEP * np.abs(d).max() if name == "M" else 0.0)'),
+    ("identification/refinement", "keep = lam > 1e-12 * max(lam.max(), 0.0)",
+     "keep = lam > 1e-12"),
+    ("identification/refinement",
+     "    if not (isinstance(progress, bool) or callable(progress)):\n", "    if False:\n"),
+    ("identification/refinement", '        if str(out.solver) == "matrix-free"\n',
+     '        if solver == "matrix-free"\n'),
+    ("identification/refinement", "residual_norm=residual_norm(M, C, K, data)",
+     "residual_norm=residual_norm(M1, C1, K1, data)"),
+    # … the order sweep: the residual-peak start's old response to the wrong coordinates'
+    # forces, the converged fit's modal start blind to the holes, the order limit without
+    # the latent gauge, the last observed order counted as a flat latent one, the
+    # log-magnitude reason's 95th percentile from the median, OrderSweep.fit answering
+    # an order not fitted with the next one
+    ("identification/order",
+     "X[:, : m - 1] = SecondOrderSystem(*model).response(omega, F[:, : m - 1])",
+     "X[:, : m - 1] = SecondOrderSystem(*model).response(omega, F[:, 1:])"),
+    ("identification/order", "rebuilt = modal_start(model, R, U_n, F_n, omega, measured)",
+     "rebuilt = modal_start(model, R, U_n, F_n, omega)"),
+    ("identification/order",
+     "while free_parameters(m + 1, min(m + 1, observed)) <= equations:",
+     "while free_parameters(m + 1, m + 1) <= equations:"),
+    ("identification/order", "flat = (flat + 1 if order > observed and",
+     "flat = (flat + 1 if order >= observed and"),
+    ("identification/order",
+     "f\"{best_db[1]:.2f} → {lref['db_after'][1]:.2f}) from the {kept_name}\"",
+     "f\"{best_db[0]:.2f} → {lref['db_after'][1]:.2f}) from the {kept_name}\""),
+    ("identification/order", "            if f.m == m:\n                return f\n",
+     "            if f.m >= m:\n                return f\n"),
+    # … latent coordinates: the gauge's l² as l, the added mode's stiffness ω μ
+    ("identification/latent", "return latent * k + latent * latent",
+     "return latent * k + latent"),
+    ("identification/latent", "wc**2 * mu), name)", "wc * mu), name)"),
+    # … the modal start: the alternating least squares' b from the previous a, the poles
+    # kept in the band taken in Hz
+    ("identification/modal_start", "b = (w * residue).T @ a_next /", "b = (w * residue).T @ a /"),
+    ("identification/modal_start", "wk, zk = _poles_in_band(model, w_lo, w_hi)",
+     "wk, zk = _poles_in_band(model, w_lo / (2 * np.pi), w_hi / (2 * np.pi))"),
 ]
 
 

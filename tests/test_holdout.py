@@ -583,6 +583,12 @@ def test_the_log_magnitude_pass_starts_from_the_better_of_the_two_fits(chain_frf
     assert kept["kept"] == "log-magnitude refit"
     assert kept["reason"].endswith("from the complex refit" if complex_kept
                                    else "from the held-out fit")
+    # the reason quotes the medians and the 95th percentiles, each of its own pass's
+    # errors: before, the kept fit's (the log pass's start), after, the log pass's
+    before, after = kept["passes"][1]["db_before"], kept["db_all_lines"]
+    assert f"{before[1]:.2f}" != f"{before[0]:.2f}"
+    assert (f"({before[0]:.2f} → {after[0]:.2f} dB; 95th percentile "
+            f"{before[1]:.2f} → {after[1]:.2f}) from the") in kept["reason"]
 
 
 def test_a_log_magnitude_probe_that_ties_the_median_ends_the_pass(chain_frf, monkeypatch):

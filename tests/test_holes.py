@@ -381,6 +381,43 @@ def test_with_fewer_sensors_than_modes_and_a_hole_the_sweep_finds_the_true_order
     assert np.median(db_errors(predicted[:, 1, 1], H[:, 1, 1])) < 1e-3  # the hole
 
 
+def test_the_converged_fits_modal_start_never_reads_a_hole(monkeypatch):
+    """The same chain and hole: the observed order (m = 3 < m_max) is run to
+    convergence from its modal start, which must leave the hole out as every other
+    step does. Each modal start the sweep builds is rebuilt here from the same call
+    with garbage in the hole (10³ × the FRF beside it, phase turned): the same start (1e-10:
+    the same arithmetic on the same measured entries) — read as a measurement, the
+    garbage moves the shapes' least squares by orders of magnitude."""
+    from podid_rs.identification import order as order_module
+
+    chain = pr.mass_spring_chain(5)
+    w = 2 * np.pi * np.linspace(5.0, 250.0, 200)
+    H = chain.frf(w)[:, [0, 2, 4]][:, :, [0, 4]]
+    mask = np.ones((3, 2), dtype=bool)
+    mask[1, 1] = False
+    data = from_frf(H, w, inputs=[0, 2], measured=mask)
+    real = order_module.modal_start
+    calls = []
+
+    def spy(model, R, U_n, F_n, omega, measured=None):
+        start = real(model, R, U_n, F_n, omega, measured)
+        garbage = U_n.copy()
+        garbage[:, 1, 1] = 1e3j * U_n[:, 1, 0]
+        again = real(model, R, garbage, F_n, omega, measured)
+        calls.append((start, again))
+        return start
+
+    monkeypatch.setattr(order_module, "modal_start", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        order_module.sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(),
+                                  m_max=4, measured=mask, threads=1)
+    assert calls and all(start is not None for start, _ in calls)
+    for start, again in calls:
+        for X, Y in zip(start, again, strict=True):
+            assert np.linalg.norm(Y - X) <= 1e-10 * np.linalg.norm(X)
+
+
 def test_the_starts_of_each_order_see_the_holes_filled_with_the_last_orders_prediction(
         monkeypatch):
     """The fits never see the holes; the starts of an observed order (continuation,

@@ -160,6 +160,9 @@ def test_sweep_table_and_plot(chain_frf, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(KeyError, match="not fitted"):
         sweep.fit(7)
+    # nor is an order below the first fitted one answered by the next (orders start at 1)
+    with pytest.raises(KeyError, match="order 0 was not fitted"):
+        sweep.fit(0)
     # the message lists every order that was fitted, the first one too
     with pytest.raises(KeyError, match=re.escape("order 4 was not fitted (orders [1, 2, 3])")):
         sweep.basis(4, P)
@@ -292,13 +295,11 @@ def test_the_sweep_stops_after_flat_latent_orders():
                                  "the training error by less than 1 % each")
 
 
-@pytest.mark.parametrize("ratio,stops", [(0.991, True), (0.989, False)])
-def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, ratio, stops):
-    """The stop rule alone, on scripted scores: a 6-DOF chain measured at 2 DOFs, so
-    every order past 2 has latent coordinates, each lowering the training error to
-    ``ratio`` of the order before and the held-out error not at all (fewer orders than
-    the patience). 0.9 % less is flat (below a third of the 3 % step): the sweep stops
-    after LATENT_FLAT such orders; 1.1 % less is progress: it runs on to m_max."""
+def _sweep_with_scripted_training_errors(monkeypatch, train_db):
+    """The sweep of a 6-DOF chain measured at 2 DOFs (every order past 2 latent) to
+    m_max = 2 + LATENT_FLAT + 1, its scores scripted: ``train_db(m)`` on the training
+    lines, and a held-out error that falls to m = 2 and not after (fewer orders than
+    the patience)."""
     from podid_rs.identification import order
 
     chain = pr.mass_spring_chain(6)
@@ -312,19 +313,45 @@ def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, 
         m = model.m
         calls[m] = calls.get(m, 0) + 1
         if calls[m] % 2:  # the training lines are scored first
-            return 8.0 / 2 ** min(m, 2) * ratio ** max(m - 2, 0)
+            return train_db(m)
         return 10.0 * 0.9 ** min(m, 2)
 
     monkeypatch.setattr(order, "_median_db", scripted)
+    return sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m_max=2 + order.LATENT_FLAT + 1,
+                        threads=1, max_iter=5)
+
+
+@pytest.mark.parametrize("ratio,stops", [(0.991, True), (0.989, False)])
+def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, ratio, stops):
+    """The stop rule alone, on scripted scores: a 6-DOF chain measured at 2 DOFs, so
+    every order past 2 has latent coordinates, each lowering the training error to
+    ``ratio`` of the order before and the held-out error not at all (fewer orders than
+    the patience). 0.9 % less is flat (below a third of the 3 % step): the sweep stops
+    after LATENT_FLAT such orders; 1.1 % less is progress: it runs on to m_max."""
+    from podid_rs.identification import order
+
+    sweep = _sweep_with_scripted_training_errors(
+        monkeypatch, lambda m: 8.0 / 2 ** min(m, 2) * ratio ** max(m - 2, 0))
     m_max = 2 + order.LATENT_FLAT + 1
-    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m_max=m_max, threads=1,
-                         max_iter=5)
     assert [f.latent for f in sweep.fits[:3]] == [0, 0, 1]
     assert [f.m for f in sweep.fits] == list(range(1, (m_max - 1 if stops else m_max) + 1))
     flat = f"stopped after {order.LATENT_FLAT} latent orders that lowered the training error"
     assert (flat in sweep.reason) == stops
     # the reason's range is the orders fitted (one short of m_max where the sweep stopped)
     assert f"over m = 1…{sweep.fits[-1].m}; one line in 4 held out" in sweep.reason
+
+
+def test_a_flat_observed_order_does_not_count_towards_the_flat_latent_orders(monkeypatch):
+    """The same scripted chain, now with the last observed order (m = 2) flat on its
+    training lines too (0.5 % below m = 1) and every latent order after it: only the
+    latent orders count, so the sweep stops after LATENT_FLAT of them (m = 2 +
+    LATENT_FLAT), not one order sooner."""
+    from podid_rs.identification import order
+
+    sweep = _sweep_with_scripted_training_errors(monkeypatch, lambda m: 4.0 * 0.995 ** (m - 1))
+    assert [f.latent for f in sweep.fits[:3]] == [0, 0, 1]
+    assert [f.m for f in sweep.fits] == list(range(1, 2 + order.LATENT_FLAT + 1))
+    assert f"stopped after {order.LATENT_FLAT} latent orders" in sweep.reason
 
 
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):

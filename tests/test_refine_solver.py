@@ -166,6 +166,18 @@ def test_the_default_metric_is_modal_where_the_step_is_matrix_free():
     assert dense["solver"] == "dense" and dense["metric"] == "dense"
 
 
+def test_auto_reports_the_matrix_free_step_it_takes_past_order_40():
+    """solver="auto" solves densely up to m = 40 and matrix-free above: the report names
+    the step the core took and its metric (the modal one by default), not the "auto"
+    that was asked for. Two steps of a 41-mass chain: what was solved, not how well."""
+    sys_, U, F, omega = chain_data(41, 30, 1, 0.0)
+    start = two_percent_off(sys_)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # max_iter = 2: not converged, nor meant to
+        rep = refine(start, U, F, omega, max_iter=2).info["refinement"]
+    assert rep["solver"] == "matrix-free" and rep["metric"] == "modal"
+
+
 def test_a_bad_metric_is_refused_by_name():
     sys_, U, F, omega = chain_data(3, 40, 1, 1e-3)
     start = (sys_.M, sys_.C, sys_.K)
