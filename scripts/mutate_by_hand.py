@@ -3086,6 +3086,61 @@ AUDIT = [
     ("identification/modal_start", "b = (w * residue).T @ a_next /", "b = (w * residue).T @ a /"),
     ("identification/modal_start", "wk, zk = _poles_in_band(model, w_lo, w_hi)",
      "wk, zk = _poles_in_band(model, w_lo / (2 * np.pi), w_hi / (2 * np.pi))"),
+    # second hardening pass, apps/identify and systems: written with their tests (a check,
+    # not a measurement) — options not passed on (--energy on the refined path and on the
+    # paper's, the noise model of the intervals, the ordinate of the chart), numbers whose
+    # test case made them trivial (the two residual ratios, a correction from a zero
+    # residual, the memory each request quotes), the overlays' band and title on the
+    # paper's estimator, the MAC's shapes unfiltered
+    ("apps/identify", "order = m if energy is None else pod.order_for_energy(energy)",
+     "order = m"),
+    ("apps/identify", "pod.order_for_energy(0.99 if energy is None else energy)",
+     "pod.order_for_energy(0.99)"),
+    ("apps/identify", "unc = fit_uncertainty(data, result, R, sweep, noise=NOISE_MODEL)",
+     "unc = fit_uncertainty(data, result, R, sweep)"),
+    ("apps/identify", "model {r.residual_norm / y:.3g}", "model {ls.residual_norm / y:.3g}"),
+    ("apps/identify", "paper's estimator {ls.residual_norm / y:.3g}; not defined",
+     "paper's estimator {r.residual_norm / y:.3g}; not defined"),
+    ("apps/identify",
+     'change = p["residual_after"] / p["residual_before"] - 1 if p["residual_before"] else 0.0',
+     'change = p["residual_after"] / p["residual_before"] - 1'),
+    ("apps/identify", "if r is run.result and run.uncertainty is not None:",
+     "if r is run.least_squares and run.uncertainty is not None:"),
+    ("apps/identify", 'm = {run.result.m}",', 'm = {run.least_squares.m}",'),
+    ("apps/identify",
+     "shapes = mode_shapes(result, basis, data.dofs).select(kinds == STRUCTURAL)",
+     "shapes = mode_shapes(result, basis, data.dofs)"),
+    ("apps/identify", ").in_band((lo, hi)).oscillatory()", ").oscillatory()"),
+    ("apps/identify", 'chart, out / "stabilisation.png", quantity=quantity,',
+     'chart, out / "stabilisation.png",'),
+    ("apps/identify", "self.uncertainty.summary(LEVEL, structural)",
+     "self.uncertainty.summary(LEVEL)"),
+    ("systems", "2 * COMPLEX_BYTES * w.size * self.n**2", "COMPLEX_BYTES * w.size * self.n**2"),
+    ("systems", "require_memory(3 * out_bytes, what, hint)",
+     "require_memory(out_bytes, what, hint)"),
+    ("systems", "2 * COMPLEX_BYTES * int(np.prod(shape))", "COMPLEX_BYTES * int(np.prod(shape))"),
+    ("systems", "3 * FLOAT_BYTES * self.n**2", "FLOAT_BYTES * self.n**2"),
+    ("systems", '_require_sparse_memory(n, 3, f"a chain of {n} masses")',
+     '_require_sparse_memory(n, 5, f"a chain of {n} masses")'),
+    # … the UFF writer's first batch empty for a model without a mode to write (the package
+    # fix of this pass, undone), the MAC looked for at order 0, the progress option not
+    # passed to the chart, the final fit or the sweep's bar, the bar quoting the training
+    # error
+    ("io/uff",
+     'writer.write_sets(sets or list(itertools.islice(frfs, WRITE_BATCH)), mode="add")',
+     'writer.write_sets(sets, mode="add")'),
+    ("apps/identify", "if other >= 1 and data.n >= 2:", "if other >= 0 and data.n >= 2:"),
+    ("apps/identify", "chosen_m=m, progress=progress,", "chosen_m=m,"),
+    ("apps/identify",
+     "result, R = final_fit(sweep, data.U, F_n, data.omega, pod, progress=progress,",
+     "result, R = final_fit(sweep, data.U, F_n, data.omega, pod,"),
+    ("apps/identify", "held-out {fit.test_db:.2f} dB", "held-out {fit.train_db:.2f} dB"),
+    ("apps/identify", "bar = _SweepBar(enabled=progress)", "bar = _SweepBar(enabled=True)"),
+    # … the summary's load cases counted as the driven DOFs, the overlays' labels judged by
+    # the paper's estimator's report
+    ("apps/identify", "{d.p} load case(s)", "{d.inputs.size} load case(s)"),
+    ("apps/identify", 'refined = "refinement" in run.result.info',
+     'refined = "refinement" in run.least_squares.info'),
 ]
 
 

@@ -224,6 +224,14 @@ def test_identify_writes_the_intervals_of_the_refined_model(uff_file, tmp_path, 
         if r["kind"] == "structural":  # exact data: intervals at round-off, but there
             assert 0 <= float(r["f_hz_pm95"]) < 1e-6 * float(r["f_hz"])
     assert "f_hz_pm95" in (out / "modes.md").read_text()
+    # the noise of measured FRFs (per channel over the neighbouring lines, as the FRF band
+    # takes it), and the typical interval over the structure's modes alone: here fewer
+    # than every mode of the table (the others are residual terms above the band)
+    assert "noise estimated from the residuals, per channel (DOF and load case), over the " \
+        "neighbouring lines" in stdout
+    structural = [r for r in rows if r["kind"] == "structural"]
+    assert 0 < len(structural) < len(rows)
+    assert f"median half-width over {len(structural)} mode(s)" in stdout
     plain = tmp_path / "plain"
     assert main(["identify", str(path), "--band-hz", "5", "200", "--m", "6",
                  "--paper-estimator", "--out", str(plain)]) == 0
@@ -325,6 +333,19 @@ def test_the_chart_shows_the_written_model_at_the_chosen_order(uff_file, tmp_pat
     (med_ls, p95_ls), (med, p95) = errors
     assert (f"paper's estimator {med_ls:.2f} / {p95_ls:.1f} dB" in run.summary()
             and f"refined model {med:.2f} / {p95:.1f} dB" in run.summary())
+    # ... and each model's own equation-error ratio ‖Z(ω) U_m − F_m‖ / ‖F_m‖ (computed
+    # here from its dynamic stiffness; the same products in another order, 1e-9), which
+    # differ at m = 4 (at full order both are round-off)
+    d = run.data
+    U_m, F_m = d.project(run.basis[:, :4])
+    ratios = []
+    for model in (run.least_squares, run.result):
+        Z = model.system().dynamic_stiffness(d.omega)
+        residual = np.linalg.norm(np.einsum("sij,sjp->sip", Z, U_m) - F_m)
+        assert model.residual_norm == pytest.approx(residual, rel=1e-9)
+        ratios.append(f"{model.residual_norm / np.linalg.norm(F_m):.3g}")
+    assert ratios[0] != ratios[1]
+    assert f"paper's estimator {ratios[0]}, refined model {ratios[1]}" in run.summary()
 
 
 def test_the_paper_estimator_keeps_99_percent_of_the_energy_by_default(uff_file, tmp_path):
@@ -367,6 +388,8 @@ def test_frf_errors_and_the_residual_ratio_of_forces_that_are_not_unit_loads(tmp
     assert p95 == pytest.approx(np.percentile(e, 95), rel=1e-9)
     y = np.linalg.norm(np.einsum("bm,sbp->smp", R[[1, 4]], d.F))
     assert f"({model.residual_norm / y:.3g} of ‖y‖)" in run.summary()
+    # three load cases of forces on two driven DOFs, counted apart
+    assert "6 measured DOFs, 3 load case(s), driven DOFs (node, dir) " in run.summary()
     # no measured FRF, and load cases that are not the driven DOFs: one overlay (the
     # model's response to the first driven DOF's unit force), not one per driven DOF
     assert [f.name for f in run.files if f.name.startswith("frf_input")] == ["frf_input1.png"]
@@ -403,3 +426,110 @@ def test_identify_with_holes_predicts_them_from_the_measured_entries(tmp_path):
     text = run.summary()
     assert f"(unstable) → refined model {med:.2f} / {p95:.1f} dB (stable)" in text
     assert "- stable: yes" in text
+
+
+def test_energy_sets_the_order_of_the_refined_model_and_of_the_paper_estimator(uff_file,
+                                                                               tmp_path):
+    """--energy reaches both paths: the sweep runs to the order that captures the energy
+    asked (below 6, which the held-out lines choose unbounded, see above), and the paper's
+    estimator is fitted at that order, not at its default 0.99's."""
+    from podid_rs.apps.identify import run_identify
+
+    _, path = uff_file
+    run = run_identify(path, tmp_path / "r", band_hz=(5.0, 200.0), energy=0.999,
+                       progress=False)
+    pod = run.data.pod()
+    k = pod.order_for_energy(0.999)
+    assert k < 6 and run.result.m == k and run.sweep.reason == f"m = {k} as asked"
+    paper = run_identify(path, tmp_path / "p", band_hz=(5.0, 200.0), energy=0.9,
+                         paper_estimator=True, progress=False)
+    assert pod.order_for_energy(0.9) < pod.order_for_energy(0.99)  # the energy shows
+    assert paper.result.m == pod.order_for_energy(0.9)
+
+
+def test_a_model_without_a_structural_mode_is_written_with_its_frfs(uff_file, tmp_path):
+    """m = 1 of the 6-DOF chain (refined, no geometry in the file): the one pole pair is
+    no mode of the structure, so model.uff holds no dataset 55, only the model's FRFs (one
+    per measured DOF and driven DOF: 12); the sweep's one order leaves no other for a MAC."""
+    pyuff = pytest.importorskip("pyuff")
+    _, path = uff_file
+    out = tmp_path / "out"
+    assert main(["identify", str(path), "--band-hz", "5", "200", "--m", "1", "--no-progress",
+                 "--out", str(out)]) == 0
+    assert not [r for r in read_rows(out / "modes.csv") if r["kind"] == "structural"]
+    sets = pyuff.UFF(str(out / "model.uff")).read_sets()
+    assert [d["type"] for d in sets] == [58] * 12
+    assert not (out / "mac.png").exists() and (out / "stabilisation.png").exists()
+
+
+def test_a_latent_model_is_titled_by_its_own_order_and_quotes_the_papers_residual(tmp_path,
+                                                                                monkeypatch):
+    """One sensor at the driving point (as above): the refined model has latent coordinates
+    (m > 1), the paper's estimator m = 1. The overlay's title gives the order of the model
+    written, its curves are named by what each model is, and the residual line quotes the
+    paper's estimator's ratio ‖Ax − y‖ / ‖y‖, here computed from its dynamic stiffness (the
+    refined model has none defined: its latent coordinates have no measured response).
+    Tolerance: the same products in another order, round-off apart (1e-9)."""
+    from podid_rs.apps import identify as identify_module
+
+    titles, labels = [], []
+
+    def fake_overlay(freq, curves, path, *, title, entries):
+        titles.append(title)
+        labels.append([curve.label for curve in curves])
+        return path
+
+    monkeypatch.setattr(identify_module, "plot_frf_comparison", fake_overlay)
+    chain = mass_spring_chain(4, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    freq = np.arange(1.0, 51.0, 0.05)
+    path = write_uff(tmp_path / "point.uff", freq, chain.frf(2 * np.pi * freq, rows=[0],
+                                                             cols=[0]), [(1, 1)], [(1, 1)])
+    run = identify_module.run_identify(path, tmp_path / "o", band_hz=(1.0, 50.0),
+                                       progress=False)
+    ls, d = run.least_squares, run.data
+    assert ls.m == 1 < run.result.m
+    assert titles and all(t.endswith(f", m = {run.result.m}") for t in titles)
+    # the curves are named by the model written (refined), beside the paper's estimator
+    assert labels == [["measured", "paper's estimator (eq. 49)", "refined (output error)"]]
+    U_m, F_m = d.project(run.basis[:, :1])
+    Z = ls.system().dynamic_stiffness(d.omega)
+    residual = np.linalg.norm(np.einsum("sij,sjp->sip", Z, U_m) - F_m)
+    assert ls.residual_norm == pytest.approx(residual, rel=1e-9)
+    assert (f"paper's estimator {ls.residual_norm / np.linalg.norm(F_m):.3g}; not defined "
+            "for the refined model") in run.summary()
+
+
+def test_progress_reaches_the_sweeps_bar_the_final_fit_and_the_chart(uff_file, tmp_path,
+                                                                    monkeypatch):
+    """progress=False and True each reach the sweep's bar, the final fit and the
+    stabilisation chart (the last two default to False and True: a call that left the
+    option out would show in one of the two runs)."""
+    import inspect
+
+    from podid_rs.apps import identify as identify_module
+
+    seen = []
+
+    def spy(name, real):
+        def call(*args, **kwargs):
+            bound = inspect.signature(real).bind(*args, **kwargs)
+            bound.apply_defaults()
+            seen.append((name, bound.arguments["progress"]))
+            return real(*args, **kwargs)
+        return call
+
+    class Bar(identify_module._SweepBar):
+        def __init__(self, enabled):
+            seen.append(("sweep", enabled))
+            super().__init__(enabled)
+
+    monkeypatch.setattr(identify_module, "_SweepBar", Bar)
+    for name in ("final_fit", "stabilisation_chart"):
+        monkeypatch.setattr(identify_module, name, spy(name, getattr(identify_module, name)))
+    _, path = uff_file
+    for progress in (False, True):  # off a terminal no bar is drawn either way
+        seen.clear()
+        identify_module.run_identify(path, tmp_path / f"o{progress}", band_hz=(5.0, 200.0),
+                                     m=2, progress=progress)
+        assert seen == [("sweep", progress), ("final_fit", progress),
+                        ("stabilisation_chart", progress)]

@@ -119,6 +119,18 @@ def test_no_progress_option():
     assert args.no_progress
 
 
+def test_the_sweeps_bar_quotes_the_order_and_its_held_out_error():
+    """The bar's postfix: the order fitted and its held-out error (not its training one)."""
+    from types import SimpleNamespace
+
+    from podid_rs.apps.identify import _SweepBar
+
+    bar = _SweepBar(enabled=False)
+    bar(3, SimpleNamespace(test_db=1.234, train_db=0.5))
+    assert bar.bar.postfix == "m = 3, held-out 1.23 dB"
+    bar.close()
+
+
 def test_dof_names_give_the_node_and_the_signed_axis():
     from podid_rs.apps.identify import _dof_name
 
@@ -204,16 +216,31 @@ def test_the_mac_compares_the_chosen_order_with_the_next(beam_like, tmp_path, ca
     seen = {}
 
     def fake_mac(a, b, path, *, names, title):
-        seen.update(names=names, title=title)
+        seen.update(names=names, title=title, a=a, b=b)
+        return path
+
+    def fake_chart(chart, path, *, quantity="displacement", title=None):
+        seen.update(quantity=quantity)
         return path
 
     monkeypatch.setattr(identify_module, "plot_mac", fake_mac)
+    monkeypatch.setattr(identify_module, "plot_stabilisation", fake_chart)
     chain, path = beam_like
     argv = ["identify", str(path), "--band-hz", "2", "160", "--m", "7", "--paper-estimator",
             "--no-progress", "--out", str(tmp_path / "out")]
     assert main(argv) == 0
     assert seen["names"] == ("m = 7", "m = 8")
     assert seen["title"] == "MAC of the identified mode shapes in 2–160 Hz, m = 7 vs m = 8"
+    # the chart's ordinate is the file's (accelerance), as model.uff's
+    assert seen["quantity"] == "acceleration"
+    # m = 7: the structure's modes alone (fewer than the table's rows: the others are
+    # residual terms above the band); m = 8, the chain itself: its modes in 2–160 Hz,
+    # three of its eight (43.9, 101.4 and 152.1 Hz)
+    rows = read_rows(tmp_path / "out" / "modes.csv")
+    structural = [r for r in rows if r["kind"] == "structural"]
+    assert 0 < len(structural) < len(rows) and seen["a"].n_modes == len(structural)
+    truth = modal_parameters(chain).frequencies_hz
+    assert seen["b"].n_modes == np.sum((truth >= 2) & (truth <= 160)) == 3
 
 
 def test_overlays_draw_four_driven_dofs_and_their_farthest_dof(tmp_path, capsys, monkeypatch):
@@ -399,3 +426,54 @@ def test_pole_kinds_judge_the_measured_entries_only():
     assert np.allclose(modal_parameters(chain).frequencies_hz[2], 22.5, rtol=1e-3)
     kinds = pole_kinds(chain, np.eye(5), data)  # the chain itself on the identity basis
     assert kinds.tolist() == ["structural", "structural", "weak", "structural", "structural"]
+
+
+def test_a_correction_of_a_zero_residual_is_quoted_as_no_change():
+    """Exact data can leave the paper's estimator a residual of exactly 0, which the
+    correction keeps: the summary quotes +0.00 %, not a division by zero (the report's
+    numbers stand in for such a correction, as in the test above)."""
+    import dataclasses
+    from pathlib import Path
+
+    from podid_rs.apps.identify import IdentifyRun
+    from podid_rs.measured import from_frf
+
+    chain = mass_spring_chain(3, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
+    w = 2 * np.pi * np.arange(1.0, 60.0, 0.5)
+    data = from_frf(chain.frf(w)[:, :, [0]], w, inputs=[0])
+    ls, R = data.identify(m=3, symmetric=True)
+    report = {"residual_before": 0.0, "residual_after": 0.0, "eigenvalues_raised": (0, 0, 0)}
+    written = dataclasses.replace(ls, info={**ls.info, "physical": report})
+    text = IdentifyRun(Path("chain.uff"), data, ls, written, R).summary()
+    assert "residual 0 → 0 (+0.00 %), eigenvalues raised in M, C, K: (0, 0, 0)" in text
+
+
+def test_the_confidence_band_is_drawn_on_the_written_model_alone(tmp_path, monkeypatch):
+    """Each overlay draws the paper's estimator and the model written, two objects in a run
+    (one in the layouts above); the band, from the written model's covariance, shades the
+    written model's curve and not the paper's estimator's."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from podid_rs.apps import identify as identify_module
+
+    drawn = []
+
+    def fake_overlay(freq, curves, path, *, title, entries):
+        drawn.append(curves)
+        return path
+
+    def frf(omega, *, rows, cols, level):
+        shape = (omega.size, len(rows), len(cols))
+        return SimpleNamespace(lower=np.zeros(shape), upper=np.ones(shape))
+
+    monkeypatch.setattr(identify_module, "plot_frf_comparison", fake_overlay)
+    run = holed_run(tmp_path)
+    paper = SimpleNamespace(**vars(run.result))  # the same chain, another model object
+    run = dataclasses.replace(run, least_squares=paper, uncertainty=SimpleNamespace(frf=frf))
+    identify_module._overlays(run, tmp_path)
+    assert len(drawn) == 2
+    for measured, paper_curve, written_curve in drawn:
+        assert measured.band is None and paper_curve.band is None
+        assert written_curve.band is not None and written_curve.band_label == (
+            "95 % confidence band")

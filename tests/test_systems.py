@@ -497,3 +497,35 @@ def test_an_frf_too_large_names_its_lines_rows_and_columns(sparse, monkeypatch):
     monkeypatch.setattr(memory, "available_memory_bytes", lambda: 100)
     with pytest.raises(MemoryError, match=r"^the FRF of 3 lines × 2 × 4 entries needs 3.84e-07 GB"):
         chain.frf([1.0, 2.0, 3.0], rows=[0, 1], cols=[0, 1, 2, 3])
+
+
+@pytest.mark.parametrize(
+    ("ask", "message"),
+    [
+        # twice the (s, n, n) complex array: 2 × 16 B × 3 lines × 5²
+        (lambda dense, sparse: dense.dynamic_stiffness([1.0, 2.0, 3.0]),
+         r"^the dense dynamic stiffness of 3 lines × 5 × 5 DOFs needs 2.4e-06 GB"),
+        # the full dense FRF, three times its 16 B × 3 × 5 × 5
+        (lambda dense, sparse: dense.frf([1.0, 2.0, 3.0]),
+         r"^the FRF of 3 lines × 5 × 5 entries needs 3.6e-06 GB"),
+        # twice the response's 16 B × 3 × 5 × 2
+        (lambda dense, sparse: dense.response([1.0, 2.0, 3.0], np.ones((3, 5, 2))),
+         r"^the response to forces of shape \(3, 5, 2\) needs 9.6e-07 GB"),
+        # the dense copy of the sparse chain: three matrices of 8 B × 5²
+        (lambda dense, sparse: sparse.todense(),
+         r"^a dense copy of a 5-DOF system needs 6e-07 GB"),
+        # a sparse chain: 3 × 3 × 12 B × 3 entries per row × 5 rows (the lattice has 5)
+        (lambda dense, sparse: mass_spring_chain(5, sparse=True),
+         r"^a chain of 5 masses needs 1.62e-06 GB"),
+    ],
+)
+def test_each_memory_refusal_quotes_the_bytes_its_request_needs(ask, message, monkeypatch):
+    """With 100 B available every request on a 5-DOF chain is refused, and its message
+    quotes the bytes it needs, by hand (a real machine grants them all, so no other test
+    sees a factor of an estimate)."""
+    import podid_rs._memory as memory
+
+    dense, sparse = mass_spring_chain(5, sparse=False), mass_spring_chain(5, sparse=True)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 100)
+    with pytest.raises(MemoryError, match=message):
+        ask(dense, sparse)

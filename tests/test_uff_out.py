@@ -371,6 +371,19 @@ def test_a_selected_mode_keeps_its_number_in_the_modal_table(written, tmp_path):
     assert read_uff_modes(path).mode_numbers.tolist() == wanted
 
 
+
+def test_a_model_without_a_mode_to_write_and_without_geometry_holds_its_frfs(written,
+                                                                              tmp_path):
+    """No mode selected and no geometry (an order whose poles are all residual terms,
+    from a file without one): no dataset 15 or 55 comes first, the twelve FRFs are
+    written all the same; with no lines either there is nothing to write."""
+    _, data, result, R, _, _ = written
+    none = np.zeros(pr.mode_shapes(result, R).n_modes, dtype=bool)
+    path = write_uff(tmp_path / "frfs.uff", result, R, data, modes=none)
+    assert [d["type"] for d in pyuff.UFF(str(path)).read_sets()] == [58] * 12
+    with pytest.raises(ValueError, match="pyuff could not write the file: Nothing to write"):
+        write_uff(tmp_path / "nothing.uff", result, R, dofs=data.dofs, modes=none)
+
 def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(written, tmp_path):
     _, data, result, R, _, _ = written
     out = tmp_path / "x.uff"

@@ -1026,7 +1026,9 @@ def write_uff(
         # pyuff re-reads the whole file after every set it writes: O(sets²), minutes
         # for a 4000-point scan; nothing here reads the file back, so no index is kept
         writer.refresh = lambda: None
-        writer.write_sets(sets, mode="add")
+        # pyuff refuses an empty list: without geometry and modes (a model whose poles
+        # are all residual terms) the first sets written are FRFs
+        writer.write_sets(sets or list(itertools.islice(frfs, WRITE_BATCH)), mode="add")
         while batch := list(itertools.islice(frfs, WRITE_BATCH)):
             writer.write_sets(batch, mode="add")
     except OSError:
