@@ -516,3 +516,23 @@ def test_residues_at_the_poles_are_exact_and_a_line_without_response_weighs_noth
     got = _residues(U, omega, wk, zk, None)
     assert got.shape == (2, 1, 1) and np.all(np.isfinite(got))
     assert np.max(np.abs(got[:, 0, 0] - r)) < 1e-10 * np.max(np.abs(r))
+
+
+def test_completing_modes_are_seen_at_the_observed_coordinates_in_turn(omega_all):
+    """A driving point with two measured DOFs on an order-8 model: four in-band modes and
+    the two residual poles leave two completing modes (at FILL_FACTOR · ω_hi times 1 and
+    2), which no measured DOF would see; the first is seen at the first observed
+    coordinate only, the second at the second — not both at the first."""
+    U, F = frf_data(omega_all, [0, 1], [0])
+    R = observation_matrix(np.eye(2), 8)
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), R, U, F, omega_all)
+    assert_physical(start)
+    M, _, K = start
+    # C = A⁻ᵀ diag(2ζω) A⁻¹ with M, K alike: the modes are A's columns, x = A e_k
+    lam, V = scipy.linalg.eigh(K, M)
+    w = np.sqrt(lam)
+    for k, dof in ((1, 0), (2, 1)):
+        i = int(np.argmin(np.abs(w - k * FILL_FACTOR * omega_all[-1])))
+        assert w[i] == pytest.approx(k * FILL_FACTOR * omega_all[-1], rel=1e-9)
+        at_sensors = np.abs(R @ V[:, i])
+        assert at_sensors[dof] > 0 and at_sensors[1 - dof] < 1e-9 * at_sensors[dof]
