@@ -3124,6 +3124,39 @@ AUDIT = [
     ("identification/modal_start",
      "w = np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 0)",
      "w = np.divide(1.0, norm**2, out=np.zeros_like(norm), where=norm > 0)"),
+    # … refinement, second look: reduced data of the start's full order taken as latent,
+    # a basis with more observed columns than the start's order, the modal metric only
+    # when asked for by name, per-entry (s, n) weights not repeated over the load cases,
+    # holes kept in per-entry weights, the start's cost without the constant, an all-zero
+    # line's zeros kept in the log-magnitude objective, a zero column's relative weight
+    # 1/0, a zero M or K let through, the holes' values kept in the responses
+    ("identification/refinement", "np.shape(U)[1] < m_model:", "np.shape(U)[1] <= m_model:"),
+    ("identification/refinement", "R = observation_matrix(R, max(m_model, observed_count(R)))",
+     "R = observation_matrix(R, m_model)"),
+    ("identification/refinement", 'modal_metric=metric != "diagonal",',
+     'modal_metric=metric == "modal",'),
+    ("identification/refinement", "Wa = np.repeat(Wa[:, :, None], p, axis=2)",
+     "Wa = Wa[:, :, None]"),
+    ("identification/refinement",
+     "                Wa = Wa * mask  # an entry that was not measured weighs nothing\n",
+     "                pass\n"),
+    ("identification/refinement", '"cost_start": float(out.cost_start) + const,',
+     '"cost_start": float(out.cost_start),'),
+    ("identification/refinement", "W = np.where(A > LOG_DYNAMIC_RANGE * A.max(",
+     "W = np.where(A >= LOG_DYNAMIC_RANGE * A.max("),
+    ("identification/refinement", "            nz = norms > 0\n", "            nz = norms >= 0\n"),
+    ("identification/refinement", 'if name != "C" and not np.any(d > 0):',
+     'if name != "C" and not np.any(d >= 0):'),
+    ("identification/refinement", "U3 = np.where(mask, U3, 0.0)  # what the holes hold",
+     "U3 = U3 + 0.0  # what the holes hold"),
+    # … latent: the excess relative to the data instead of the model's response
+    ("identification/latent", "np.sum(np.abs(X) ** 2, axis=(1, 2)), np.finfo(float).tiny",
+     "np.sum(np.abs(U_n) ** 2, axis=(1, 2)), np.finfo(float).tiny"),
+    # … modal start: the residual pole above kept where the order leaves room for one,
+    # heavily damped poles kept
+    ("identification/modal_start", "wk = np.concatenate([wk, residual[:room]])",
+     "wk = np.concatenate([wk, residual[::-1][:room]])"),
+    ("identification/modal_start", " & (zeta < ZETA_MAX) & (zeta >= 0)", " & (zeta >= 0)"),
 ]
 
 
