@@ -3157,6 +3157,18 @@ AUDIT = [
     ("identification/modal_start", "wk = np.concatenate([wk, residual[:room]])",
      "wk = np.concatenate([wk, residual[::-1][:room]])"),
     ("identification/modal_start", " & (zeta < ZETA_MAX) & (zeta >= 0)", " & (zeta >= 0)"),
+    # … a third look: the latent coordinates' matrix weights squared, C's floor at rtol
+    # (a zero eigenvalue beside a negative one counted as raised), the latent starts'
+    # weights unsquared and the worst damping/offset kept, the modal start's unseen modes
+    # by an absolute threshold (the shapes' units)
+    ("identification/refinement", "T[:, idx, idx] = w[:, None]",
+     "T[:, idx, idx] = w[:, None] ** 2"),
+    ("identification/refinement", '(C, "C", 0.0), (K, "K", rtol)',
+     '(C, "C", rtol), (K, "K", rtol)'),
+    ("identification/latent", "    w2 = weights**2\n", "    w2 = weights\n"),
+    ("identification/latent", "if best is None or cost < best[0]:",
+     "if best is None or cost > best[0]:"),
+    ("identification/modal_start", "axis=0) < 1e-3 * scale)", "axis=0) < 1e-3)"),
 ]
 
 
