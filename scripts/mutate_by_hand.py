@@ -3169,6 +3169,16 @@ AUDIT = [
     ("identification/latent", "if best is None or cost < best[0]:",
      "if best is None or cost > best[0]:"),
     ("identification/modal_start", "axis=0) < 1e-3 * scale)", "axis=0) < 1e-3)"),
+    # … a last look: the log-magnitude objective blind to the holes, the completion's
+    # scale from the largest singular value, the latent mode added with T⁻¹ Y T⁻ᵀ, the
+    # residues' holes of the first load case used for every load case
+    ("identification/refinement", "W = W * measured  # an entry", "W = W  # an entry"),
+    ("identification/modal_start", "scale = float(np.median(sv[:rank])) if rank else 1.0",
+     "scale = float(sv[0]) if rank else 1.0"),
+    ("identification/latent", "Z = Ti.T @ Y @ Ti", "Z = Ti @ Y @ Ti.T"),
+    ("identification/modal_start",
+     "rows = np.ones(n, dtype=bool) if measured is None else measured[:, j]",
+     "rows = np.ones(n, dtype=bool) if measured is None else measured[:, 0]"),
 ]
 
 
