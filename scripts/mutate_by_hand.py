@@ -3179,6 +3179,14 @@ AUDIT = [
     ("identification/modal_start",
      "rows = np.ones(n, dtype=bool) if measured is None else measured[:, j]",
      "rows = np.ones(n, dtype=bool) if measured is None else measured[:, 0]"),
+    # … the returned result's documented constants (λ = ∞, symmetric) and per-column
+    # log-magnitude weights with p ≠ n: the first load case's weights for every one
+    ("identification/refinement", "lam=(math.inf, math.inf, math.inf),",
+     "lam=(0.0, 0.0, 0.0),"),
+    ("identification/refinement", "        symmetric=True,\n        # the equation error",
+     "        symmetric=False,\n        # the equation error"),
+    ("identification/refinement", "W = np.broadcast_to(W[:, None, :], (s, n, p))",
+     "W = np.broadcast_to(W[:, None, :1], (s, n, p))"),
 ]
 
 
