@@ -1240,3 +1240,35 @@ def test_a_zero_mass_or_stiffness_matrix_is_refused_as_having_no_positive_part()
     with pytest.raises(ValueError, match=r"^the start model's K has no positive eigenvalue "
                                          r"\(largest 0\)"):
         refine((chain.M, chain.C, zero), U, F, w)
+
+
+def test_per_column_log_magnitude_weights_weigh_each_load_case_by_its_own():
+    """Log-magnitude weights (s, p) with p = 2 load cases on n = 3 coordinates (so not
+    taken as per entry (s, n)): load case j's weight applies to its three entries, so
+    the start's reported cost is Σ_iaj W_ij² (ln|x_iaj| − ln|u_iaj|)², by hand (load
+    case 2 weighed 0.1, load case 1 weighed 1: the first's weights for both would give
+    another sum). 1e-9: the same sums in another order."""
+    chain, U, F, w = chain_data(n=3, p=2, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    W = np.ones((w.size, 2))
+    W[:, 1] = 0.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
+                       threads=1)
+    X = pr.SecondOrderSystem(*start).response(w, F)
+    want = float(np.sum(W[:, None, :] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
+    assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
+
+
+def test_a_refined_model_is_marked_as_the_symmetric_infinite_lambda_solution():
+    """IdentificationResult documents λ = ∞ for a refined model and symmetric=True for
+    the λ → ∞ solution: a refined model is exactly symmetric, with no penalty."""
+    chain, U, F, w = chain_data(n=4, snr=20)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine((chain.M, chain.C, 1.05 * chain.K), U, F, w, max_iter=3)
+    assert model.method == "output-error"
+    assert model.symmetric is True
+    assert model.lam == (np.inf, np.inf, np.inf)
+    assert model.penalty_norms == (0.0, 0.0, 0.0)
