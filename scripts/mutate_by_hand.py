@@ -3187,6 +3187,10 @@ AUDIT = [
      "        symmetric=False,\n        # the equation error"),
     ("identification/refinement", "W = np.broadcast_to(W[:, None, :], (s, n, p))",
      "W = np.broadcast_to(W[:, None, :1], (s, n, p))"),
+    # … a refinement stopped by max_iter reported as converged; the pivot ratio, NaN for
+    # an output-error fit (documented), given as 0
+    ("identification/refinement", '"converged": bool(out.converged),', '"converged": True,'),
+    ("identification/refinement", "min_pivot_ratio=math.nan,", "min_pivot_ratio=0.0,"),
 ]
 
 
