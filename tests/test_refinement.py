@@ -1263,7 +1263,8 @@ def test_per_column_log_magnitude_weights_weigh_each_load_case_by_its_own():
 
 def test_a_refined_model_is_marked_as_the_symmetric_infinite_lambda_solution():
     """IdentificationResult documents λ = ∞ for a refined model and symmetric=True for
-    the λ → ∞ solution: a refined model is exactly symmetric, with no penalty."""
+    the λ → ∞ solution: a refined model is exactly symmetric, with no penalty; and a
+    pivot ratio of NaN (no matrix of the paper's estimator was factorised)."""
     chain, U, F, w = chain_data(n=4, snr=20)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
@@ -1272,3 +1273,4 @@ def test_a_refined_model_is_marked_as_the_symmetric_infinite_lambda_solution():
     assert model.symmetric is True
     assert model.lam == (np.inf, np.inf, np.inf)
     assert model.penalty_norms == (0.0, 0.0, 0.0)
+    assert np.isnan(model.min_pivot_ratio)
