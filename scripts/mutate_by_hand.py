@@ -3191,6 +3191,12 @@ AUDIT = [
     # an output-error fit (documented), given as 0
     ("identification/refinement", '"converged": bool(out.converged),', '"converged": True,'),
     ("identification/refinement", "min_pivot_ratio=math.nan,", "min_pivot_ratio=0.0,"),
+    # … the modal start's completion and its slight sighting without the shapes' scale
+    # (units), the added latent mode's shape with the wrong sign
+    ("identification/modal_start", "A = A + scale * u[:, rank:] @ vt[rank:]",
+     "A = A + u[:, rank:] @ vt[rank:]"),
+    ("identification/modal_start", "unseen] += FILL_SEEN * scale", "unseen] += FILL_SEEN"),
+    ("identification/latent", "T[: shape.size, m] = shape", "T[: shape.size, m] = -shape"),
 ]
 
 
