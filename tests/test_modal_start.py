@@ -578,3 +578,20 @@ def test_a_pole_damped_beyond_zeta_max_is_not_kept(omega_all):
         assert np.min(np.abs(w_start / w[k] - 1)) < 1e-12
     broad = (np.abs(w_start / w[2] - 1) < 1e-6) & (np.abs(z_start - 0.3) < 1e-6)
     assert not np.any(broad)
+
+
+def test_the_start_on_data_in_other_units_is_the_same_model_in_those_units(omega_all):
+    """FRFs times c (another unit of displacement per force) are the same structure with
+    M, C, K divided by c: residues scale by c, shapes by √c, and the coordinates'
+    completion and the slight sighting of the completing modes must scale with the
+    shapes. A driving point on two measured DOFs with an order-8 model (two completing
+    modes, four latent coordinates to complete). c = 2⁻²⁰, a power of two, so every
+    product scales exactly and the two starts agree to round-off (1e-12)."""
+    U, F = frf_data(omega_all, [0, 1], [0])
+    R = observation_matrix(np.eye(2), 8)
+    system = pr.SecondOrderSystem(M4, C4, K4)
+    c = 2.0**-20
+    base = modal_start(system, R, U, F, omega_all)
+    scaled = modal_start(system, R, c * U, F, omega_all)
+    for X, Y in zip(base, scaled, strict=True):
+        np.testing.assert_allclose(c * Y, X, rtol=1e-12, atol=1e-12 * np.abs(X).max())
