@@ -516,3 +516,82 @@ def test_residues_at_the_poles_are_exact_and_a_line_without_response_weighs_noth
     got = _residues(U, omega, wk, zk, None)
     assert got.shape == (2, 1, 1) and np.all(np.isfinite(got))
     assert np.max(np.abs(got[:, 0, 0] - r)) < 1e-10 * np.max(np.abs(r))
+
+
+def test_completing_modes_are_seen_at_the_observed_coordinates_in_turn(omega_all):
+    """A driving point with two measured DOFs on an order-8 model: four in-band modes and
+    the two residual poles leave two completing modes (at FILL_FACTOR · ω_hi times 1 and
+    2), which no measured DOF would see; the first is seen at the first observed
+    coordinate only, the second at the second — not both at the first."""
+    U, F = frf_data(omega_all, [0, 1], [0])
+    R = observation_matrix(np.eye(2), 8)
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), R, U, F, omega_all)
+    assert_physical(start)
+    M, _, K = start
+    # C = A⁻ᵀ diag(2ζω) A⁻¹ with M, K alike: the modes are A's columns, x = A e_k
+    lam, V = scipy.linalg.eigh(K, M)
+    w = np.sqrt(lam)
+    for k, dof in ((1, 0), (2, 1)):
+        i = int(np.argmin(np.abs(w - k * FILL_FACTOR * omega_all[-1])))
+        assert w[i] == pytest.approx(k * FILL_FACTOR * omega_all[-1], rel=1e-9)
+        at_sensors = np.abs(R @ V[:, i])
+        assert at_sensors[dof] > 0 and at_sensors[1 - dof] < 1e-9 * at_sensors[dof]
+
+
+def test_room_for_one_residual_pole_keeps_the_one_below_the_band():
+    """A band over modes 2–4 of the 4-DOF system (mode 1 below it): three in-band
+    poles leave room for one residual pole in an order-4 start, and it is the one
+    below the band, at ω_lo / RESIDUAL_FACTOR, standing in for mode 1 — not the one
+    above, where nothing is left out. The kept poles exactly (round-off through A)."""
+    from podid_rs.identification.modal_start import RESIDUAL_FACTOR
+
+    wn, zeta = natural(M4, C4, K4)
+    omega = np.linspace(0.5 * (wn[0] + wn[1]), 1.3 * wn[3], 400)
+    U, F = frf_data(omega, [0, 1, 2, 3], [0])
+    start = modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega)
+    assert_physical(start)
+    w_start, _ = natural(*start)
+    assert w_start[0] == pytest.approx(omega[0] / RESIDUAL_FACTOR, rel=1e-9)
+    np.testing.assert_allclose(w_start[1:], wn[1:], rtol=1e-12)
+
+
+def test_a_pole_damped_beyond_zeta_max_is_not_kept(omega_all):
+    """The 4-DOF system with its third mode's damping ratio raised to 0.3 (above
+    ZETA_MAX = 0.2: a pole too broad for its frequency to be read off a band): the
+    start keeps the other three in-band poles exactly and none at the third mode's
+    (ω₃, 0.3) — kept, it would be rebuilt exactly, to round-off."""
+    from podid_rs.identification.modal_start import ZETA_MAX
+
+    lam, phi = scipy.linalg.eigh(K4, M4)  # mass-normalised modes, φᵀ C4 φ diagonal
+    w = np.sqrt(lam)
+    zeta = np.diag(phi.T @ C4 @ phi) / (2 * w)
+    zeta[2] = 0.3
+    assert zeta[2] > ZETA_MAX and omega_all[0] < w[2] < omega_all[-1]
+    C_broad = M4 @ phi @ np.diag(2 * zeta * w) @ phi.T @ M4  # Φᵀ C Φ = diag(2ζω)
+    U = pr.SecondOrderSystem(M4, C_broad, K4).frf(omega_all)[:, :, [0, 2]]
+    F = np.zeros_like(U)
+    F[:, 0, 0] = F[:, 2, 1] = 1.0
+    start = modal_start(pr.SecondOrderSystem(M4, C_broad, K4), np.eye(4), U, F, omega_all)
+    assert_physical(start)
+    w_start, z_start = natural(*start)
+    for k in (0, 1, 3):
+        assert np.min(np.abs(w_start / w[k] - 1)) < 1e-12
+    broad = (np.abs(w_start / w[2] - 1) < 1e-6) & (np.abs(z_start - 0.3) < 1e-6)
+    assert not np.any(broad)
+
+
+def test_the_start_on_data_in_other_units_is_the_same_model_in_those_units(omega_all):
+    """FRFs times c (another unit of displacement per force) are the same structure with
+    M, C, K divided by c: residues scale by c, shapes by √c, and the coordinates'
+    completion and the slight sighting of the completing modes must scale with the
+    shapes. A driving point on two measured DOFs with an order-8 model (two completing
+    modes, four latent coordinates to complete). c = 2⁻²⁰, a power of two, so every
+    product scales exactly and the two starts agree to round-off (1e-12)."""
+    U, F = frf_data(omega_all, [0, 1], [0])
+    R = observation_matrix(np.eye(2), 8)
+    system = pr.SecondOrderSystem(M4, C4, K4)
+    c = 2.0**-20
+    base = modal_start(system, R, U, F, omega_all)
+    scaled = modal_start(system, R, c * U, F, omega_all)
+    for X, Y in zip(base, scaled, strict=True):
+        np.testing.assert_allclose(c * Y, X, rtol=1e-12, atol=1e-12 * np.abs(X).max())

@@ -1167,3 +1167,110 @@ def test_a_start_with_no_weighted_error_has_a_relative_residual_of_zero():
     ref = model.info["refinement"]
     assert ref["cost_start"] == ref["cost"] == 0.0
     assert model.relative_residual == 0.0
+
+
+def test_a_start_below_the_basis_order_is_refused_as_a_start_of_the_wrong_order():
+    """Data on 4 measured DOFs through a basis of 3 POD columns, a start of order 2:
+    the data's order is the basis's 3 observed coordinates, so the start is refused for
+    its shape against that order — as with reduced data — not as an order below the
+    basis's columns (latent coordinates only add to a basis, they never cut it)."""
+    chain, U, F, w = chain_data(n=4, p=1)
+    R = np.eye(4)[:, :3]
+    with pytest.raises(ValueError, match=r"^the start model's M is \(2, 2\), the data have "
+                                         r"order m = 3$"):
+        refine((np.eye(2), np.eye(2), np.eye(2)), U, F, w, basis=R)
+
+
+def test_per_entry_weights_per_line_and_dof_weigh_every_load_case_alike():
+    """Weights (s, n) with two load cases (the chain driven at DOF 2, then at DOF 5):
+    entry (i, k)'s weight applies to both load cases, so the reported start cost is
+    Σ_ijk W_ik² |(R x)_ijk − u_ijk|², by hand; the weights span two orders of magnitude,
+    so a weight dropped or moved moves the sum far beyond round-off. 1e-7 as for the
+    other per-entry costs: the reduced metric's constant is a difference of sums."""
+    chain = pr.mass_spring_chain(8)
+    w = 2 * np.pi * np.linspace(5.0, 120.0, 150)
+    F_n = np.zeros((w.size, 8, 2), dtype=complex)
+    F_n[:, 2, 0] = F_n[:, 5, 1] = 1.0
+    U_n = chain.response(w, F_n)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    start = (R.T @ chain.M @ R, R.T @ chain.C @ R, 1.05 * R.T @ chain.K @ R)  # physical
+    W = 10.0 ** np.random.default_rng(4).uniform(-1, 1, (w.size, 8))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        res = refine(start, U_n, F_n, w, basis=R, weights=W, max_iter=1)
+    assert res.info["refinement"]["weights"] == "user, per entry"
+    X = np.einsum("nm,smp->snp", R, pr.SecondOrderSystem(*start).response(
+        w, np.einsum("nm,snp->smp", R, F_n)))
+    want = float(np.sum(W[:, :, None] ** 2 * np.abs(X - U_n) ** 2))
+    assert res.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-7)
+
+
+def test_a_line_with_no_response_at_all_is_left_out_of_the_log_magnitude_objective():
+    """A line whose every measured response is exactly zero (a dropout): its largest
+    entry is 0, so none of its entries is above LOG_DYNAMIC_RANGE of it and none enters
+    ln|u| — the refinement is the one on the data without that line (the same sums less
+    terms of weight 0; 1e-9 for their order), not a cost of ln 0."""
+    chain, U_n, F_n, w = _entry_data(noise=0.05)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    start = (R.T @ chain.M @ R, R.T @ chain.C @ R, 1.05 * R.T @ chain.K @ R)  # physical
+    U_n[40] = 0.0
+    keep = np.arange(w.size) != 40
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        gap = refine(start, U_n, F_n, w, basis=R, objective="log-magnitude", max_iter=5,
+                     threads=1)
+        cut = refine(start, U_n[keep], F_n[keep], w[keep], basis=R,
+                     objective="log-magnitude", max_iter=5, threads=1)
+    assert np.isfinite(gap.info["refinement"]["cost"])
+    assert gap.info["refinement"]["cost"] == pytest.approx(cut.info["refinement"]["cost"],
+                                                           rel=1e-9)
+    for k in "MCK":
+        assert rel(getattr(gap, k), getattr(cut, k)) < 1e-9
+
+
+def test_a_zero_mass_or_stiffness_matrix_is_refused_as_having_no_positive_part():
+    """M = 0 or K = 0 (every eigenvalue exactly 0, on the boundary of "no positive
+    eigenvalue"): nothing positive to keep, so refused by name with its largest
+    eigenvalue, 0 — not passed on as a matrix raised to a floor of 0."""
+    chain, U, F, w = chain_data(n=4, p=1)
+    zero = np.zeros((4, 4))
+    with pytest.raises(ValueError, match=r"^the start model's M has no positive eigenvalue "
+                                         r"\(largest 0\)"):
+        refine((zero, chain.C, chain.K), U, F, w)
+    with pytest.raises(ValueError, match=r"^the start model's K has no positive eigenvalue "
+                                         r"\(largest 0\)"):
+        refine((chain.M, chain.C, zero), U, F, w)
+
+
+def test_per_column_log_magnitude_weights_weigh_each_load_case_by_its_own():
+    """Log-magnitude weights (s, p) with p = 2 load cases on n = 3 coordinates (so not
+    taken as per entry (s, n)): load case j's weight applies to its three entries, so
+    the start's reported cost is Σ_iaj W_ij² (ln|x_iaj| − ln|u_iaj|)², by hand (load
+    case 2 weighed 0.1, load case 1 weighed 1: the first's weights for both would give
+    another sum). 1e-9: the same sums in another order."""
+    chain, U, F, w = chain_data(n=3, p=2, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    W = np.ones((w.size, 2))
+    W[:, 1] = 0.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
+                       threads=1)
+    X = pr.SecondOrderSystem(*start).response(w, F)
+    want = float(np.sum(W[:, None, :] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
+    assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
+
+
+def test_a_refined_model_is_marked_as_the_symmetric_infinite_lambda_solution():
+    """IdentificationResult documents λ = ∞ for a refined model and symmetric=True for
+    the λ → ∞ solution: a refined model is exactly symmetric, with no penalty; and a
+    pivot ratio of NaN (no matrix of the paper's estimator was factorised)."""
+    chain, U, F, w = chain_data(n=4, snr=20)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine((chain.M, chain.C, 1.05 * chain.K), U, F, w, max_iter=3)
+    assert model.method == "output-error"
+    assert model.symmetric is True
+    assert model.lam == (np.inf, np.inf, np.inf)
+    assert model.penalty_norms == (0.0, 0.0, 0.0)
+    assert np.isnan(model.min_pivot_ratio)
