@@ -546,6 +546,100 @@ def test_a_step_budget_of_the_trial_steps_alone_is_the_trials():
     assert all(f.model.iterations <= TRIAL_ITER for f in sweep.fits)
 
 
+def test_the_steps_after_the_trials_are_the_rest_of_the_budget(monkeypatch):
+    """max_iter = TRIAL_ITER + 3: every start's trial gets TRIAL_ITER steps, and the best
+    of them, where not converged, the 3 left — the order's budget, not another max_iter.
+    Seen on the steps each refinement of the sweep is given (order 2 of the 4-mass chain
+    seen at three masses: no latent order, no run to convergence)."""
+    from podid_rs.identification import order
+    from podid_rs.identification.order import TRIAL_ITER
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(3, 4, np.linspace(5.0, 250.0, 60))
+    budgets = []
+    refine_quietly = order._refine_quietly
+
+    def spy(start, U, F, omega, R, max_iter, *args, **kwargs):
+        budgets.append(max_iter)
+        return refine_quietly(start, U, F, omega, R, max_iter, *args, **kwargs)
+
+    monkeypatch.setattr(order, "_refine_quietly", spy)
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m=2,
+                         max_iter=TRIAL_ITER + 3, threads=1)
+    assert [f.m for f in sweep.fits] == [1, 2]
+    assert set(budgets) == {TRIAL_ITER, 3}
+
+
+def test_an_orders_stable_flag_is_its_models(monkeypatch):
+    """An order whose fit has a pole with Re λ > 0 says so: order 2's fit is handed back
+    with its damping negated (C → −C: every pole mirrored to Re λ = +ζω > 0), order 1's
+    as fitted. Checked against the poles computed here from the first-order pencil."""
+    from dataclasses import replace
+
+    from podid_rs.identification import order
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(3, 4, np.linspace(5.0, 250.0, 60))
+    refine_quietly = order._refine_quietly
+
+    def negated_damping_at_two(start, *args, **kwargs):
+        fit = refine_quietly(start, *args, **kwargs)
+        return replace(fit, C=-fit.C) if fit.m == 2 else fit
+
+    monkeypatch.setattr(order, "_refine_quietly", negated_damping_at_two)
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m=2, max_iter=5, threads=1)
+    for f in sweep.fits:
+        M, C, K = f.model.M, f.model.C, f.model.K
+        m = M.shape[0]
+        A = np.block([[np.zeros((m, m)), np.eye(m)],
+                      [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+        assert f.stable == bool(np.linalg.eigvals(A).real.max() < 0)
+    assert [f.stable for f in sweep.fits] == [True, False]
+
+
+def _sweep_with_scripted_held_out_errors(monkeypatch, test_db, **kwargs):
+    """The sweep of the 10-mass chain seen at its first 8 (eight observed coordinates),
+    its held-out errors scripted: ``test_db(m)``, the training errors falling 10 % per
+    order; the stop on flat latent orders and the run to convergence kept out of the way
+    (LATENT_FLAT 100, CONVERGE_MAX_ITER 5)."""
+    from podid_rs.identification import order
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(8, 10, np.linspace(5.0, 250.0, 80))
+    calls: dict[int, int] = {}
+
+    def scripted(model, *args, **kw):
+        m = model.m
+        calls[m] = calls.get(m, 0) + 1
+        return 10.0 * 0.9**m if calls[m] % 2 else test_db(m)  # training lines first
+
+    monkeypatch.setattr(order, "_median_db", scripted)
+    monkeypatch.setattr(order, "LATENT_FLAT", 100)
+    monkeypatch.setattr(order, "CONVERGE_MAX_ITER", 5)
+    return sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), threads=1, max_iter=5, **kwargs)
+
+
+def test_the_patience_counts_from_the_lowest_held_out_error_not_the_last_gain(monkeypatch):
+    """Held-out errors 1.0, 0.98, 0.96, then flat: neither 0.98 nor 0.96 is a 3 % gain on
+    the lowest error before it (0.96 > 0.97 × 0.98), though 0.96 is on the last 3 % gain
+    (1.0): with patience 2 the sweep stops at order 3."""
+    errors = {1: 1.0, 2: 0.98, 3: 0.96}
+    sweep = _sweep_with_scripted_held_out_errors(
+        monkeypatch, lambda m: errors.get(m, 0.96), m_max=6, patience=2)
+    assert [f.m for f in sweep.fits] == [1, 2, 3]
+    assert sweep.reason.endswith("stopped after 2 orders without a 3 % gain")
+
+
+def test_the_last_observed_order_keeps_the_full_patience(monkeypatch):
+    """Patience 8, above LATENT_PATIENCE (6); held-out errors flat after order 1. The
+    last observed order (m = 8, seven orders without progress) is observed: the full
+    patience holds there and the sweep goes on; the latent order 9 (eight) stops it."""
+    from podid_rs.identification.order import LATENT_PATIENCE
+
+    assert LATENT_PATIENCE < 7 < 8
+    sweep = _sweep_with_scripted_held_out_errors(
+        monkeypatch, lambda m: 1.0, m_max=10, patience=8)
+    assert [f.latent for f in sweep.fits] == [0] * 8 + [1]
+    assert sweep.reason.endswith("stopped after 8 orders without a 3 % gain")
+
+
 def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one(monkeypatch):
     """The 4-mass chain seen at two masses: two POD coordinates. Asked for m = 3, order 2
     is run to convergence before the latent order 3 is weighed against it (its start
