@@ -3140,6 +3140,8 @@ AUDIT = [
     ("identification/order", 'mark = " **(chosen)**" if f.m == self.chosen else ""',
      'mark = " **(chosen)**" if f.m == self.fits[-1].m else ""'),
     ("identification/order", '"kept": kept_name,', '"kept": "complex refit",'),
+    ("identification/order", 'f"; the sweep stopped after {since_best} orders',
+     'f"; the sweep stopped after {patience} orders'),
 ]
 
 

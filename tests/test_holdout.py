@@ -666,6 +666,31 @@ def test_a_log_magnitude_probe_that_used_the_whole_budget_is_the_whole_pass(chai
     assert kept["passes"][1]["iterations"] == 3
 
 
+def test_a_log_magnitude_refit_that_cannot_run_is_reported_with_refines_message(
+        chain_frf, monkeypatch):
+    """The log-magnitude pass is optional: where refine refuses it (a spy raises refine's
+    ValueError for that objective), the better fit so far is kept, only the complex pass
+    is reported, and the reason says the pass could not run, quoting refine's message."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    real = order.refine
+    message = "the log-magnitude targets of every entry are zero"
+
+    def spy(*args, **kwargs):
+        if kwargs.get("objective") == "log-magnitude":
+            raise ValueError(message)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3)
+    kept = model.info["refinement"]["final_refit"]
+    assert [p["pass"] for p in kept["passes"]] == ["complex refit"]
+    assert kept["kept"] in ("complex refit", "held-out fit")
+    assert f"; the log-magnitude refit could not run ({message})" in kept["reason"]
+
+
 def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_it():
     # one step from the held-out fit of noisy data (2 % on every DOF) barely moves the
     # model: neither pass lowers the median error over every line, and the reason quotes

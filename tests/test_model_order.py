@@ -89,6 +89,8 @@ def test_three_lines_hold_the_middle_one_out_and_fit_the_other_two(chain_frf, ho
                          threads=1)
     assert sweep.test_lines.tolist() == [False, True, False]
     assert sweep.fits[0].m == 1 and np.isfinite(sweep.fit(sweep.chosen).test_db)
+    # the reason names the holdout asked for, not the default (4)
+    assert f"; one line in {holdout} held out" in sweep.reason
 
 
 def test_an_order_no_start_of_which_can_be_fitted_ends_the_sweep_and_is_named(
@@ -627,15 +629,18 @@ def test_the_patience_counts_from_the_lowest_held_out_error_not_the_last_gain(mo
     assert sweep.reason.endswith("stopped after 2 orders without a 3 % gain")
 
 
-def test_the_last_observed_order_keeps_the_full_patience(monkeypatch):
-    """Patience 8, above LATENT_PATIENCE (6); held-out errors flat after order 1. The
-    last observed order (m = 8, seven orders without progress) is observed: the full
-    patience holds there and the sweep goes on; the latent order 9 (eight) stops it."""
+@pytest.mark.parametrize("patience", [8, 10])
+def test_the_last_observed_order_keeps_the_full_patience(monkeypatch, patience):
+    """Patience 8 or 10, above LATENT_PATIENCE (6); held-out errors flat after order 1.
+    The last observed order (m = 8, seven orders without progress) is observed: the full
+    patience holds there and the sweep goes on; the latent order 9 (eight, past
+    LATENT_PATIENCE) stops it, and the reason counts those eight orders, whatever the
+    patience asked."""
     from podid_rs.identification.order import LATENT_PATIENCE
 
-    assert LATENT_PATIENCE < 7 < 8
+    assert LATENT_PATIENCE < 7 < 8 <= patience
     sweep = _sweep_with_scripted_held_out_errors(
-        monkeypatch, lambda m: 1.0, m_max=10, patience=8)
+        monkeypatch, lambda m: 1.0, m_max=10, patience=patience)
     assert [f.latent for f in sweep.fits] == [0] * 8 + [1]
     assert sweep.reason.endswith("stopped after 8 orders without a 3 % gain")
 
