@@ -3142,6 +3142,16 @@ AUDIT = [
     ("identification/order", '"kept": kept_name,', '"kept": "complex refit",'),
     ("identification/order", 'f"; the sweep stopped after {since_best} orders',
      'f"; the sweep stopped after {patience} orders'),
+    ("identification/order", "lam, V = np.linalg.eigh(np.real(r[i] @ r[i].conj().T))",
+     "lam, V = np.linalg.eigh(np.real(r[i] @ r[i].T))"),
+    ("identification/order", 'more = refit(logm, "log-magnitude", judged_against=best,',
+     'more = refit(logm, "log-magnitude", judged_against=None,'),
+    ("identification/order",
+     "model, name = _converged(model, name, U_n[train], F_n[train], wt, R, threads,",
+     "model, name = _converged(model, name, U_n, F_n, omega, R, threads,"),
+    ("identification/order",
+     "and fit.train_db > (1 - PROGRESS_STEP / 3) * fits[-2].train_db else 0)",
+     "and fit.train_db > (1 - PROGRESS_STEP / 3) * fits[-2].train_db else flat)"),
 ]
 
 
