@@ -666,6 +666,35 @@ def test_a_log_magnitude_probe_that_used_the_whole_budget_is_the_whole_pass(chai
     assert kept["passes"][1]["iterations"] == 3
 
 
+def test_a_thinned_log_magnitude_pass_in_two_parts_is_judged_from_its_start(
+        chain_frf, monkeypatch):
+    """On thinned lines (40 of 120), with a probe of one step, each model's errors over
+    every line scripted: each model judged is 1 dB better than the one judged before it
+    (the held-out fit 9, the complex refit 8, the probe 7, the second part 6). The pass
+    goes on past its probe and its second part is kept; the refinement the model reports
+    is then judged, as the pass is, from where the pass started — the complex refit's
+    8 dB — not from the probe's end."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    judged = []
+
+    def scripted(model, *args, **kwargs):
+        judged.append(model)
+        return (10.0 - len(judged), 20.0 - len(judged))
+
+    monkeypatch.setattr(order, "_all_lines_db", scripted)
+    monkeypatch.setattr(order, "LOG_MAGNITUDE_PROBE", 1)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=30)
+    kept = model.info["refinement"]["final_refit"]
+    assert kept["lines_fitted"] < w.size and kept["kept"] == "log-magnitude refit"
+    assert len(judged) == 4 and model.iterations > 1  # the second part was kept
+    assert kept["passes"][1]["db_before"] == (8.0, 18.0)
+    assert model.info["refinement"]["db_before"] == (8.0, 18.0)
+    assert kept["db_all_lines"] == model.info["refinement"]["db_after"] == (6.0, 16.0)
+
+
 def test_a_log_magnitude_refit_that_cannot_run_is_reported_with_refines_message(
         chain_frf, monkeypatch):
     """The log-magnitude pass is optional: where refine refuses it (a spy raises refine's

@@ -356,6 +356,20 @@ def test_a_flat_observed_order_does_not_count_towards_the_flat_latent_orders(mon
     assert f"stopped after {order.LATENT_FLAT} latent orders" in sweep.reason
 
 
+def test_latent_orders_are_flat_only_in_a_row(monkeypatch):
+    """The same scripted chain: latent order 3 flat on its training lines (0.5 % below
+    m = 2), order 4 progress (10 % below), order 5 flat again. Two flat latent orders, but
+    not in a row: the flat count starts again after order 4, and the sweep runs on to
+    m_max = 5 without the flat stop."""
+    from podid_rs.identification import order
+
+    assert order.LATENT_FLAT == 2
+    train = {1: 8.0, 2: 4.0, 3: 4.0 * 0.995, 4: 4.0 * 0.995 * 0.9, 5: 4.0 * 0.995 * 0.9 * 0.995}
+    sweep = _sweep_with_scripted_training_errors(monkeypatch, train.__getitem__)
+    assert [f.m for f in sweep.fits] == [1, 2, 3, 4, 5]
+    assert "latent orders that lowered the training error" not in sweep.reason
+
+
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
     """A 6-DOF chain with 3 % noise on every DOF, force at DOF 1: the held-out error last
     drops by more than PROGRESS_STEP at some order, and then each unit of patience (up
