@@ -234,6 +234,19 @@ def test_final_fit_on_thinned_lines_with_holes_is_judged_on_the_measured_entries
     measured[4, 1] = False
     U_n[:, 4, 1] *= 1e3
     sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1, measured=measured)
+    # the sweep's scores leave the hole out too, on the training lines as on the held-out
+    # ones: each order's medians made here from its response R x (1e-9: the same errors,
+    # one einsum order apart); read as measured, the garbage (60 dB off on one entry of
+    # ten) moves them
+    train = sweep.lines & ~sweep.test_lines
+    for f in sweep.fits:
+        R_f = P.basis(f.m)
+        x = np.einsum("nm,smp->snp", R_f, f.model.system().response(
+            w, np.einsum("nm,snp->smp", R_f, F_n)))
+        for lines, db in ((train, f.train_db), (sweep.test_lines, f.test_db)):
+            expected = np.median(db_errors(x[lines], U_n[lines], measured))
+            assert db == pytest.approx(expected, rel=1e-9)
+            assert np.median(db_errors(x[lines], U_n[lines])) > 1.01 * expected
     model, R = final_fit(sweep, U_n, F_n, w, P, threads=1, measured=measured)
     kept = model.info["refinement"]["final_refit"]
     assert kept["lines_fitted"] == int(sweep.lines.sum()) < w.size
@@ -651,6 +664,60 @@ def test_a_log_magnitude_probe_that_used_the_whole_budget_is_the_whole_pass(chai
     assert budgets == [3] and steps == [3]
     assert kept["kept"] == "log-magnitude refit" and "could not run" not in kept["reason"]
     assert kept["passes"][1]["iterations"] == 3
+
+
+def test_a_thinned_log_magnitude_pass_in_two_parts_is_judged_from_its_start(
+        chain_frf, monkeypatch):
+    """On thinned lines (40 of 120), with a probe of one step, each model's errors over
+    every line scripted: each model judged is 1 dB better than the one judged before it
+    (the held-out fit 9, the complex refit 8, the probe 7, the second part 6). The pass
+    goes on past its probe and its second part is kept; the refinement the model reports
+    is then judged, as the pass is, from where the pass started — the complex refit's
+    8 dB — not from the probe's end."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, sweep_lines=40, threads=1)
+    judged = []
+
+    def scripted(model, *args, **kwargs):
+        judged.append(model)
+        return (10.0 - len(judged), 20.0 - len(judged))
+
+    monkeypatch.setattr(order, "_all_lines_db", scripted)
+    monkeypatch.setattr(order, "LOG_MAGNITUDE_PROBE", 1)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=30)
+    kept = model.info["refinement"]["final_refit"]
+    assert kept["lines_fitted"] < w.size and kept["kept"] == "log-magnitude refit"
+    assert len(judged) == 4 and model.iterations > 1  # the second part was kept
+    assert kept["passes"][1]["db_before"] == (8.0, 18.0)
+    assert model.info["refinement"]["db_before"] == (8.0, 18.0)
+    assert kept["db_all_lines"] == model.info["refinement"]["db_after"] == (6.0, 16.0)
+
+
+def test_a_log_magnitude_refit_that_cannot_run_is_reported_with_refines_message(
+        chain_frf, monkeypatch):
+    """The log-magnitude pass is optional: where refine refuses it (a spy raises refine's
+    ValueError for that objective), the better fit so far is kept, only the complex pass
+    is reported, and the reason says the pass could not run, quoting refine's message."""
+    import podid_rs.identification.order as order
+
+    U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    real = order.refine
+    message = "the log-magnitude targets of every entry are zero"
+
+    def spy(*args, **kwargs):
+        if kwargs.get("objective") == "log-magnitude":
+            raise ValueError(message)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(order, "refine", spy)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, threads=1, max_iter=3)
+    kept = model.info["refinement"]["final_refit"]
+    assert [p["pass"] for p in kept["passes"]] == ["complex refit"]
+    assert kept["kept"] in ("complex refit", "held-out fit")
+    assert f"; the log-magnitude refit could not run ({message})" in kept["reason"]
 
 
 def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_it():

@@ -89,6 +89,8 @@ def test_three_lines_hold_the_middle_one_out_and_fit_the_other_two(chain_frf, ho
                          threads=1)
     assert sweep.test_lines.tolist() == [False, True, False]
     assert sweep.fits[0].m == 1 and np.isfinite(sweep.fit(sweep.chosen).test_db)
+    # the reason names the holdout asked for, not the default (4)
+    assert f"; one line in {holdout} held out" in sweep.reason
 
 
 def test_an_order_no_start_of_which_can_be_fitted_ends_the_sweep_and_is_named(
@@ -354,6 +356,20 @@ def test_a_flat_observed_order_does_not_count_towards_the_flat_latent_orders(mon
     assert f"stopped after {order.LATENT_FLAT} latent orders" in sweep.reason
 
 
+def test_latent_orders_are_flat_only_in_a_row(monkeypatch):
+    """The same scripted chain: latent order 3 flat on its training lines (0.5 % below
+    m = 2), order 4 progress (10 % below), order 5 flat again. Two flat latent orders, but
+    not in a row: the flat count starts again after order 4, and the sweep runs on to
+    m_max = 5 without the flat stop."""
+    from podid_rs.identification import order
+
+    assert order.LATENT_FLAT == 2
+    train = {1: 8.0, 2: 4.0, 3: 4.0 * 0.995, 4: 4.0 * 0.995 * 0.9, 5: 4.0 * 0.995 * 0.9 * 0.995}
+    sweep = _sweep_with_scripted_training_errors(monkeypatch, train.__getitem__)
+    assert [f.m for f in sweep.fits] == [1, 2, 3, 4, 5]
+    assert "latent orders that lowered the training error" not in sweep.reason
+
+
 def test_the_sweep_stops_after_patience_orders_without_progress(monkeypatch):
     """A 6-DOF chain with 3 % noise on every DOF, force at DOF 1: the held-out error last
     drops by more than PROGRESS_STEP at some order, and then each unit of patience (up
@@ -544,6 +560,103 @@ def test_a_step_budget_of_the_trial_steps_alone_is_the_trials():
                          threads=1)
     assert [f.m for f in sweep.fits] == [1, 2]
     assert all(f.model.iterations <= TRIAL_ITER for f in sweep.fits)
+
+
+def test_the_steps_after_the_trials_are_the_rest_of_the_budget(monkeypatch):
+    """max_iter = TRIAL_ITER + 3: every start's trial gets TRIAL_ITER steps, and the best
+    of them, where not converged, the 3 left — the order's budget, not another max_iter.
+    Seen on the steps each refinement of the sweep is given (order 2 of the 4-mass chain
+    seen at three masses: no latent order, no run to convergence)."""
+    from podid_rs.identification import order
+    from podid_rs.identification.order import TRIAL_ITER
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(3, 4, np.linspace(5.0, 250.0, 60))
+    budgets = []
+    refine_quietly = order._refine_quietly
+
+    def spy(start, U, F, omega, R, max_iter, *args, **kwargs):
+        budgets.append(max_iter)
+        return refine_quietly(start, U, F, omega, R, max_iter, *args, **kwargs)
+
+    monkeypatch.setattr(order, "_refine_quietly", spy)
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m=2,
+                         max_iter=TRIAL_ITER + 3, threads=1)
+    assert [f.m for f in sweep.fits] == [1, 2]
+    assert set(budgets) == {TRIAL_ITER, 3}
+
+
+def test_an_orders_stable_flag_is_its_models(monkeypatch):
+    """An order whose fit has a pole with Re λ > 0 says so: order 2's fit is handed back
+    with its damping negated (C → −C: every pole mirrored to Re λ = +ζω > 0), order 1's
+    as fitted. Checked against the poles computed here from the first-order pencil."""
+    from dataclasses import replace
+
+    from podid_rs.identification import order
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(3, 4, np.linspace(5.0, 250.0, 60))
+    refine_quietly = order._refine_quietly
+
+    def negated_damping_at_two(start, *args, **kwargs):
+        fit = refine_quietly(start, *args, **kwargs)
+        return replace(fit, C=-fit.C) if fit.m == 2 else fit
+
+    monkeypatch.setattr(order, "_refine_quietly", negated_damping_at_two)
+    sweep = sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m=2, max_iter=5, threads=1)
+    for f in sweep.fits:
+        M, C, K = f.model.M, f.model.C, f.model.K
+        m = M.shape[0]
+        A = np.block([[np.zeros((m, m)), np.eye(m)],
+                      [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+        assert f.stable == bool(np.linalg.eigvals(A).real.max() < 0)
+    assert [f.stable for f in sweep.fits] == [True, False]
+
+
+def _sweep_with_scripted_held_out_errors(monkeypatch, test_db, **kwargs):
+    """The sweep of the 10-mass chain seen at its first 8 (eight observed coordinates),
+    its held-out errors scripted: ``test_db(m)``, the training errors falling 10 % per
+    order; the stop on flat latent orders and the run to convergence kept out of the way
+    (LATENT_FLAT 100, CONVERGE_MAX_ITER 5)."""
+    from podid_rs.identification import order
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(8, 10, np.linspace(5.0, 250.0, 80))
+    calls: dict[int, int] = {}
+
+    def scripted(model, *args, **kw):
+        m = model.m
+        calls[m] = calls.get(m, 0) + 1
+        return 10.0 * 0.9**m if calls[m] % 2 else test_db(m)  # training lines first
+
+    monkeypatch.setattr(order, "_median_db", scripted)
+    monkeypatch.setattr(order, "LATENT_FLAT", 100)
+    monkeypatch.setattr(order, "CONVERGE_MAX_ITER", 5)
+    return sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), threads=1, max_iter=5, **kwargs)
+
+
+def test_the_patience_counts_from_the_lowest_held_out_error_not_the_last_gain(monkeypatch):
+    """Held-out errors 1.0, 0.98, 0.96, then flat: neither 0.98 nor 0.96 is a 3 % gain on
+    the lowest error before it (0.96 > 0.97 × 0.98), though 0.96 is on the last 3 % gain
+    (1.0): with patience 2 the sweep stops at order 3."""
+    errors = {1: 1.0, 2: 0.98, 3: 0.96}
+    sweep = _sweep_with_scripted_held_out_errors(
+        monkeypatch, lambda m: errors.get(m, 0.96), m_max=6, patience=2)
+    assert [f.m for f in sweep.fits] == [1, 2, 3]
+    assert sweep.reason.endswith("stopped after 2 orders without a 3 % gain")
+
+
+@pytest.mark.parametrize("patience", [8, 10])
+def test_the_last_observed_order_keeps_the_full_patience(monkeypatch, patience):
+    """Patience 8 or 10, above LATENT_PATIENCE (6); held-out errors flat after order 1.
+    The last observed order (m = 8, seven orders without progress) is observed: the full
+    patience holds there and the sweep goes on; the latent order 9 (eight, past
+    LATENT_PATIENCE) stops it, and the reason counts those eight orders, whatever the
+    patience asked."""
+    from podid_rs.identification.order import LATENT_PATIENCE
+
+    assert LATENT_PATIENCE < 7 < 8 <= patience
+    sweep = _sweep_with_scripted_held_out_errors(
+        monkeypatch, lambda m: 1.0, m_max=10, patience=patience)
+    assert [f.latent for f in sweep.fits] == [0] * 8 + [1]
+    assert sweep.reason.endswith("stopped after 8 orders without a 3 % gain")
 
 
 def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one(monkeypatch):
