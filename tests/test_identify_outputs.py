@@ -189,6 +189,26 @@ def test_modes_markdown_lists_only_the_structures_modes_under_their_heading():
     assert "| 2 | 500 |" in others and "| 3 | 40 |" in others and "| 1 | 10 |" not in others
 
 
+def test_modes_markdown_states_the_thresholds_the_kinds_were_judged_by():
+    """The paragraph over the other poles tells the reader the rules of mode_kinds: a weak
+    pole is under a percentage of the largest measured response — the percentage must be
+    100 × the fraction mode_kinds applies, not the fraction itself with a % sign — and a
+    residual term has ζ at least the damping mode_kinds calls a residual's."""
+    import re
+
+    from podid_rs.apps.identify import modes_markdown
+    from podid_rs.modes import RESIDUAL_ZETA, VISIBLE_FRACTION
+
+    rows = [{"mode": 1, "f_hz": 10.0, "zeta": 0.02, "kind": "weak"}]
+    md = modes_markdown("- run\n", rows)
+    percent = re.search(r"under ([0-9.eE+-]+) % of the largest", md)
+    zeta = re.search(r"ζ ≥ ([0-9.eE+-]+)", md)
+    assert percent is not None and zeta is not None
+    # printed with :g (six significant digits): the constants are round numbers
+    assert float(percent.group(1)) / 100 == pytest.approx(VISIBLE_FRACTION, rel=1e-6)
+    assert float(zeta.group(1)) == pytest.approx(RESIDUAL_ZETA, rel=1e-6)
+
+
 def test_the_summary_quotes_the_physical_corrections_change_in_percent():
     """A model whose physical correction took the residual from 2 to 3: +50 %, by hand
     (the report's numbers stand in for a correction; the rest of the run is the exact
