@@ -3349,6 +3349,37 @@ AUDIT = [
      "return min(n - 1, max(STABILISATION_ORDERS, m + 5))"),
     ("apps/identify", "geometry=source_geometry(source), name=source.name,",
      "geometry=None, name=source.name,"),
+    # twelfth audit (refinement, latent, modal start): a non-symmetric start taken as
+    # its lower triangle; per-line weights refused when s ≠ p; one latent coordinate
+    # fitted as if observed; the log-magnitude weights reduced to 0/1; the per-entry
+    # constant without its square; max_iter ignored; the report's objective and the
+    # relative residual against the wrong cost; a progress callable replaced by the bar
+    ("identification/refinement", "sym = 0.5 * (X + X.T)", "sym = X"),
+    ("identification/refinement", "if w.shape == (s,):", "if w.shape == (p,):"),
+    ("identification/refinement", "if observed == m:", "if observed >= m - 1:"),
+    ("identification/refinement", "line_major(W.astype(np.float64)),",
+     "line_major((W > 0).astype(np.float64)),"),
+    ("identification/refinement", "full = float(np.sum(w2 * np.abs(U_n[i, :, j]) ** 2))",
+     "full = float(np.sum(w2 * np.abs(U_n[i, :, j])))"),
+    ("identification/refinement", "max_iter=int(max_iter),", "max_iter=REFINE_MAX_ITER,"),
+    ("identification/refinement", '"objective": objective,', '"objective": "complex",'),
+    ("identification/refinement", 'ref_norm = float(np.sqrt(report["cost_start"]))',
+     'ref_norm = float(np.sqrt(report["cost"]))'),
+    ("identification/refinement", "bar = _RefineBar(int(max_iter)) if progress is True else None",
+     "bar = _RefineBar(int(max_iter)) if progress else None"),
+    # … the added latent mode with unit mass, damping and stiffness; its modal force from
+    # the residual instead of the forces; the modal mass's fit without the conjugate
+    ("identification/latent", "Y[m, m] = v", "Y[m, m] = 1.0"),
+    ("identification/latent", 'modal_force = np.einsum("k,skp->sp", shape, f)',
+     'modal_force = np.einsum("k,skp->sp", shape, r)'),
+    ("identification/latent", "np.real(np.conj(g) * r)", "np.real(g * r)"),
+    # … the modal start's denominators with +ω², one alternating sweep for a grid with
+    # holes, the band's top in Hz
+    ("identification/modal_start", "wk[None, :] ** 2 - omega[:, None] ** 2",
+     "wk[None, :] ** 2 + omega[:, None] ** 2"),
+    ("identification/modal_start", "for _ in range(RANK_ONE_ITER):", "for _ in range(1):"),
+    ("identification/modal_start", "float(np.min(omega)), float(np.max(omega))",
+     "float(np.min(omega)), float(np.max(omega)) / (2 * np.pi)"),
 ]
 
 
