@@ -3380,6 +3380,43 @@ AUDIT = [
     ("identification/modal_start", "for _ in range(RANK_ONE_ITER):", "for _ in range(1):"),
     ("identification/modal_start", "float(np.min(omega)), float(np.max(omega))",
      "float(np.min(omega)), float(np.max(omega)) / (2 * np.pi)"),
+    # twelfth audit, the order sweep: the unfitted order's message listing all but the last
+    # order, the table's last row dropped, the column weights over the load cases, the
+    # decoupled mode's damping sign flipped, the appended DOF written over the last old one,
+    # the residual peak's frequency in Hz, the relative cost summed over the load cases, the
+    # sweep's refinements unweighted, the best earlier order extended with one coordinate
+    # too many, the modal start's convergence run cut to the sweep's budget, the order
+    # limit ignoring the holes, the sweep one order short of m_max, the reason quoting the
+    # best order's error for the chosen one, the complex pass judged against its rebuilt
+    # start, the report's error over every line that of the complex pass
+    ("identification/order", "(orders {[f.m for f in self.fits]})",
+     "(orders {[f.m for f in self.fits[:-1]]})"),
+    ("identification/order", 'return "\\n".join(lines) + "\\n"',
+     'return "\\n".join(lines[:-1]) + "\\n"'),
+    ("identification/order", "norms = np.linalg.norm(U_n, axis=1)",
+     "norms = np.linalg.norm(U_n, axis=2)"),
+    ("identification/order", "g = f / (wc**2 - omega**2 + 2j * zeta * wc * omega)",
+     "g = f / (wc**2 - omega**2 - 2j * zeta * wc * omega)"),
+    ("identification/order", "X[n, n] = v", "X[n - 1, n - 1] = v"),
+    ("identification/order", "wc = omega[i]", "wc = omega[i] / (2 * np.pi)"),
+    ("identification/order", "diff = np.sum(np.abs(X - U_n) ** 2 * mask, axis=1)",
+     "diff = np.sum(np.abs(X - U_n) ** 2 * mask, axis=2)"),
+    ("identification/order",
+     'basis=R, weights="relative",\n                      max_iter=max_iter',
+     'basis=R, weights="uniform",\n                      max_iter=max_iter'),
+    ("identification/order", "extra = _decoupled_mode(Ut[:, :j], Ft[:, :j], wt, w)",
+     "extra = _decoupled_mode(Ut[:, :j + 1], Ft[:, :j + 1], wt, w)"),
+    ("identification/order",
+     "fit = _refine_quietly(rebuilt, U_n, F_n, omega, R, CONVERGE_MAX_ITER, threads, measured)",
+     "fit = _refine_quietly(rebuilt, U_n, F_n, omega, R, SWEEP_MAX_ITER, threads, measured)"),
+    ("identification/order", "(n * p if entries is None else entries)", "(n * p)"),
+    ("identification/order", "for order in range(1, m_max + 1):", "for order in range(1, m_max):"),
+    ("identification/order", "held-out median error {f.test_db:.2f} dB",
+     "held-out median error {best_fit.test_db:.2f} dB"),
+    ("identification/order", 'ref["db_before"] = all_lines_db(start)',
+     'ref["db_before"] = all_lines_db(first)'),
+    ("identification/order", '"db_all_lines": tuple(best_db),',
+     '"db_all_lines": tuple(ref["db_after"]),'),
 ]
 
 
