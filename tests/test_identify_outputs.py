@@ -209,10 +209,10 @@ def test_modes_markdown_states_the_thresholds_the_kinds_were_judged_by():
     assert float(zeta.group(1)) == pytest.approx(RESIDUAL_ZETA, rel=1e-6)
 
 
-def test_the_summary_quotes_the_physical_corrections_change_in_percent():
-    """A model whose physical correction took the residual from 2 to 3: +50 %, by hand
-    (the report's numbers stand in for a correction; the rest of the run is the exact
-    3-DOF chain's)."""
+def _summary_after_a_physical_correction(before: float, after: float, raised: tuple) -> str:
+    """The summary of the exact 3-DOF chain's paper estimate, its info saying a physical
+    correction took the residual from ``before`` to ``after`` raising ``raised`` (the
+    report's numbers stand in for a correction)."""
     import dataclasses
     from pathlib import Path
 
@@ -223,10 +223,23 @@ def test_the_summary_quotes_the_physical_corrections_change_in_percent():
     w = 2 * np.pi * np.arange(1.0, 60.0, 0.5)
     data = from_frf(chain.frf(w)[:, :, [0]], w, inputs=[0])
     ls, R = data.identify(m=3, symmetric=True)
-    report = {"residual_before": 2.0, "residual_after": 3.0, "eigenvalues_raised": (0, 1, 0)}
+    report = {"residual_before": before, "residual_after": after, "eigenvalues_raised": raised}
     written = dataclasses.replace(ls, info={**ls.info, "physical": report})
-    text = IdentifyRun(Path("chain.uff"), data, ls, written, R).summary()
+    return IdentifyRun(Path("chain.uff"), data, ls, written, R).summary()
+
+
+def test_the_summary_quotes_the_physical_corrections_change_in_percent():
+    """A physical correction that took the residual from 2 to 3: +50 %, by hand."""
+    text = _summary_after_a_physical_correction(2.0, 3.0, (0, 1, 0))
     assert "residual 2 → 3 (+50.00 %), eigenvalues raised in M, C, K: (0, 1, 0)" in text
+
+
+def test_a_correction_of_a_zero_residual_is_quoted_as_no_change():
+    """Exact data can leave the paper's estimator a residual of exactly 0, which the
+    correction keeps: the summary quotes +0.00 %, not a division by zero."""
+    text = _summary_after_a_physical_correction(0.0, 0.0, (0, 0, 0))
+    assert "residual 0 → 0 (+0.00 %), eigenvalues raised in M, C, K: (0, 0, 0)" in text
+
 
 def test_the_mac_compares_the_chosen_order_with_the_next(beam_like, tmp_path, capsys,
                                                          monkeypatch):
@@ -446,26 +459,6 @@ def test_pole_kinds_judge_the_measured_entries_only():
     assert np.allclose(modal_parameters(chain).frequencies_hz[2], 22.5, rtol=1e-3)
     kinds = pole_kinds(chain, np.eye(5), data)  # the chain itself on the identity basis
     assert kinds.tolist() == ["structural", "structural", "weak", "structural", "structural"]
-
-
-def test_a_correction_of_a_zero_residual_is_quoted_as_no_change():
-    """Exact data can leave the paper's estimator a residual of exactly 0, which the
-    correction keeps: the summary quotes +0.00 %, not a division by zero (the report's
-    numbers stand in for such a correction, as in the test above)."""
-    import dataclasses
-    from pathlib import Path
-
-    from podid_rs.apps.identify import IdentifyRun
-    from podid_rs.measured import from_frf
-
-    chain = mass_spring_chain(3, m1=1.0, m2=1.0, ku=1e4, a0=2.0, a1=1e-3)
-    w = 2 * np.pi * np.arange(1.0, 60.0, 0.5)
-    data = from_frf(chain.frf(w)[:, :, [0]], w, inputs=[0])
-    ls, R = data.identify(m=3, symmetric=True)
-    report = {"residual_before": 0.0, "residual_after": 0.0, "eigenvalues_raised": (0, 0, 0)}
-    written = dataclasses.replace(ls, info={**ls.info, "physical": report})
-    text = IdentifyRun(Path("chain.uff"), data, ls, written, R).summary()
-    assert "residual 0 → 0 (+0.00 %), eigenvalues raised in M, C, K: (0, 0, 0)" in text
 
 
 def test_the_confidence_band_is_drawn_on_the_written_model_alone(tmp_path, monkeypatch):
