@@ -1030,13 +1030,11 @@ def test_relative_weights_weigh_each_column_with_latent_coordinates_too():
     assert ref["cost_start"] == pytest.approx(want, rel=1e-10)
 
 
-def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p():
-    """Two coordinates and two load cases: a weight array (s, 2) is both (s, n) and
-    (s, p); documented as per entry, it weighs response coordinate a at every load case,
-    so the start's reported cost is Σ_iaj W_ia² (ln|x_iaj| − ln|u_iaj|)² (coordinate 2
-    weighed 0.1, coordinate 1 1 — a weight per load case instead would give another
-    sum: the forces are random). 1e-9: the same sums in another order."""
-    chain, U, F, w = chain_data(n=2, p=2, lines=40)
+def _log_magnitude_start_with_weights_per_pair(n: int):
+    """One log-magnitude step from a start 5 % too stiff on an n-mass chain with p = 2
+    load cases, weighted by an (s, 2) array (1 in its first column, 0.1 in its second):
+    the model, the weights, the start's responses and the data."""
+    chain, U, F, w = chain_data(n=n, p=2, lines=40)
     start = (chain.M, chain.C, 1.05 * chain.K)
     W = np.ones((w.size, 2))
     W[:, 1] = 0.1
@@ -1045,6 +1043,16 @@ def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p()
         model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
                        threads=1)
     X = pr.SecondOrderSystem(*start).response(w, F)
+    return model, W, X, U
+
+
+def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p():
+    """Two coordinates and two load cases: a weight array (s, 2) is both (s, n) and
+    (s, p); documented as per entry, it weighs response coordinate a at every load case,
+    so the start's reported cost is Σ_iaj W_ia² (ln|x_iaj| − ln|u_iaj|)² (coordinate 2
+    weighed 0.1, coordinate 1 1 — a weight per load case instead would give another
+    sum: the forces are random). 1e-9: the same sums in another order."""
+    model, W, X, U = _log_magnitude_start_with_weights_per_pair(n=2)
     want = float(np.sum(W[:, :, None] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
     # and the report names them as the user's, per entry
@@ -1248,15 +1256,7 @@ def test_per_column_log_magnitude_weights_weigh_each_load_case_by_its_own():
     the start's reported cost is Σ_iaj W_ij² (ln|x_iaj| − ln|u_iaj|)², by hand (load
     case 2 weighed 0.1, load case 1 weighed 1: the first's weights for both would give
     another sum). 1e-9: the same sums in another order."""
-    chain, U, F, w = chain_data(n=3, p=2, lines=40)
-    start = (chain.M, chain.C, 1.05 * chain.K)
-    W = np.ones((w.size, 2))
-    W[:, 1] = 0.1
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
-                       threads=1)
-    X = pr.SecondOrderSystem(*start).response(w, F)
+    model, W, X, U = _log_magnitude_start_with_weights_per_pair(n=3)
     want = float(np.sum(W[:, None, :] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
 
