@@ -730,18 +730,24 @@ def test_records_without_unit_labels_are_kept_when_the_labelled_ones_disagree(tm
     np.testing.assert_allclose(data.U, clean.U, rtol=0, atol=1e-14 * np.abs(clean.U).max())
 
 
+def _read_whole_as_the_clean_file(tmp_path, name, labels, denominators):
+    """The chain's file with these unit labels is read without a DataWarning, every entry
+    kept, and holds the data of the file labelled m/N throughout."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        data = read_uff(write_labelled(tmp_path / name, labels, denominators))
+    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
+    assert data.measured.all()
+    np.testing.assert_array_equal(data.U, clean.U)
+
+
 def test_records_labelled_in_part_are_compared_on_the_part_they_give(tmp_path):
     """Records 2 and 5 say m over NONE (a writer that left out the force's unit) among
     m/N: they agree and are kept. Record 8 says mm over NONE: its numerator disagrees,
     and it is left out, the message counting the 8 labelled records that agree."""
     labels, denominators = ["m"] * 9, ["N"] * 9
     denominators[1] = denominators[4] = "NONE"
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", DataWarning)
-        kept = read_uff(write_labelled(tmp_path / "part.uff", labels, denominators))
-    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
-    assert kept.measured.all()
-    np.testing.assert_array_equal(kept.U, clean.U)
+    _read_whole_as_the_clean_file(tmp_path, "part.uff", labels, denominators)
     labels[7], denominators[7] = "mm", "NONE"  # record 8: response 3:3 / reference 2:3
     with pytest.warns(DataWarning, match=r"FRF record\(s\) 8 \(response 3:3 / reference "
                       r"2:3, 'mm/'\) are in other units than the 8 other displacement "
@@ -756,12 +762,7 @@ def test_records_labelled_on_different_parts_agree(tmp_path):
     record is kept, and the data are those of the clean file."""
     labels = ["m"] * 5 + ["NONE"] * 4
     denominators = ["NONE"] * 5 + ["N"] * 2 + ["NONE"] * 2
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", DataWarning)
-        data = read_uff(write_labelled(tmp_path / "halves.uff", labels, denominators))
-    clean = read_uff(write_labelled(tmp_path / "clean.uff", ["m"] * 9))
-    assert data.measured.all()
-    np.testing.assert_array_equal(data.U, clean.U)
+    _read_whole_as_the_clean_file(tmp_path, "halves.uff", labels, denominators)
 
 
 def test_records_of_another_ordinate_are_compared_with_their_own_kind_only(tmp_path):
