@@ -3417,6 +3417,12 @@ AUDIT = [
      'ref["db_before"] = all_lines_db(first)'),
     ("identification/order", '"db_all_lines": tuple(best_db),',
      '"db_all_lines": tuple(ref["db_after"]),'),
+    # second hardening pass, modes, physical, stabilisation (third pass, line by line): written
+    # with their tests (a check, not a measurement)
+    ('modes', 'spacing = float(np.median(np.diff(w)))',
+     'spacing = float(np.mean(np.diff(w)))'),
+    ('stabilisation', 'j = int(np.argmin(np.abs(fp - f)))',
+     'j = int(np.argmin(np.abs(np.log(fp) - np.log(f))))'),
 ]
 
 

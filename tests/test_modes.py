@@ -401,6 +401,24 @@ def test_a_resonance_beside_a_stronger_one_rises_above_the_lower_side_of_its_rin
     assert not _data_peak(w, Ua, np.array([True]), lam)
 
 
+def test_the_ring_is_measured_in_the_median_line_spacing_not_the_mean():
+    """Lines 1 rad/s apart from 90 to 110 and one far line at 200: the median spacing is
+    1, the mean 110/21 ≈ 5.2 rad/s. A pole at 100 with |Re λ| = 0.1 has its ring from
+    max(3 × 0.2, 2 × 1) = 2 to max(10 × 0.2, 6 × 1) = 6 rad/s away: lines 94–98 and
+    102–106, all at 1, so 1.5 at the pole is no peak (1.5 < 2 × 1) and 2.5 is one. A ring
+    from the mean spacing (10.5 to 31 rad/s away) would hold no line, and a pole with
+    nothing around it counts as a peak."""
+    from podid_rs.modes import _data_peak
+
+    w = np.append(np.arange(90.0, 111.0), 200.0)
+    Ua = np.ones((w.size, 1, 1), dtype=complex)
+    lam = complex(-0.1, 100.0)
+    Ua[w == 100.0] = 1.5
+    assert not _data_peak(w, Ua, np.ones((1, 1), dtype=bool), lam)
+    Ua[w == 100.0] = 2.5
+    assert _data_peak(w, Ua, np.ones((1, 1), dtype=bool), lam)
+
+
 def test_shape_mac_needs_two_common_dofs():
     """One common DOF makes the MAC of any two shapes 1 (two complex numbers are always
     multiples of each other): it is refused; two are enough."""

@@ -308,6 +308,24 @@ def test_the_frequency_tolerance_is_relative_to_the_previous_orders_pole():
     assert cf.tolist() == [True] and c.tolist() == [True]
 
 
+def test_the_nearest_previous_pole_is_nearest_in_hz_not_in_log_frequency():
+    """Previous poles at 0.995 Hz (ζ = 0.02) and 1.00501 Hz (ζ = 0.04), a new pole at 1 Hz
+    with ζ = 0.02: in Hz the lower one is nearer (0.005 < 0.00501), so the pole is
+    consistent in damping too; in log-frequency the upper one is (ln(1/0.995) = 0.0050125 >
+    ln 1.00501 = 0.0049975), whose ζ is 100 % off. The margins (1e-5 Hz) are far above
+    rounding; both previous poles are within f_tol = 1 %."""
+    from podid_rs.physical import ModalParameters
+    from podid_rs.stabilisation import _match_previous
+
+    def modes(f, z):
+        lam = np.array([-1.0 + 1.0j] * len(f))
+        return ModalParameters(lam, np.array(f), np.array(z), 0)
+
+    cf, c = _match_previous(modes([1.0], [0.02]), modes([0.995, 1.00501], [0.02, 0.04]),
+                            0.01, 0.05)
+    assert cf.tolist() == [True] and c.tolist() == [True]
+
+
 def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_data):
     _, data = chain_data
     chart = stabilisation_chart(data, 2, progress=False, chosen_m=2)
