@@ -3423,6 +3423,8 @@ AUDIT = [
      'spacing = float(np.mean(np.diff(w)))'),
     ('stabilisation', 'j = int(np.argmin(np.abs(fp - f)))',
      'j = int(np.argmin(np.abs(np.log(fp) - np.log(f))))'),
+    ('physical', '"zeta": float(z),',
+     '"zeta": float(abs(z)),'),
 ]
 
 

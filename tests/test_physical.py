@@ -301,6 +301,9 @@ def test_compare_modes_pairs_by_log_frequency_and_refuses_what_it_cannot_pair():
     # ln(0.33/0.2) = 0.50), though nearer 0.2 Hz in f (0.13 Hz against 0.17 Hz)
     between = modes_with([-0.01 + two_pi * 0.33j])
     assert compare_modes(between, truth)[0]["f_true_hz"] == truth.frequencies_hz[1]
+    # an unstable identified mode (Re λ > 0) keeps its negative damping ratio in its row
+    unstable = modes_with([0.01 + two_pi * 0.2j])
+    assert compare_modes(unstable, truth)[0]["zeta"] == unstable.damping_ratios[0] < 0
     # one true mode is enough
     single = compare_modes(identified, modes_with([-0.01 + two_pi * 0.2j]))
     assert [r["f_true_hz"] for r in single] == [truth.frequencies_hz[0]] * 3
