@@ -3425,6 +3425,16 @@ AUDIT = [
      'j = int(np.argmin(np.abs(np.log(fp) - np.log(f))))'),
     ('physical', '"zeta": float(z),',
      '"zeta": float(abs(z)),'),
+    ('stabilisation', '"zeta": float(z[k]),',
+     '"zeta": float(abs(z[k])),'),
+    ('physical', '"zeta": float(modes.damping_ratios[k]),',
+     '"zeta": float(abs(modes.damping_ratios[k])),'),
+    ('physical', '"re_lambda": float(lam.real),',
+     '"re_lambda": -abs(float(lam.real)),'),
+    ('stabilisation', '"re_lambda": float(lam.real),',
+     '"re_lambda": -abs(float(lam.real)),'),
+    ('modes', 'if w.size > 1 else 0.0',
+     'if w.size > 2 else 0.0'),
 ]
 
 

@@ -272,6 +272,15 @@ def test_undamped_oscillator_sits_on_the_boundary():
     assert modal_table(damped)[0]["re_lambda"] == pytest.approx(-0.5e-9, rel=1e-6)
 
 
+def test_the_table_keeps_the_signs_of_an_unstable_mode():
+    # M = 1, C = −0.2, K = 100: λ = 0.1 ± i√99.99, |λ| = √K = 10, so ζ = −0.1/10 = −0.01
+    # and Re λ = +0.1 (rel 1e-12: the companion form of one DOF rounds at ~1e-15 of |λ|)
+    (row,) = modal_table(SecondOrderSystem([[1.0]], [[-0.2]], [[100.0]]))
+    assert row["zeta"] == pytest.approx(-0.01, rel=1e-12)
+    assert row["re_lambda"] == pytest.approx(0.1, rel=1e-12)
+    assert row["stable"] == "no"
+
+
 def test_compare_modes_pairs_by_log_frequency_and_refuses_what_it_cannot_pair():
     two_pi = 2 * np.pi
     truth = modes_with([-0.01 + two_pi * 0.2j, -0.02 + two_pi * 0.5j])

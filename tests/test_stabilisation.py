@@ -46,6 +46,19 @@ def chain_data():
     return chain, from_frf(chain.frf(omega)[:, :, [1, 4]], omega, inputs=[1, 4])
 
 
+def test_an_unstable_pole_keeps_its_signs_in_the_rows(chain_data):
+    """A one-mode model at 10 Hz with ζ = −0.01 (C = 2ζω < 0): λ = ω(0.01 ± i√(1 − 1e-4)),
+    so the row reports ζ = −0.01 and Re λ = +0.01 · 2π · 10 rad/s, not stable. rel 1e-9:
+    the 2 × 2 pencil's eigenvalues round at ~1e-15 of |λ| = 62.8 rad/s."""
+    _, data = chain_data
+    chart = stabilisation_chart(data, 1, fit=lambda m: model_with_modes([10.0], -0.01),
+                                progress=False)
+    (row,) = chart.rows()
+    assert row["zeta"] == pytest.approx(-0.01, rel=1e-9)
+    assert row["re_lambda"] == pytest.approx(0.01 * 2 * np.pi * 10.0, rel=1e-9)
+    assert row["stable"] is False
+
+
 def test_is_physical():
     good = model_with_modes([10.0, 20.0], 0.02)
     assert is_physical(good)
