@@ -419,6 +419,18 @@ def test_the_ring_is_measured_in_the_median_line_spacing_not_the_mean():
     assert _data_peak(w, Ua, np.ones((1, 1), dtype=bool), lam)
 
 
+def test_two_lines_size_the_ring_by_their_spacing():
+    """Two lines, 100 and 101 rad/s, a pole at 100 with |Re λ| = 0.1: their one spacing
+    (1 rad/s) puts the ring at 2 to 6 rad/s away, where there is no line, so there is no
+    evidence against the peak; a spacing of 0 would put it at 0.6 to 2 rad/s and take in
+    the line at 101, as high as the pole's own: no peak."""
+    from podid_rs.modes import _data_peak
+
+    w = np.array([100.0, 101.0])
+    assert _data_peak(w, np.ones((2, 1, 1), dtype=complex), np.ones((1, 1), dtype=bool),
+                      complex(-0.1, 100.0))
+
+
 def test_shape_mac_needs_two_common_dofs():
     """One common DOF makes the MAC of any two shapes 1 (two complex numbers are always
     multiples of each other): it is refused; two are enough."""
