@@ -3435,6 +3435,8 @@ AUDIT = [
      '"re_lambda": -abs(float(lam.real)),'),
     ('modes', 'if w.size > 1 else 0.0',
      'if w.size > 2 else 0.0'),
+    ('stabilisation', 'tuple(str(w.message) for w in caught)',
+     'tuple(str(w.message) for w in caught[:1])'),
 ]
 
 

@@ -407,6 +407,18 @@ def test_a_fits_warnings_are_the_orders_notes(chain_data):
                                                ("order 2 is only a test",)]
 
 
+def test_every_warning_of_a_fit_is_a_note_in_the_order_it_was_raised(chain_data):
+    _, data = chain_data
+
+    def two_warnings_fit(m: int) -> IdentificationResult:
+        warnings.warn(f"order {m}: first", UserWarning, stacklevel=2)
+        warnings.warn(f"order {m}: second", RuntimeWarning, stacklevel=2)
+        return model_with_modes([10.0 * (k + 1) for k in range(m)], 0.02)
+
+    chart = stabilisation_chart(data, 1, fit=two_warnings_fit, progress=False)
+    assert chart.orders[0].notes == ("order 1: first", "order 1: second")
+
+
 def test_a_mass_with_a_zero_eigenvalue_is_not_physical():
     from dataclasses import replace
 
