@@ -3437,6 +3437,10 @@ AUDIT = [
      'if w.size > 2 else 0.0'),
     ('stabilisation', 'tuple(str(w.message) for w in caught)',
      'tuple(str(w.message) for w in caught[:1])'),
+    ('modes', 'Ua.shape[1] != shapes.shapes.shape[0]',
+     'Ua.shape[1] > shapes.shapes.shape[0]'),
+    ('physical', '"f_hz": float(modes.frequencies_hz[k]),',
+     '"f_hz": float(abs(modes.eigenvalues[k].imag) / (2 * np.pi)),'),
 ]
 
 

@@ -506,6 +506,9 @@ def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
     with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
                                          r"\(51, 3, 1\)$"):
         mode_kinds(shapes, w, np.ones((51, 3, 1)), [0])  # a third DOF the shapes lack
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
+                                         r"\(51, 1, 1\)$"):
+        mode_kinds(shapes, w, U[:, :1], [0])  # one DOF short of the shapes'
     U[3, 0, 0] = np.nan
     with pytest.raises(ValueError, match="U contains non-finite values"):
         mode_kinds(shapes, w, U, [0])

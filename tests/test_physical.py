@@ -278,6 +278,8 @@ def test_the_table_keeps_the_signs_of_an_unstable_mode():
     (row,) = modal_table(SecondOrderSystem([[1.0]], [[-0.2]], [[100.0]]))
     assert row["zeta"] == pytest.approx(-0.01, rel=1e-12)
     assert row["re_lambda"] == pytest.approx(0.1, rel=1e-12)
+    # f is the natural |λ|/2π = 10/2π Hz, not the damped Im λ/2π (√99.99, 5e-5 lower)
+    assert row["f_hz"] == pytest.approx(10.0 / (2 * np.pi), rel=1e-12)
     assert row["stable"] == "no"
 
 
