@@ -91,6 +91,26 @@ def test_shapes_of_a_proportionally_damped_chain_are_its_normal_modes():
     assert np.allclose(np.diag(mac(modes.shapes, phi)), 1.0, atol=1e-12)
 
 
+def test_complex_shapes_are_scaled_by_their_entry_of_largest_modulus():
+    # one dashpot at the chain's end: non-proportional damping, modes far from real
+    # (the first two have |Im φ| up to 0.2 and 0.37 of their largest entry)
+    chain = mass_spring_chain(4)
+    C = np.zeros((4, 4))
+    C[3, 3] = 0.5 * np.sqrt(chain.K[3, 3] * chain.M[3, 3])
+    modes = mode_shapes(SecondOrderSystem(chain.M, C, chain.K))
+    phi = modes.shapes
+    assert np.max(np.abs(phi.imag)) > 0.1  # the fixture does what it says
+    # the entry of largest modulus is exactly 1 (a real, positive unit), none larger;
+    # scaling by the entry of largest real part would leave entries up to 28 in modulus
+    top = phi[np.argmax(np.abs(phi), axis=0), np.arange(4)]
+    assert np.allclose(top, 1.0, rtol=0, atol=1e-14)
+    assert np.all(np.abs(phi) <= 1 + 1e-14)
+    # still the pencil's vectors: (λ²M + λC + K) φ = 0 (eq. 1), to rounding relative to ‖K‖
+    for lam, p in zip(modes.eigenvalues, phi.T, strict=True):
+        Z = lam**2 * chain.M + lam * C + chain.K
+        assert np.linalg.norm(Z @ p) < 1e-9 * np.linalg.norm(chain.K)
+
+
 def test_identified_shapes_on_the_measured_dofs_match_the_chain(full_order):
     chain, data, result, R = full_order
     ident = mode_shapes(result, R, data.dofs)
