@@ -172,6 +172,17 @@ def test_modes_markdown_names_the_interval_level_and_keeps_rows_without_a_kind()
     assert "None." not in md and "Other poles" not in md and "| 1 | 10 |" in md
 
 
+def test_modes_markdown_says_none_when_the_fit_found_no_mode_of_the_structure():
+    """Only a residual term: the modes' heading says "None." rather than an empty or
+    header-only table, and the residual term is listed under the other poles."""
+    from podid_rs.apps.identify import modes_markdown
+
+    rows = [{"mode": 1, "f_hz": 500.0, "zeta": 0.3, "kind": "residual"}]
+    md = modes_markdown("- run\n", rows)
+    structure, others = md.split("## Other poles")
+    assert structure.rstrip().endswith("None.") and "| mode |" not in structure
+    assert "| 1 | 500 |" in others
+
 
 def test_modes_markdown_lists_only_the_structures_modes_under_their_heading():
     """A structural mode, a residual term and a weak pole: the first table (the modes of
