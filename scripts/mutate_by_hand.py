@@ -3441,6 +3441,37 @@ AUDIT = [
      'Ua.shape[1] > shapes.shapes.shape[0]'),
     ('physical', '"f_hz": float(modes.frequencies_hz[k]),',
      '"f_hz": float(abs(modes.eigenvalues[k].imag) / (2 * np.pi)),'),
+    # thirteenth audit, the modal side: the nearest PSD matrix reflecting negative
+    # eigenvalues instead of raising them, the make_physical report's rtol the default's,
+    # the companion modes sorted by falling |λ|, the infinite eigenvalues of a singular M
+    # dropped from the modal parameters, the frequency error's sign flipped, the modal A of
+    # a model built with K for C, a zero column of B not refused by the MAC, the common
+    # DOFs' labels taken at b's rows, the weak test's nearest lines found in Hz, the data
+    # peak required at every entry, pod_fit ignoring its regularisation, a fit that is
+    # not callable not refused, the chart's stable column the oscillatory one, a singular
+    # M counted physical, state_space ignoring the basis
+    ("physical", "B = (Q * np.maximum(d, floor)) @ Q.T",
+     "B = (Q * np.maximum(np.abs(d), floor)) @ Q.T"),
+    ("physical", '"rtol": rtol,', '"rtol": 1e-8,'),
+    ("physical", 'pick = pick[np.argsort(np.abs(lam[pick]), kind="stable")]',
+     'pick = pick[np.argsort(np.abs(lam[pick]), kind="stable")[::-1]]'),
+    ("physical", "n_infinite=n_infinite,", "n_infinite=0,"),
+    ("physical", '"f_rel_error": float((f - f_true[j]) / f_true[j])',
+     '"f_rel_error": float((f_true[j] - f) / f_true[j])'),
+    ("modes", "M, C = model.M, model.C", "M, C = model.M, model.K"),
+    ("modes", 'for name, norms in (("A", na), ("B", nb)):',
+     'for name, norms in (("A", na), ("B", na)):'),
+    ("modes", "), a.dofs[ia]", "), a.dofs[ib]"),
+    ("modes", 'lines = np.argsort(np.abs(w - lam[k].imag), kind="stable")[:3]',
+     'lines = np.argsort(np.abs(w / (2 * np.pi) - lam[k].imag), kind="stable")[:3]'),
+    ("modes", "return bool(np.any((peak >= PEAK_RISE * around) & measured))",
+     "return bool(np.all((peak >= PEAK_RISE * around) & measured))"),
+    ("stabilisation", "data.omega, lam, symmetric)", "data.omega, 0.0, symmetric)"),
+    ("stabilisation", "elif not callable(fit):", "elif False:"),
+    ("stabilisation", '"stable": bool(o.stable[k]),', '"stable": bool(o.oscillatory[k]),'),
+    ("stabilisation", "eM.min() > 0 and eK.min()", "eM.min() >= 0 and eK.min()"),
+    ("statespace", "StateSpace(*state_space_matrices(M, C, K, basis))",
+     "StateSpace(*state_space_matrices(M, C, K))"),
 ]
 
 
