@@ -3472,6 +3472,37 @@ AUDIT = [
     ("stabilisation", "eM.min() > 0 and eK.min()", "eM.min() >= 0 and eK.min()"),
     ("statespace", "StateSpace(*state_space_matrices(M, C, K, basis))",
      "StateSpace(*state_space_matrices(M, C, K))"),
+    # thirteenth audit, the POD: the FRF's lines no longer checked against omega's, the repr's
+    # mode count the DOFs', the snapshot modes not re-orthonormalised, the noise-corrected
+    # modes (correlation side) left unsigned, a one-sample spectrum record accepted, the
+    # snapshots' rank cut at an absolute threshold
+    ("pod", "Ha.ndim != 3 or Ha.shape[0] != w.size or", "Ha.ndim != 3 or"),
+    ("pod", "n_modes={self.n_modes}, from the", "n_modes={self.n}, from the"),
+    ("pod", "            phi = np.linalg.qr(phi)[0]\n", ""),
+    ("pod", "out = PODResult(eigenvalues=theta, modes=phi * _lead_signs(phi))",
+     "out = PODResult(eigenvalues=theta, modes=phi)"),
+    ("pod", 'r = as_count(n_samples, "n_samples", 2)', 'r = as_count(n_samples, "n_samples", 1)'),
+    ("pod", "mu > max(k, n) * np.finfo(float).eps * mu[0]", "mu > max(k, n) * np.finfo(float).eps"),
+    # the simulation: Nyquist at the sampling rate, the memory message's line count the
+    # samples', the noise scaled by the variance (not the standard deviation), H1 left
+    # transposed, the line correlation at half the lag
+    ("simulation", "nyquist = 0.5 / dt", "nyquist = 1.0 / dt"),
+    ("simulation", 'f"simulating {system.n} DOFs over {lines.size} lines"',
+     'f"simulating {system.n} DOFs over {r} lines"'),
+    ("simulation", "sigma = np.sqrt(np.var(a, axis=axis, keepdims=True) / 10 ** (snr / 10))",
+     "sigma = np.var(a, axis=axis, keepdims=True) / 10 ** (snr / 10)"),
+    ("simulation", "Syx.transpose(0, 2, 1)).transpose(0, 2, 1)", "Syx.transpose(0, 2, 1))"),
+    ("simulation", "np.exp(2j * np.pi * lag * n / N)", "np.exp(1j * np.pi * lag * n / N)"),
+    # the informative lines: a NaN let through unless every value is one, the block's dip
+    # replaced by its peak; the holes: the targets from the conjugate responses, the metric's
+    # factor untransposed
+    ("identification/lines", "if not np.all(np.isfinite(U)):", "if not np.any(np.isfinite(U)):"),
+    ("identification/lines", "keep[a + int(np.argmin(level[a:b]))] = True",
+     "keep[a + int(np.argmax(level[a:b]))] = True"),
+    ("identification/holes", "B = (R * d[:, None]).T @ U_n[:, :, j].T",
+     "B = (R * d[:, None]).T @ U_n[:, :, j].conj().T"),
+    ("identification/holes", "L = np.sqrt(np.clip(lam, 0.0, None))[:, None] * V.T",
+     "L = np.sqrt(np.clip(lam, 0.0, None))[:, None] * V"),
 ]
 
 

@@ -439,6 +439,9 @@ def test_repr_says_the_side_and_the_noise_correction():
     assert repr(corrected) == (
         f"PODResult(n={n}, n_modes={corrected.n_modes}, from the snapshots, noise-corrected)"
     )
+    # 3 snapshots of 8 DOFs: rank 3, so 3 modes carry energy, not 8
+    few = pod(snapshots(3, 8), method="snapshots")
+    assert repr(few) == "PODResult(n=8, n_modes=3, from the snapshots)"
 
 
 def test_pod_takes_one_snapshot_or_one_channel_and_refuses_empty_or_complex():
