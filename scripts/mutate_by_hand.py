@@ -3503,6 +3503,33 @@ AUDIT = [
      "B = (R * d[:, None]).T @ U_n[:, :, j].conj().T"),
     ("identification/holes", "L = np.sqrt(np.clip(lam, 0.0, None))[:, None] * V.T",
      "L = np.sqrt(np.clip(lam, 0.0, None))[:, None] * V"),
+    # thirteenth audit, measured data and its files: the inputs' range message one past
+    # the last DOF, forces of one (not zero) off the driven DOFs, the DOF labels sized by the
+    # driven DOFs, identify's basis one mode too many, predict's forces conjugated; the
+    # unit labels' counts not summed, infinities let through, unit labels compared with
+    # their case, the dataset-55 shapes conjugated, every mode written with the first
+    # mode's modal A, the identified FRF's ordinate factor in Hz, the 58 record of a
+    # driven DOF taken from the column of its DOF index, inputs= without omega= accepted;
+    # the model file's extra arrays made real, info's nested lists left lists
+    ("measured", "(0 … {n - 1}), got", "(0 … {n}), got"),
+    ("measured", "Fn = np.zeros_like(self.U)", "Fn = np.ones_like(self.U)"),
+    ("measured", "as_dof_labels(self.dofs, n)", "as_dof_labels(self.dofs, n_in)"),
+    ("measured", "R = basis.basis(m)", "R = basis.basis(m + 1)"),
+    ("measured", "system.response(self.omega, F_m)", "system.response(self.omega, F_m.conj())"),
+    ("io/uff", "counts[item[6]] = counts.get(item[6], 0) + 1", "counts[item[6]] = 1"),
+    ("io/uff", "bad = np.flatnonzero(~np.isfinite(y))", "bad = np.flatnonzero(np.isnan(y))"),
+    ("io/uff", "for c in text.lower() if", "for c in text if"),
+    ("io/uff", "col[(int(node), k)] = complex(v)", "col[(int(node), k)] = complex(v).conjugate()"),
+    ("io/uff", "else complex(modes.modal_a[j])", "else complex(modes.modal_a[0])"),
+    ("io/uff", "_receptance_to(quantity, omega)[:, None, None]",
+     "_receptance_to(quantity, omega / (2 * np.pi))[:, None, None]"),
+    ("io/uff", "data=np.ascontiguousarray(H[:, i, k]),",
+     "data=np.ascontiguousarray(H[:, i, col]),"),
+    ("io/uff", "if (omega is None) != (inputs is None):",
+     "if omega is not None and inputs is None:"),
+    ("io/npz", 'out[f"extra.{k}"] = np.asarray(v)',
+     'out[f"extra.{k}"] = np.asarray(v, dtype=float)'),
+    ("io/npz", "return {k: _tuples(v) for k, v in x.items()}", "return dict(x)"),
 ]
 
 

@@ -720,6 +720,24 @@ def test_save_model_refuses_other_objects(tmp_path):
         save_model(tmp_path / "m.npz", mass_spring_chain(3))
 
 
+def test_a_models_extra_arrays_load_with_their_values_and_types(tmp_path, chain6):
+    """The extra arrays are kept as given: integer (node, direction) labels stay integers
+    (the labels write_uff and MeasuredData take), complex mode shapes keep their imaginary
+    part, and a boolean mask stays a mask."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    shapes = np.array([[1.0 + 0.0j, 0.25 - 0.5j], [-0.75j, 1.0 + 0.0j]])
+    keep = np.array([True, False])
+    path = save_model(tmp_path / "model.npz", result, basis=R, dofs=data.dofs,
+                      shapes=shapes, keep=keep)
+    _, extras = load_model(path)
+    assert extras["dofs"].dtype == data.dofs.dtype == np.int64
+    assert extras["shapes"].dtype == np.complex128 and extras["keep"].dtype == np.bool_
+    for name, given in (("basis", R), ("dofs", data.dofs), ("shapes", shapes), ("keep", keep)):
+        np.testing.assert_array_equal(extras[name], given)
+
+
 def test_numpy_scalars_in_a_models_info_are_saved_as_numbers(tmp_path, chain6):
     """A fitter's report holds numpy scalars (counts as int64, flags as bool_) and arrays:
     JSON cannot hold them as they are, so save_model writes them as Python numbers and
