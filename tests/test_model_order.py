@@ -198,6 +198,11 @@ def test_lines_that_are_not_positive_or_not_one_per_line_are_named(chain_frf):
     with pytest.raises(ValueError, match=rf"^omega must hold the {w.size} lines of U_n, got "
                                          rf"{w.size - 1}$"):
         sweep_orders(U_n, F_n, w[1:], P)
+    # one line too many is named too, not left to fail later on indexing the lines
+    longer = np.r_[w, 1.01 * w[-1]]
+    with pytest.raises(ValueError, match=rf"^omega must hold the {w.size} lines of U_n, got "
+                                         rf"{w.size + 1}$"):
+        sweep_orders(U_n, F_n, longer, P)
 
 
 def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_frf):
