@@ -3572,6 +3572,35 @@ AUDIT = [
 ]
 
 
+def run_mutant(mod: str, mutated: str, test_files: list[str]) -> tuple[bool, str]:
+    """Run ``test_files`` with module ``mod``'s source replaced by ``mutated``.
+
+    Returns whether the tests failed (the mutant is killed) and pytest's last line. The
+    source and its modification time are restored afterwards, also on Ctrl-C.
+    """
+    path = PKG / f"{mod}.py"
+    src, stat = path.read_text(), path.stat()
+    path.write_text(mutated)
+    try:
+        r = subprocess.run(
+            ["nice", "-n", "19", sys.executable, "-m", "pytest", "-x", "-q",
+             "-p", "no:cacheprovider", *test_files],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_SECONDS,
+        )
+    except subprocess.TimeoutExpired:  # the mutant made the tests hang: as mutmut, killed
+        r = subprocess.CompletedProcess([], 1, f"timed out after {TIMEOUT_SECONDS} s", "")
+    finally:
+        path.write_text(src)
+        # the old modification time too: mutmut regenerates the mutants of a source newer
+        # than its mutated copy, and 3.8 then forgot the module's verdicts
+        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
+    return bool(r.returncode), last
+
+
 def main() -> None:
     """Run the mutants named on the command line (all without arguments)."""
     suite = "--suite" in sys.argv  # every test file (the slow end-to-end ones too)
@@ -3582,40 +3611,12 @@ def main() -> None:
     for i, (mod, old, new) in enumerate(MUTANTS + AUDIT):
         if only and str(i) not in only:
             continue
-        path = PKG / f"{mod}.py"
-        src, stat = path.read_text(), path.stat()
+        src = (PKG / f"{mod}.py").read_text()
         assert src.count(old) == 1, (mod, old, src.count(old))
-        path.write_text(src.replace(old, new))
-        try:
-            r = subprocess.run(
-                [
-                    "nice",
-                    "-n",
-                    "19",
-                    sys.executable,
-                    "-m",
-                    "pytest",
-                    "-x",
-                    "-q",
-                    "-p",
-                    "no:cacheprovider",
-                    *(["tests"] if suite else TESTS[mod]),
-                    *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) and not suite else []),
-                ],
-                cwd=ROOT,
-                capture_output=True,
-                text=True,
-                timeout=TIMEOUT_SECONDS,
-            )
-        except subprocess.TimeoutExpired:  # the mutant made the tests hang: as mutmut, killed
-            r = subprocess.CompletedProcess([], 1, f"timed out after {TIMEOUT_SECONDS} s", "")
-        finally:
-            path.write_text(src)
-            # the old modification time too: mutmut regenerates the mutants of a source newer
-            # than its mutated copy, and 3.8 then forgot the module's verdicts
-            os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
-        last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
-        verdict = "KILLED " if r.returncode else "SURVIVED"
+        files = (["tests"] if suite else
+                 [*TESTS[mod], *(AUDIT_TESTS.get(mod, []) if i >= len(MUTANTS) else [])])
+        killed, last = run_mutant(mod, src.replace(old, new), files)
+        verdict = "KILLED " if killed else "SURVIVED"
         print(f"{i:2d} {verdict} {mod}: {old!r} -> {new!r} | {last}", flush=True)
 
 
