@@ -3569,6 +3569,45 @@ AUDIT = [
      "target = np.vstack([(w[:, None] * u).real, (w[:, None] * u).imag])",
      "target = np.vstack([(w[:, None] * u).imag, (w[:, None] * u).real])"),
     ("identification/modal_start", "w = known.astype(float)", "w = np.ones(residue.shape)"),
+    # thirteenth audit, the estimator and the λ rules (written before any run, tests unread):
+    # identify() forwards an option wrongly: the CG iteration limit, the rule path's backend
+    ("identification/estimator", "max_iter=max_iter,", "max_iter=CG_MAX_ITER,"),
+    ("identification/estimator",
+     "            backend=backend,\n            threads=threads,\n            noise=noise,",
+     '            backend="rust",\n            threads=threads,\n            noise=noise,'),
+    # the result: a missing transpose in the misfit ‖Ax − y‖, a plain sum for the root sum of
+    # squares of the penalty norms
+    ("identification/result", "return Ur @ X.T + 1j * (Ui @ X.T)",
+     "return Ur @ X.T + 1j * (Ui @ X)"),
+    ("identification/result", "return float(np.sqrt(sum(v * v for v in self.penalty_norms)))",
+     "return float(sum(v for v in self.penalty_norms))"),
+    # the fixed-λ solvers: the diagonal columns marked skew (penalised), the eigen solve's rank
+    # reported full, the triple λ applied to the blocks in reverse, a progress callable
+    # ignored, 300 unknowns no longer direct, the stalled CG run's iterations misreported
+    ("identification/solvers", "skew.append(sign == -1.0)", "skew.append(sign != 1.0)"),
+    ("identification/solvers", 'return x, "eigen-min-norm", int(keep.sum()), ratio',
+     'return x, "eigen-min-norm", int(keep.size), ratio'),
+    ("identification/solvers", "lam_s = np.asarray(lam) * factors / sf",
+     "lam_s = np.asarray(lam)[::-1] * factors / sf"),
+    ("identification/solvers",
+     "callback = bar if bar is not None else (progress if callable(progress) else None)",
+     "callback = bar"),
+    ("identification/solvers", "return n <= max_unknowns and fits_in_memory(dense, 0.5)",
+     "return n < max_unknowns and fits_in_memory(dense, 0.5)"),
+    ("identification/solvers", '{"iterations": out.iterations,', '{"iterations": max_iter,'),
+    # the λ rules: the Brent refinement's bracket one grid point short, GCV's minimum at the
+    # low end taken as interior, the repeated path's diagonal of H on the wrong axis, the
+    # repeated solves' curve without the searches' points, lambda_curve ignoring delta
+    ("identification/regularisation", "bounds=(t[i - 1], t[i + 1])", "bounds=(t[i - 1], t[i])"),
+    ("identification/regularisation", "if 0 < i < t.size - 1:\n        return math.exp(",
+     "if 0 <= i < t.size - 1:\n        return math.exp("),
+    ("identification/regularisation", "d = np.diag(H).reshape(3, m)",
+     "d = np.diag(H).reshape(m, 3)"),
+    ("identification/regularisation",
+     "grid = np.array(sorted(set(ev.cache) | set(grid.tolist())))",
+     "grid = np.array(sorted(set(grid.tolist())))"),
+    ("identification/regularisation", "target = _target_residual(data, noise, snr_db, delta)",
+     "target = _target_residual(data, noise, snr_db, None)"),
 ]
 
 
