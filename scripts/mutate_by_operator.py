@@ -21,9 +21,9 @@ Each mutant runs the module's test files of ``mutate_by_hand.py`` (``TESTS`` and
     python3 scripts/mutate_by_operator.py 3 12 40-55        # only these numbers
 
 Mutants are numbered in the order of the modules below and of their places in the file;
-a number is stable while the modules' sources are. A survivor worth keeping goes into
-``mutate_by_hand.py``'s ``AUDIT`` with the test that kills it, or is explained there as
-equivalent. Do not edit the package while it runs.
+a number is stable while the modules' sources are. Every survivor gets the test that
+kills it, or goes into ``EQUIVALENT`` below with the reason no input can tell it apart
+(those are reported, not run). Do not edit the package while it runs.
 """
 
 from __future__ import annotations
@@ -42,6 +42,11 @@ MODULES = [
     "identification/latent", "identification/lines", "identification/holes",
     "identification/modal_start",
 ]
+
+#: survivors no input can tell apart from the code, each with the reason: (module, the line
+#: as written, the mutated line), both stripped of indentation
+EQUIVALENT: dict[tuple[str, str, str], str] = {
+}
 
 
 def _offsets(src: str) -> list[int]:
@@ -98,6 +103,7 @@ def main() -> None:
         first, _, last = arg.partition("-")
         only.update(range(int(first), int(last or first) + 1))
     i = 0
+    counts = {"KILLED": 0, "SURVIVED": 0, "EQUIVALENT": 0}
     for mod in MODULES:
         for row, line, mutated_line, mutated in mutants(mod):
             i += 1
@@ -107,9 +113,16 @@ def main() -> None:
             if "--list" in sys.argv:
                 print(what, flush=True)
                 continue
-            killed, last = run_mutant(mod, mutated, [*TESTS[mod], *AUDIT_TESTS.get(mod, [])])
-            print(f"{'KILLED ' if killed else 'SURVIVED'} {what} | {last}", flush=True)
-
+            reason = EQUIVALENT.get((mod, line.strip(), mutated_line.strip()))
+            if reason is not None:
+                verdict, last = "EQUIVALENT", reason
+            else:
+                killed, last = run_mutant(mod, mutated, [*TESTS[mod], *AUDIT_TESTS.get(mod, [])])
+                verdict = "KILLED" if killed else "SURVIVED"
+            counts[verdict] += 1
+            print(f"{verdict:10s} {what} | {last}", flush=True)
+    if "--list" not in sys.argv:
+        print(", ".join(f"{v} {k.lower()}" for k, v in counts.items()))
 
 if __name__ == "__main__":
     main()
