@@ -203,6 +203,10 @@ def test_pod_from_frf_equals_pod_of_its_correlation():
     ("Ruu", "message"),
     [
         (np.ones((2, 3)), "square"),
+        # more rows than columns, a stack of squares, a vector: each refused by its shape
+        (np.ones((3, 2)), r"^Ruu must be a non-empty square matrix, got shape \(3, 2\)$"),
+        (np.ones((2, 2, 2)), r"^Ruu must be a non-empty square matrix, got shape \(2, 2, 2\)$"),
+        (np.ones(2), r"^Ruu must be a non-empty square matrix, got shape \(2,\)$"),
         (np.array([[1.0, 0.5], [0.0, 1.0]]), "symmetric"),
         (np.diag([1.0, -1.0]), "positive semi-definite"),
         # the whole message: the most negative eigenvalue against the largest
@@ -238,6 +242,17 @@ def test_the_symmetry_of_a_correlation_is_judged_relative_to_its_size(scale):
     near = scale * np.array([[2.0, 1.0], [1.0 + 1e-14, 2.0]])
     result = pod_from_correlation(near)
     np.testing.assert_allclose(result.eigenvalues, scale * np.array([3.0, 1.0]), rtol=1e-12)
+
+
+def test_a_correlation_asymmetric_within_the_tolerance_is_decomposed_as_its_symmetric_part():
+    """eigh reads one triangle only. Ruu off symmetric by 2·2⁻³⁴ ≈ 1.2e-10 (accepted: the
+    tolerance is 1e-10 × its largest entry 2) is decomposed as ½(Ruu + Ruuᵀ), here
+    [[2, 1], [1, 2]] exactly (1 ± 2⁻³⁴ are doubles and sum to 2), of eigenvalues 3 and 1;
+    either triangle alone would give 3 ∓ 2⁻³⁴ and 1 ± 2⁻³⁴, 5.8e-11 off."""
+    e = 2.0**-34
+    result = pod_from_correlation(np.array([[2.0, 1.0 + e], [1.0 - e, 2.0]]))
+    # eigh of a symmetric 2 × 2 is accurate to a few eps of its largest eigenvalue (~1e-15)
+    np.testing.assert_allclose(result.eigenvalues, [3.0, 1.0], rtol=1e-13)
 
 
 def test_a_rank_one_correlation_has_no_negative_energy():
@@ -377,6 +392,8 @@ def test_noise_corrected_pod_from_spectra_equals_that_of_the_history():
     [
         (-1.0, "non-negative"),
         (np.ones(5), r"shape \(6,\)"),
+        (np.ones(7), r"^noise_variance must be a number or have shape \(6,\) \(one per DOF\), "
+                     r"got \(7,\)$"),
         (np.nan, "noise_variance"),
         (1e9, "more than twice the measured mean square"),
     ],
@@ -452,7 +469,7 @@ def test_pod_takes_one_snapshot_or_one_channel_and_refuses_empty_or_complex():
     assert single.eigenvalues.tolist() == pytest.approx([5.0]) and single.n == 1
     # refused the same way whichever side is asked for (the snapshot side would see a
     # zero Gram matrix of no DOFs, not an empty array)
-    for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3)):
+    for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3), np.ones((2, 3, 4))):
         message = f"snapshots must have shape (r, n), time first, got {bad.shape}"
         for method in ("auto", "correlation", "snapshots"):
             with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
@@ -654,7 +671,7 @@ def test_order_for_energy_names_a_bad_fraction():
 
 
 def test_correlation_from_snapshots_refusals():
-    for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3)):
+    for bad in (np.zeros((0, 3)), np.zeros((3, 0)), np.ones(3), np.ones((2, 3, 4))):
         message = f"snapshots must have shape (r, n), time first, got {bad.shape}"
         with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
             correlation_from_snapshots(bad)
@@ -676,10 +693,12 @@ def test_pod_from_correlation_names_its_argument():
 
 
 def test_an_frf_refusal_gives_omegas_line_count_and_hs_shape():
-    """H of 3 lines against 2 frequencies: the message gives s as the lines of omega (2)
-    and H's shape as it is; an H without responses or without inputs is refused the same
-    way (nothing to correlate), not decomposed as a zero correlation."""
-    for bad in (np.ones((3, 2, 2)), np.ones((2, 0, 1)), np.ones((2, 2, 0))):
+    """H of 3 lines (or 1) against 2 frequencies: the message gives s as the lines of
+    omega (2) and H's shape as it is; an H without responses or without inputs is refused
+    the same way (nothing to correlate), not decomposed as a zero correlation, and so is
+    an H of two or four axes whose first matches omega."""
+    for bad in (np.ones((3, 2, 2)), np.ones((1, 2, 2)), np.ones((2, 0, 1)), np.ones((2, 2, 0)),
+                np.ones((2, 2)), np.ones((2, 2, 1, 1))):
         message = f"H must have shape (s, n, n_in) with s = 2 lines (len(omega)), got {bad.shape}"
         for f in (correlation_from_frf, pod_from_frf):
             with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
