@@ -84,6 +84,9 @@ def test_seed_makes_simulation_reproducible():
         ((0.0, 10.0), 0.01, 10.0, 1.0, "Nyquist"),
         ((10.0, 5.0), 0.01, 10.0, 1.0, "Nyquist"),
         ((1.0,), 0.01, 10.0, 1.0, "pair"),
+        # too many ends as well as too few: the pair's message, not a failed unpacking
+        ((1.0, 5.0, 10.0), 0.01, 10.0, 1.0,
+         r"^band_hz must be a pair \(lo, hi\) in Hz, got \(1.0, 5.0, 10.0\)$"),
         ((5.01, 5.02), 0.01, 10.0, 1.0, "no frequency line"),
         (None, 0.01, 10.0, 1.0, "band_hz is required"),
         ((1.0, 10.0), -0.01, 10.0, 1.0, "dt"),
