@@ -237,6 +237,13 @@ def test_h1_names_the_history_of_the_wrong_shape():
         frf_h1(x[:, 0], x, DT)
     with pytest.raises(ValueError, match=r"^responses must have shape \(r, n\)"):
         frf_h1(x, x[:, 0], DT)
+    # an axis too many is refused too, not averaged over as if it were more channels
+    four_axes = x[None, :, :, None]
+    for name, args in (("forces", (four_axes, x)), ("responses", (x, four_axes))):
+        with pytest.raises(ValueError, match=exactly(
+                f"{name} must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, "
+                "got (1, 1000, 3, 1)")):
+            frf_h1(*args, DT)
 
 
 def test_h1_needs_only_as_many_segments_as_inputs():
@@ -263,7 +270,7 @@ def test_spectra_edge_shapes_and_refusals():
     # the smallest records: two samples, one channel
     omega, X = spectra(np.array([[1.0], [-1.0]]), 0.5)
     assert omega.tolist() == [2 * np.pi * 1.0] and X.tolist() == [[2.0 + 0j]]
-    for bad in (np.ones((1, 3)), np.ones((4, 0)), np.ones(4)):
+    for bad in (np.ones((1, 3)), np.ones((4, 0)), np.ones(4), np.ones((4, 2, 3))):
         message = f"x must have shape (r, n) with r >= 2 samples, got {bad.shape}"
         with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
             spectra(bad, 0.1)
@@ -447,8 +454,11 @@ def test_refusals_quote_the_argument_as_given_and_both_shapes():
         add_noise(np.arange(10.0), [5.0, 6.0])
     # forces and responses that differ in samples, or in records: both shapes named
     x = np.random.default_rng(0).standard_normal((1000, 3))
+    # more samples or records on either side
     for forces, responses, shapes in ((x, x[:999], "(1, 1000, 3) and (1, 999, 3)"),
-                                      (np.stack([x, x]), x, "(2, 1000, 3) and (1, 1000, 3)")):
+                                      (np.stack([x, x]), x, "(2, 1000, 3) and (1, 1000, 3)"),
+                                      (x[:999], x, "(1, 999, 3) and (1, 1000, 3)"),
+                                      (x, np.stack([x, x]), "(1, 1000, 3) and (2, 1000, 3)")):
         with pytest.raises(ValueError, match=exactly(
                 "forces and responses must have the same number of records and samples, "
                 f"got {shapes}")):
