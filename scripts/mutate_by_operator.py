@@ -66,6 +66,11 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "asymmetry is round-off (up to 5e-17 of max|T| measured), so eigh of one triangle "
         "differs from eigh of the symmetric part by eigh's own round-off (up to 6e-16 of "
         "max|T|), which no tolerance a test could defend separates.",
+    ("simulation", "if snr.ndim != 0:", "if snr.ndim > 0:"):
+        "an array's ndim is never negative, so ndim > 0 is ndim != 0.",
+    ("simulation", "if welch.x.shape[2] != 1:", "if welch.x.shape[2] > 1:"):
+        "_records refuses forces without a channel (shape[2] == 0), so shape[2] >= 1 here and "
+        "> 1 is != 1.",
 }
 
 
