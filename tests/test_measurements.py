@@ -208,6 +208,10 @@ def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
         # is averaged (tests/test_uff_layout.py); two that disagree are still refused
         ("duplicate_disagrees", "differ by a median"),
         ("frequencies_differ", "frequency lines differ"),
+        # record 2 one line short of record 1's lines, or one line longer: both refused by
+        # the comparison's own message (not numpy's, of arrays of two lengths)
+        ("fewer_lines", r"FRF record 2: its frequency lines differ from those of record 1$"),
+        ("more_lines", r"FRF record 2: its frequency lines differ from those of record 1$"),
         ("time_data", "no FRF records"),
         ("unknown_numerator", r"the numerator type 1 is not displacement \(8\), velocity "
                               r"\(11\) or acceleration \(12\); pass quantity="),
@@ -228,6 +232,10 @@ def test_uff_malformed_files_are_refused(tmp_path, chain6, case, match):
     elif case == "frequencies_differ":
         write_uff(path, freq, H3[:, :1, :1], dofs[:1], dofs[:1])
         write_uff(path, freq * 2, H3[:, 1:2, :1], dofs[1:2], dofs[:1])
+    elif case in ("fewer_lines", "more_lines"):
+        first, second = (freq, freq[:-1]) if case == "fewer_lines" else (freq[:-1], freq)
+        write_uff(path, first, H3[:first.size, :1, :1], dofs[:1], dofs[:1])
+        write_uff(path, second, H3[:second.size, 1:2, :1], dofs[1:2], dofs[:1])
     elif case in ("time_data", "unknown_numerator"):
         record = pyuff.prepare_58(
             func_type=1 if case == "time_data" else 4,
