@@ -71,6 +71,33 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     ("simulation", "if welch.x.shape[2] != 1:", "if welch.x.shape[2] > 1:"):
         "_records refuses forces without a channel (shape[2] == 0), so shape[2] >= 1 here and "
         "> 1 is != 1.",
+    # io/uff, io/npz
+    ("io/uff", "while (at := raw.find(_DELIMITER, at + 1)) != -1:",
+     "while (at := raw.find(_DELIMITER, at + 1)) > -1:"):
+        "bytes.find returns -1 or an offset >= 0, so != -1 and > -1 are the same test.",
+    ("io/uff", "if x.ndim != 1 or y.shape != x.shape or x.size < 2:",
+     "if x.ndim > 1 or y.shape != x.shape or x.size < 2:"):
+        "the only ndim under 1 is a 0-d abscissa, of size 1, which x.size < 2 refuses on the "
+        "same line with the same message.",
+    ("io/uff", "elif by_reciprocity or columns != refs:",
+     "elif by_reciprocity or columns < refs:"):
+        "evaluated only when by_reciprocity == 0, where every reference is a column (else it "
+        "would count) and every column a reference (_force_columns drops a column that is "
+        "only a response: the references cover all its pairs), so columns == refs and !=, < "
+        "and > are all False.",
+    ("io/uff", "elif by_reciprocity or columns != refs:",
+     "elif by_reciprocity or columns > refs:"):
+        "as with <: evaluated only when by_reciprocity == 0, where columns == refs.",
+    ("io/uff",
+     "if np.any(g[:, 0] != np.round(g[:, 0])) or np.unique(g[:, 0]).size != g.shape[0]:",
+     "if np.any(g[:, 0] != np.round(g[:, 0])) or np.unique(g[:, 0]).size < g.shape[0]:"):
+        "np.unique of the g.shape[0] node numbers holds at most g.shape[0] of them, so != and "
+        "< are the same test.",
+    ("io/uff",
+     "if np.unique(idx).size != idx.size:  # as MeasuredData: one load case per driven DOF",
+     "if np.unique(idx).size < idx.size:  # as MeasuredData: one load case per driven DOF"):
+        "np.unique of the flat idx holds at most idx.size values, so != and < are the same "
+        "test.",
 }
 
 

@@ -208,6 +208,10 @@ def test_uff_roving_hammer_is_read_by_reciprocity(tmp_path, chain6, fixed_dir):
         # is averaged (tests/test_uff_layout.py); two that disagree are still refused
         ("duplicate_disagrees", "differ by a median"),
         ("frequencies_differ", "frequency lines differ"),
+        # record 2 one line short of record 1's lines, or one line longer: both refused by
+        # the comparison's own message (not numpy's, of arrays of two lengths)
+        ("fewer_lines", r"FRF record 2: its frequency lines differ from those of record 1$"),
+        ("more_lines", r"FRF record 2: its frequency lines differ from those of record 1$"),
         ("time_data", "no FRF records"),
         ("unknown_numerator", r"the numerator type 1 is not displacement \(8\), velocity "
                               r"\(11\) or acceleration \(12\); pass quantity="),
@@ -228,6 +232,10 @@ def test_uff_malformed_files_are_refused(tmp_path, chain6, case, match):
     elif case == "frequencies_differ":
         write_uff(path, freq, H3[:, :1, :1], dofs[:1], dofs[:1])
         write_uff(path, freq * 2, H3[:, 1:2, :1], dofs[1:2], dofs[:1])
+    elif case in ("fewer_lines", "more_lines"):
+        first, second = (freq, freq[:-1]) if case == "fewer_lines" else (freq[:-1], freq)
+        write_uff(path, first, H3[:first.size, :1, :1], dofs[:1], dofs[:1])
+        write_uff(path, second, H3[:second.size, 1:2, :1], dofs[1:2], dofs[:1])
     elif case in ("time_data", "unknown_numerator"):
         record = pyuff.prepare_58(
             func_type=1 if case == "time_data" else 4,
@@ -714,6 +722,27 @@ def test_a_model_file_needs_the_fields_without_defaults(tmp_path, chain6):
         load_model(missing)
 
 
+@pytest.mark.parametrize("tag", ["podid_rs.IdentificationResult/0",
+                                 "podid_rs.IdentificationResult/2"])
+def test_a_model_file_of_another_format_version_is_refused(tmp_path, chain6, tag):
+    """A model file tagged with another version of the format, an older one (its tag sorts
+    before this reader's) or a newer one (after it), is refused naming the file and the
+    format this reader knows, not read field by field as if it were this version."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    path = save_model(tmp_path / "model.npz", result, basis=R)
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    assert str(arrays["format"]) == "podid_rs.IdentificationResult/1"
+    arrays["format"] = np.array(tag)
+    other = tmp_path / "other.npz"
+    np.savez(other, **arrays)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(other))}: not a model file written "
+                                         r"by save_model \(podid_rs\.IdentificationResult/1\)$"):
+        load_model(other)
+
+
 def test_save_model_refuses_other_objects(tmp_path):
     with pytest.raises(ValueError, match="^result must be an IdentificationResult, got "
                                          "SecondOrderSystem$"):
@@ -757,8 +786,10 @@ def test_numpy_scalars_in_a_models_info_are_saved_as_numbers(tmp_path, chain6):
     assert type(loaded.info["steps"]) is int and type(loaded.info["converged"]) is bool
 
 
-def test_load_data_names_a_file_of_another_format(tmp_path):
-    path = tmp_path / "frf.csv"
+# a suffix that sorts before .npz and one that sorts after it: the check is not an order
+@pytest.mark.parametrize("name", ["frf.csv", "frf.txt"])
+def test_load_data_names_a_file_of_another_format(tmp_path, name):
+    path = tmp_path / name
     path.write_text("1,2\n")
     with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: unknown data format "
                                          r"\(expected \.uff, \.unv, \.uf or \.npz\)$"):

@@ -892,21 +892,23 @@ def test_the_exact_zero_warning_points_at_the_callers_line(tmp_path):
     assert [w.filename for w in caught] == [__file__]
 
 
-def test_a_set_pyuff_reads_short_of_its_header_is_refused(tmp_path, monkeypatch):
+@pytest.mark.parametrize("held", [300, 302])
+def test_a_set_pyuff_reads_short_of_or_beyond_its_header_is_refused(tmp_path, monkeypatch, held):
     """Behind the check of the file's text: a dataset 58 that pyuff returns with fewer
-    values than its header's number of points is refused by name, not fitted."""
+    values than its header's number of points, or more, is refused by name, not fitted."""
     path, _, _ = write_chain(tmp_path / "chain.uff")
     read = pyuff.UFF.read_sets
 
-    def short(self, *args, **kwargs):
+    def changed(self, *args, **kwargs):
         d = read(self, *args, **kwargs)
         if d.get("type") == 58 and d.get("rsp_node") == 2 and d.get("ref_node") == 3:
-            d = dict(d, data=d["data"][:-1])
+            # one value lost at the end, or one more (its last repeated)
+            d = dict(d, data=d["data"][:-1] if held < 301 else np.r_[d["data"], d["data"][-1]])
         return d
 
-    monkeypatch.setattr(pyuff.UFF, "read_sets", short)
+    monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
     with pytest.raises(ValueError, match=r"record 6 of the file \(dataset 58, response 2:3 / "
-                                         r"reference 3:3, from line \d+\) holds 300 values "
+                                         rf"reference 3:3, from line \d+\) holds {held} values "
                                          r"for the 301 points its header announces"):
         read_uff(path)
 
@@ -1025,6 +1027,23 @@ def test_a_delimiter_is_minus_one_alone_on_its_line_or_followed_by_blanks_to_col
            b"    -1")  # the end of the file
     padded = raw.index(b"    -1" + b" " * 74)
     assert _delimiters(raw) == [0, padded, len(raw) - 6]
+
+
+def test_other_datasets_are_not_counted_as_frf_records(tmp_path):
+    """Only a dataset 58's values are counted against its header. A wireframe of 8
+    thin-shell triangles (dataset 2412, as pyuff writes it) after the FRFs: element 4's
+    first line (number 4, FE descriptor 91, property table 1) stands where a dataset-58
+    header gives its data form (ordinate type 4, 91 points, even spacing), and its node
+    lines hold far fewer than 91 fields; the file reads as without the wireframe."""
+    path, _, _ = write_chain(tmp_path / "mesh.uff")
+    plain = read_uff(path)
+    elements = [dict(element_nums=k + 1, fe_descriptor=91, phys_table=1, mat_table=1,
+                     color=7, num_nodes=3, nodes_nums=[k % 2 + 1, k % 2 + 2, k % 2 + 3])
+                for k in range(8)]
+    pyuff.UFF(str(path)).write_sets({"type": 2412, 91: elements}, "add")
+    assert pyuff.UFF(str(path)).get_set_types().tolist() == [58] * 9 + [2412]
+    data = read_uff(path)
+    assert data.dofs.tolist() == plain.dofs.tolist() and np.array_equal(data.U, plain.U)
 
 
 @pytest.mark.parametrize("value", [None, 3.0, "3", True])

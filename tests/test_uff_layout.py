@@ -162,6 +162,22 @@ def test_three_measurements_of_one_entry_are_as_far_apart_as_the_widest_two(tmp_
     assert np.allclose(entry(data, 3, 2), mean * H[1:, 2, 1], rtol=1e-10)
 
 
+def test_two_measurements_apart_by_a_drift_are_as_far_apart_as_their_median_line(tmp_path):
+    """H(3, 2) measured twice, the second's level drifting linearly from 0 dB at 0 Hz to
+    2 dB at 300 Hz (f / 150 dB at f Hz): the note's distance is the median over every line
+    read, 1 … 300 Hz, (150 + 151) / 2 / 150 = 1.0033 dB, whatever the phase of the FRF at
+    the line (its real part changes sign at the resonances). A constant factor between the
+    two, as above, gives the same distance over any subset of the lines."""
+    shaker = [(o, 2) for o in range(1, 5)]
+    drift = 10 ** (FREQ / 150 / 20)
+    path = write(tmp_path / "drift.uff", shaker + [(3, 2)], scale={4: drift})
+    # the file's 13 significant digits move the dB by ~1e-11, far from 1.005's rounding
+    with pytest.warns(DataWarning, match=r"response \(3, 3\) / force at \(2, 3\) was measured "
+                                         r"2 times .*averaged; they differ by 1\.00 dB"):
+        data = read_uff(path)
+    assert np.allclose(entry(data, 3, 2), (1 + drift[1:]) / 2 * H[1:, 2, 1], rtol=1e-10)
+
+
 def test_a_tie_goes_to_the_files_reference(tmp_path):
     # a shaker at 1 (driving point measured) and H(2, 3): 2 or 3 could hold that pair;
     # 3 is the file's reference, so it is read directly — only H(1, 3), the mirror of

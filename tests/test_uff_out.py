@@ -208,6 +208,9 @@ def test_every_bad_input_is_refused_with_its_whole_message(written, tmp_path):
          "inputs must index the 6 measured DOFs, got [-1]"),
         ((result, R), {"dofs": dofs, "inputs": [0.5], "omega": w},
          "inputs must index the 6 measured DOFs, got [0.5]"),
+        # 0.5 lies above its nearest integer (0: half to even), 0.75 below it (1)
+        ((result, R), {"dofs": dofs, "inputs": [0.75], "omega": w},
+         "inputs must index the 6 measured DOFs, got [0.75]"),
         ((result, R), {"dofs": dofs, "inputs": [], "omega": w},
          "inputs must index the 6 measured DOFs, got []"),
         ((result, R), {"dofs": dofs, "inputs": [2, 0, 2], "omega": w},
@@ -263,6 +266,14 @@ def test_bad_input_is_named(written, tmp_path):
         write_uff(out, result, R, dofs=np.c_[np.arange(1, 7), np.full(6, 5)])
     with pytest.raises(ValueError, match=r"geometry must have shape \(k, 4\)"):
         write_uff(out, result, R, data, geometry=GEOMETRY[:, :3])
+    # one column too many (a node's rotation, say) and a stack of tables are refused too:
+    # the check is two-sided on the columns and on the number of axes
+    with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
+                                         r"z\], got \(7, 5\)$"):
+        write_uff(out, result, R, data, geometry=np.c_[GEOMETRY, np.zeros(7)])
+    with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
+                                         r"z\], got \(7, 4, 1\)$"):
+        write_uff(out, result, R, data, geometry=GEOMETRY[:, :, None])
     with pytest.raises(ValueError, match=r"^geometry contains non-finite values"):
         write_uff(out, result, R, data, geometry=np.r_[GEOMETRY[:1], [[2, np.nan, 0.0, 0.0]]])
     with pytest.raises(ValueError, match=r"^geometry must have shape \(k, 4\) \[node, x, y, "
@@ -349,6 +360,14 @@ def test_frequency_lines_and_a_mask_of_modes_are_checked(written, tmp_path):
     with pytest.raises(ValueError, match=rf"^modes must be a boolean mask over the model's {k} "
                                          r"modes, got int64 \(2,\)$"):
         write_uff(out, result, R, data, modes=np.array([1, 0]))
+    # a mask of the right length but not boolean is refused too, whatever its type: 0/1
+    # integers (as indices they would write the second mode k times) or "1"/"0" text, read
+    # from a file (numpy casts no bool safely to text shorter than "False")
+    for mask in (np.ones(k, dtype=np.int64), np.array(["1"] * k)):
+        with pytest.raises(ValueError, match=rf"^modes must be a boolean mask over the model's "
+                                             rf"{k} modes, got {re.escape(str(mask.dtype))} "
+                                             rf"{re.escape(str(mask.shape))}$"):
+            write_uff(out, result, R, data, modes=mask)
     # a boolean mask of the wrong length (one mode short, or as a column) is named as
     # such, not left to numpy's indexing
     for mask in (np.ones(k - 1, dtype=bool), np.ones((k, 1), dtype=bool)):
@@ -396,6 +415,14 @@ def test_data_with_labels_or_lines_beside_it_and_repeated_nodes_are_refused(writ
     with pytest.raises(ValueError, match=r"^geometry's first column must hold distinct integer "
                        r"node numbers$"):
         write_uff(out, result, R, data, geometry=GEOMETRY + np.r_[0.5, 0.0, 0.0, 0.0])
+    # one node number off its integer, above it (3.25 rounds down) or below it (2.75 rounds
+    # up): each alone is refused, not only a geometry that holds both kinds
+    for node in (3.25, 2.75):
+        geometry = GEOMETRY.copy()
+        geometry[2, 0] = node
+        with pytest.raises(ValueError, match=r"^geometry's first column must hold distinct "
+                           r"integer node numbers$"):
+            write_uff(out, result, R, data, geometry=geometry)
     assert not out.exists()
 
 
