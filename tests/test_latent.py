@@ -93,8 +93,8 @@ def test_a_column_below_zero_column_is_latent():
 def test_an_empty_basis_is_refused():
     """No measured DOF, or no column: there is no basis to observe anything through —
     refused, not turned into an observation matrix of zero rows or of latent columns
-    only; a 1-D array is no (n, k) basis either."""
-    for shape in ((0, 2), (3, 0), (3,)):
+    only; a 1-D array is no (n, k) basis either, nor a 3-D one (a stack of bases)."""
+    for shape in ((0, 2), (3, 0), (3,), (3, 2, 2)):
         with pytest.raises(ValueError, match=rf"non-empty \(n, k\) array, got shape "
                                              rf"{re.escape(str(shape))}"):
             pr.observation_matrix(np.zeros(shape), 2)
