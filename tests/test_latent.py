@@ -205,6 +205,16 @@ def test_latent_starts_add_the_mode_the_model_lacks():
     best = min(starts, key=lambda c: c[0])
     added = float(re.search(r"at ([0-9.]+) Hz", best[2]).group(1))
     assert abs(added - truth[2]) < 0.01 * truth[2] and best[1][0].shape == (4, 4)
+    # model3's C, computed as T⁻ᵀ C T⁻¹, is symmetric only to round-off; every start is
+    # symmetric bit for bit, as the module promises M, C, K, and keeps the model on its
+    # coordinates: T⁻ᵀ diag(X, μ) T⁻¹ with T⁻¹ = [[I, −φ], [0, 1]] has X in that block
+    # (1e-12: the symmetric part of X, to a few roundings of its entries)
+    assert not np.array_equal(model3[1], model3[1].T)
+    for _, start, _ in starts:
+        for X, S in zip(model3, start, strict=True):
+            assert np.array_equal(S, S.T)
+            np.testing.assert_allclose(S[:3, :3], 0.5 * (X + X.T), rtol=1e-12,
+                                       atol=1e-12 * np.abs(X).max())
     # nothing to add to a model that reproduces the data exactly
     exact = tuple(np.asarray(X) for X in (chain.M, chain.C, chain.K))
     R4 = pr.observation_matrix(np.ones((1, 1)), 4)
