@@ -284,6 +284,40 @@ def test_a_mode_past_the_mass_cap_gets_no_start_and_a_light_one_does():
     assert f"latent DOF at {wc / (2 * np.pi):.4g} Hz" in names
 
 
+def test_the_mass_cap_of_a_non_symmetric_mass_matrix_is_that_of_its_symmetric_part():
+    """The cap weighs a mode's modal mass against the largest mass xᵀMx a unit
+    displacement of the model sees: the largest eigenvalue of M's symmetric part. Two
+    observed DOFs (modes at 10 and 15 Hz, each driven in its own load case) with a mass
+    matrix that is not symmetric (SecondOrderSystem takes one), I + 3 [[0, 1], [−1, 0]]:
+    xᵀMx = xᵀx, so the cap is MAX_MASS_RATIO; its lower triangle read as a symmetric
+    matrix, [[1, −3], [−3, 1]] (eigenvalues −2 and 4), would make it 4 × that. Data with
+    one more mode on a latent coordinate, on a candidate (seen with shape (0.6, 0.8)):
+    at half the cap it gets its start; at 3 × the cap it gets none, as at 2 × and 10 ×
+    in the test of the cap above, where a cap of 4 × would let it through."""
+    from podid_rs.identification.latent import MAX_MASS_RATIO, PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta = omega[i] * (1 + PEAK_OFFSETS[1]), PEAK_ZETAS[1]
+    w_obs = 2 * np.pi * np.array([10.0, 15.0])
+    model = (np.array([[1.0, 3.0], [-3.0, 1.0]]), np.diag(2 * 0.02 * w_obs), np.diag(w_obs**2))
+    # the model's own response, line by line, independently of the package
+    H = np.linalg.inv(model[2][None] - omega[:, None, None] ** 2 * model[0][None]
+                      + 1j * omega[:, None, None] * model[1][None])
+    phi = np.array([0.6, 0.8])
+    d = wc**2 - omega**2 + 2j * zeta * wc * omega
+    peak = f"latent DOF at {wc / (2 * np.pi):.4g} Hz"
+
+    def names(mu):
+        U = H + np.outer(phi, phi)[None] / (mu * d)[:, None, None]
+        F = np.broadcast_to(np.eye(2), U.shape).copy()
+        return [n for _, _, n in latent_starts(model, U, F, omega, np.eye(2),
+                                               np.ones((omega.size, 2)))]
+
+    assert peak in names(0.5 * MAX_MASS_RATIO)
+    assert names(3 * MAX_MASS_RATIO) == []
+
+
 def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():
     """Two observed DOFs (uncoupled, modes at 10 and 15 Hz), each driven in its own load
     case, and data with one more mode on a latent coordinate seen with shape φ = (0.6, 0.8)
