@@ -3,9 +3,10 @@
 
 Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns that are
 not orthogonal among them, columns orthonormal only to a few digits, an
-empty basis) and orders that are not integers are refused;
+empty basis, a 3-D array) and orders that are not integers are refused;
 an order at or below the observed coordinates has no gauge; a latent start
-seen at two sensors takes the residual's dominant direction; the
+seen at two sensors takes the residual's dominant direction; the starts are symmetric
+bit for bit, and the mass cap of a non-symmetric M is its symmetric part's; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
 order sweep goes past the single sensor, recovers every in-band mode of a 6-mode chain
