@@ -53,6 +53,11 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "R_ni·R_nj, summed in orders the BLAS chooses, so the triangles differ by rounding "
         "only (not always bit for bit) and eigh, which reads one, gets an input moved "
         "within its own backward error: for any R and mask nothing beyond round-off changes.",
+    ("identification/modal_start", "return (M + M.T) / 2, (C + C.T) / 2, (K + K.T) / 2",
+     "return (M + M) / 2, (C + C.T) / 2, (K + K.T) / 2"):
+        "M = A_inv.T @ A_inv is one array times its own transpose, which NumPy's matmul "
+        "computes with BLAS syrk and mirrors, so M is symmetric bit for bit and "
+        "(M + M) / 2 and (M + M.T) / 2 are both exactly M.",
 }
 
 
