@@ -98,6 +98,18 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      "if np.unique(idx).size < idx.size:  # as MeasuredData: one load case per driven DOF"):
         "np.unique of the flat idx holds at most idx.size values, so != and < are the same "
         "test.",
+    # identification/latent, lines, holes, modal_start
+    ("identification/holes", "lam, V = np.linalg.eigh(0.5 * (Q + Q.T))",
+     "lam, V = np.linalg.eigh(0.5 * (Q + Q))"):
+        "Q = Rᵀ diag(d) R with d of 0 and 1 has in its two triangles the same products "
+        "R_ni·R_nj, summed in orders the BLAS chooses, so the triangles differ by rounding "
+        "only (not always bit for bit) and eigh, which reads one, gets an input moved "
+        "within its own backward error: for any R and mask nothing beyond round-off changes.",
+    ("identification/modal_start", "return (M + M.T) / 2, (C + C.T) / 2, (K + K.T) / 2",
+     "return (M + M) / 2, (C + C.T) / 2, (K + K.T) / 2"):
+        "M = A_inv.T @ A_inv is one array times its own transpose, which NumPy's matmul "
+        "computes with BLAS syrk and mirrors, so M is symmetric bit for bit and "
+        "(M + M) / 2 and (M + M.T) / 2 are both exactly M.",
 }
 
 

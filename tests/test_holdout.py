@@ -754,6 +754,22 @@ def test_a_log_magnitude_refit_that_does_not_lower_the_median_is_reported_with_i
     assert kept["passes"][0]["db_before"] == log["db_before"] == kept["db_all_lines"]
 
 
+def test_an_entry_in_antiphase_on_every_line_is_measured_like_any_other():
+    """The peak test's data with their sign flipped, U = −|U| on every line (a sensor
+    mounted the other way round): ln|U| and the phase's range are those of |U|, so the
+    same lines are kept. An entry is left out only where it is zero on every line (a
+    hole), not where its real part is never positive."""
+    active = np.ones(1000)
+    active[234], active[777] = 1e-3, 1e3
+    flat = np.ones(1000)
+    keep = informative_lines(-four_blocks(flat, active, flat, flat), target=16)
+    grid = np.linspace(1000, 1999, 13).round().astype(int)
+    assert np.array_equal(np.flatnonzero(keep[1000:2000]) + 1000,
+                          np.sort(np.concatenate([grid, [1234, 1777]])))
+    assert np.array_equal(np.flatnonzero(keep[:1000]), [0])
+    assert np.array_equal(np.flatnonzero(keep[2000:]) + 2000, [2000, 3000, 3999])
+
+
 def test_an_exact_zero_is_a_dip_like_any_other():
     """The peak test's active block with its dip exactly 0 (a line where an entry reads
     nothing) instead of 1e-3: ln|U| is taken at the smallest positive float there

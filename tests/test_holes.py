@@ -304,6 +304,21 @@ def test_a_mask_of_the_wrong_shape_is_refused_also_when_it_has_as_many_entries()
         check_measured(mask.T, n, p)
 
 
+@pytest.mark.parametrize("bad, got", [
+    (np.ones((5, 2), dtype=bool), r"bool \(5, 2\)"),  # a DOF too many
+    (np.ones((4, 3), dtype=bool), r"bool \(4, 3\)"),  # a load case too many
+    (np.ones((3, 2), dtype=bool), r"bool \(3, 2\)"),  # a DOF too few
+    # b"1" / b"0": a text file's fields read without conversion (NumPy would not cast
+    # a bool to them safely, unlike to int or str)
+    (np.where(np.ones((4, 2), dtype=bool), b"1", b"0"), r"\|S1 \(4, 2\)"),
+])
+def test_a_mask_that_is_not_boolean_of_shape_n_p_is_refused_with_what_it_is(bad, got):
+    with pytest.raises(ValueError, match=r"^measured must be a boolean mask of shape "
+                                         r"\(n, p\) = \(4, 2\) \(True where the response "
+                                         rf"was measured\), got {got}$"):
+        check_measured(bad, 4, 2)
+
+
 def test_a_load_case_with_no_measured_entry_is_named():
     # every DOF is measured in another load case, so only the load-case check can refuse it
     mask = np.ones((4, 3), dtype=bool)

@@ -3,9 +3,10 @@
 
 Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns that are
 not orthogonal among them, columns orthonormal only to a few digits, an
-empty basis) and orders that are not integers are refused;
+empty basis, a 3-D array) and orders that are not integers are refused;
 an order at or below the observed coordinates has no gauge; a latent start
-seen at two sensors takes the residual's dominant direction; the
+seen at two sensors takes the residual's dominant direction; the starts are symmetric
+bit for bit, and the mass cap of a non-symmetric M is its symmetric part's; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
 order sweep goes past the single sensor, recovers every in-band mode of a 6-mode chain
@@ -93,8 +94,8 @@ def test_a_column_below_zero_column_is_latent():
 def test_an_empty_basis_is_refused():
     """No measured DOF, or no column: there is no basis to observe anything through —
     refused, not turned into an observation matrix of zero rows or of latent columns
-    only; a 1-D array is no (n, k) basis either."""
-    for shape in ((0, 2), (3, 0), (3,)):
+    only; a 1-D array is no (n, k) basis either, nor a 3-D one (a stack of bases)."""
+    for shape in ((0, 2), (3, 0), (3,), (3, 2, 2)):
         with pytest.raises(ValueError, match=rf"non-empty \(n, k\) array, got shape "
                                              rf"{re.escape(str(shape))}"):
             pr.observation_matrix(np.zeros(shape), 2)
@@ -205,6 +206,16 @@ def test_latent_starts_add_the_mode_the_model_lacks():
     best = min(starts, key=lambda c: c[0])
     added = float(re.search(r"at ([0-9.]+) Hz", best[2]).group(1))
     assert abs(added - truth[2]) < 0.01 * truth[2] and best[1][0].shape == (4, 4)
+    # model3's C, computed as T⁻ᵀ C T⁻¹, is symmetric only to round-off; every start is
+    # symmetric bit for bit, as the module promises M, C, K, and keeps the model on its
+    # coordinates: T⁻ᵀ diag(X, μ) T⁻¹ with T⁻¹ = [[I, −φ], [0, 1]] has X in that block
+    # (1e-12: the symmetric part of X, to a few roundings of its entries)
+    assert not np.array_equal(model3[1], model3[1].T)
+    for _, start, _ in starts:
+        for X, S in zip(model3, start, strict=True):
+            assert np.array_equal(S, S.T)
+            np.testing.assert_allclose(S[:3, :3], 0.5 * (X + X.T), rtol=1e-12,
+                                       atol=1e-12 * np.abs(X).max())
     # nothing to add to a model that reproduces the data exactly
     exact = tuple(np.asarray(X) for X in (chain.M, chain.C, chain.K))
     R4 = pr.observation_matrix(np.ones((1, 1)), 4)
@@ -272,6 +283,40 @@ def test_a_mode_past_the_mass_cap_gets_no_start_and_a_light_one_does():
     assert starts(2 * MAX_MASS_RATIO) == [] and starts(10 * MAX_MASS_RATIO) == []
     names = [name for _, _, name in starts(1e-9)]
     assert f"latent DOF at {wc / (2 * np.pi):.4g} Hz" in names
+
+
+def test_the_mass_cap_of_a_non_symmetric_mass_matrix_is_that_of_its_symmetric_part():
+    """The cap weighs a mode's modal mass against the largest mass xᵀMx a unit
+    displacement of the model sees: the largest eigenvalue of M's symmetric part. Two
+    observed DOFs (modes at 10 and 15 Hz, each driven in its own load case) with a mass
+    matrix that is not symmetric (SecondOrderSystem takes one), I + 3 [[0, 1], [−1, 0]]:
+    xᵀMx = xᵀx, so the cap is MAX_MASS_RATIO; its lower triangle read as a symmetric
+    matrix, [[1, −3], [−3, 1]] (eigenvalues −2 and 4), would make it 4 × that. Data with
+    one more mode on a latent coordinate, on a candidate (seen with shape (0.6, 0.8)):
+    at half the cap it gets its start; at 3 × the cap it gets none, as at 2 × and 10 ×
+    in the test of the cap above, where a cap of 4 × would let it through."""
+    from podid_rs.identification.latent import MAX_MASS_RATIO, PEAK_OFFSETS, PEAK_ZETAS
+
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    i = int(np.flatnonzero(np.isclose(omega, 2 * np.pi * 50.0))[0])
+    wc, zeta = omega[i] * (1 + PEAK_OFFSETS[1]), PEAK_ZETAS[1]
+    w_obs = 2 * np.pi * np.array([10.0, 15.0])
+    model = (np.array([[1.0, 3.0], [-3.0, 1.0]]), np.diag(2 * 0.02 * w_obs), np.diag(w_obs**2))
+    # the model's own response, line by line, independently of the package
+    H = np.linalg.inv(model[2][None] - omega[:, None, None] ** 2 * model[0][None]
+                      + 1j * omega[:, None, None] * model[1][None])
+    phi = np.array([0.6, 0.8])
+    d = wc**2 - omega**2 + 2j * zeta * wc * omega
+    peak = f"latent DOF at {wc / (2 * np.pi):.4g} Hz"
+
+    def names(mu):
+        U = H + np.outer(phi, phi)[None] / (mu * d)[:, None, None]
+        F = np.broadcast_to(np.eye(2), U.shape).copy()
+        return [n for _, _, n in latent_starts(model, U, F, omega, np.eye(2),
+                                               np.ones((omega.size, 2)))]
+
+    assert peak in names(0.5 * MAX_MASS_RATIO)
+    assert names(3 * MAX_MASS_RATIO) == []
 
 
 def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():

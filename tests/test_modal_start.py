@@ -8,7 +8,8 @@ point through latent coordinates; with only two modes in the band it keeps those
 poles exactly, stands in for the others with one pole below and one above the band
 (none below a band from 0 rad/s), and stays physical, also from a model with an unstable
 pole, which it leaves out; a pole exactly on the band's edge is in the band; forces that
-are not unit forces at one DOF (no FRFs, a force with a phase among them) give no start;
+are not unit forces at one DOF (no FRFs, a force with a phase or a second DOF pulled the
+other way among them) give no start;
 and the final fit starts from it when it fits better than the held-out fit —
 never reading a hole, and judging the first pass against the held-out fit — and says
 nothing of it otherwise; it keeps the held-out fit when the refit raises the median
@@ -289,6 +290,8 @@ def test_the_start_does_not_depend_on_the_units_of_the_data(omega_all):
 def test_no_start_without_unit_forces(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
     F[:, 1, 0] = 0.5  # a force spread over two DOFs: not FRF data
+    assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega_all) is None
+    F[:, 1, 0] = -0.5  # nor when the second DOF is pulled the other way
     assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega_all) is None
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0])
     F[::2, 0, 0] = 2.0  # not a unit force on every line
