@@ -46,6 +46,10 @@ MODULES = [
 #: survivors no input can tell apart from the code, each with the reason: (module, the line
 #: as written, the mutated line), both stripped of indentation
 EQUIVALENT: dict[tuple[str, str, str], str] = {
+    # measured, physical, modes, stabilisation, statespace
+    ("measured", "if np.unique(idx).size != idx.size:", "if np.unique(idx).size < idx.size:"):
+        "np.unique never returns more elements than it is given, so its size is <= idx.size "
+        "and != is <",
 }
 
 
