@@ -110,6 +110,10 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "M = A_inv.T @ A_inv is one array times its own transpose, which NumPy's matmul "
         "computes with BLAS syrk and mirrors, so M is symmetric bit for bit and "
         "(M + M) / 2 and (M + M.T) / 2 are both exactly M.",
+    # measured, physical, modes, stabilisation, statespace
+    ("measured", "if np.unique(idx).size != idx.size:", "if np.unique(idx).size < idx.size:"):
+        "np.unique never returns more elements than it is given, so its size is <= idx.size "
+        "and != is <",
 }
 
 

@@ -114,6 +114,10 @@ def test_predict_is_the_models_frf_and_refuses_a_mismatch(chain_frf):
     # (two load cases: the count must be R's columns, not the load cases)
     with pytest.raises(ValueError, match="^the model has 3 DOFs but R has 1 columns$"):
         chain_frf.predict(three, R[:, :1])
+    # and a basis of more columns (3) than the model's DOFs (2)
+    two = SecondOrderSystem(np.eye(2), np.eye(2), np.eye(2))
+    with pytest.raises(ValueError, match="^the model has 2 DOFs but R has 3 columns$"):
+        chain_frf.predict(two, R)
 
 
 def test_predict_takes_complex_forces_as_they_are():
@@ -169,6 +173,9 @@ def test_time_histories_name_what_is_wrong(shaker_records):
 
     refused("estimator must be 'h1' or 'spectra', got 'welch'",
             forces, responses, dt, inputs=[0, 2], estimator="welch")
+    # a name before "spectra" in the alphabet as well as one after it
+    refused("estimator must be 'h1' or 'spectra', got 'fft'",
+            forces, responses, dt, inputs=[0, 2], estimator="fft")
     refused("nperseg applies to estimator='h1' only (Welch segments)",
             forces, responses, dt, inputs=[0, 2], estimator="spectra", nperseg=256)
     refused("forces must have shape (r, n) or (n_rec, r, n) with r >= 2 samples, got (5,)",
@@ -178,6 +185,9 @@ def test_time_histories_name_what_is_wrong(shaker_records):
     refused("forces and responses must have the same number of records and samples, "
             "got (1, 4096, 2) and (1, 4000, 3)",
             forces, responses[:4000], dt, inputs=[0, 2], estimator="spectra")
+    refused("forces and responses must have the same number of records and samples, "
+            "got (1, 4000, 2) and (1, 4096, 3)",
+            forces[:4000], responses, dt, inputs=[0, 2], estimator="spectra")
 
 
 def test_spectra_of_several_records_mark_every_load_case_measured(shaker_records, tmp_path):
@@ -211,8 +221,9 @@ def test_is_frf_only_for_unit_forces_one_case_per_driven_dof(chain_frf):
 def test_a_band_from_zero_is_a_band_and_an_empty_one_is_refused():
     freq = np.arange(0.0, 11.0)
     assert measured.band_lines(freq, (0.0, 3.0)).tolist() == [True] * 4 + [False] * 7
-    # a band is a pair: three edges (whose first two would make a band) are refused too
-    for band in [(5.0, 5.0), (6.0, 5.0), (-1.0, 5.0), (1.0, 5.0, 8.0)]:
+    # a band is a pair: three edges (whose first two would make a band) are refused too,
+    # and so are one edge and a bare number
+    for band in [(5.0, 5.0), (6.0, 5.0), (-1.0, 5.0), (1.0, 5.0, 8.0), (5.0,), 5.0]:
         with pytest.raises(ValueError, match=r"^band_hz must be a pair \(lo, hi\) in Hz with "
                            r"0 <= lo < hi, got "):
             measured.band_lines(freq, band)
@@ -253,6 +264,13 @@ def test_projection_names_a_basis_that_is_not_real():
         with pytest.raises(ValueError, match=r"^R must have shape \(n, m\) with n = 3 measured "
                                              rf"DOFs, got \({R.shape[0]}, {R.shape[1]}\)$"):
             data.project(R)
+    # both sides of each count: 2 rows for the 3 DOFs, and a stack of bases (3 dimensions)
+    with pytest.raises(ValueError, match=r"^R must have shape \(n, m\) with n = 3 measured "
+                                         r"DOFs, got \(2, 2\)$"):
+        data.project(np.eye(2))
+    with pytest.raises(ValueError, match=r"^R must have shape \(n, m\) with n = 3 measured "
+                                         r"DOFs, got \(3, 2, 1\)$"):
+        data.project(np.ones((3, 2, 1)))
 
 
 def test_a_band_keeps_the_notes_of_the_data(chain_frf):

@@ -569,8 +569,15 @@ def test_a_damaged_compressed_npz_file_is_refused_as_unreadable(tmp_path):
         # the counts in the messages: U is (3 lines, n = 3 DOFs, p = 2), F has n_in = 2
         ({"inputs": None}, r"^inputs \(the indices of the 2 driven DOFs among the 3 measured "
                            r"responses\) must be given when they are not all of them$"),
+        # more driven DOFs (4) than measured ones (3): they cannot be all of them either
+        ({"inputs": None, "F": np.ones((3, 4, 2))},
+         r"^inputs \(the indices of the 4 driven DOFs among the 3 measured "
+         r"responses\) must be given when they are not all of them$"),
         ({"inputs": [0.5, 1]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
                                r"got \[0.5, 1\]$"),
+        # a fraction below its rounding as well as one above it (0.5 rounds down to 0)
+        ({"inputs": [0, 1.7]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
+                               r"got \[0, 1.7\]$"),
         ({"inputs": [0]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
                           r"got \[0\]$"),
         ({"inputs": [0, 2, 1]}, r"^inputs must hold 2 integer indices \(one per driven DOF\), "
@@ -582,6 +589,14 @@ def test_a_damaged_compressed_npz_file_is_refused_as_unreadable(tmp_path):
                                     r"lines, got \(4, 3, 2\)$"),
         ({"U": np.ones((3, 3, 0)), "F": np.ones((3, 2, 0))},
          r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 lines, got \(3, 3, 0\)$"),
+        # U of 2 lines against omega's 3 (fewer as well as more), and U of one dimension
+        ({"U": np.ones((2, 3, 2))}, r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
+                                    r"lines, got \(2, 3, 2\)$"),
+        ({"U": np.ones(3)}, r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
+                            r"lines, got \(3,\)$"),
+        # F of more load cases (3) than U (2)
+        ({"F": np.ones((3, 2, 3))}, r"^U and F must have the same number of load cases p, "
+                                    r"got 2 and 3$"),
         # U of four dimensions is no (s, n, p)
         ({"U": np.ones((3, 3, 2, 1))}, r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
                                        r"lines, got \(3, 3, 2, 1\)$"),
@@ -619,14 +634,19 @@ def test_two_lines_are_data_and_frf_arrays_must_be_three_dimensional():
     with pytest.raises(ValueError, match=r"^H must have shape \(s, n_out, n_in\), "
                                          r"got \(2, 3, 0\)$"):
         from_frf(np.ones((2, 3, 0)), [1.0, 2.0])
+    # nor are FRFs of four dimensions
+    with pytest.raises(ValueError, match=r"^H must have shape \(s, n_out, n_in\), "
+                                         r"got \(2, 3, 1, 1\)$"):
+        from_frf(np.ones((2, 3, 1, 1)), [1.0, 2.0])
 
 
 @pytest.mark.parametrize("quantity", ["displacement", "velocity", "acceleration"])
-@pytest.mark.parametrize("lines", [3, 1])
+@pytest.mark.parametrize("lines", [3, 1, 5])
 def test_to_receptance_refuses_spectra_of_another_number_of_lines(quantity, lines):
     """X must have one row per line of omega: 3 rows for 4 lines would be returned as they
     are (displacement) or fail in numpy's broadcasting, and 1 row would be broadcast over
-    the 4 lines (velocity, acceleration) — spectra of other lines silently taken for these."""
+    the 4 lines (velocity, acceleration) — spectra of other lines silently taken for these.
+    5 rows, one too many, would be returned as they are too (displacement)."""
     X = np.ones((lines, 2), dtype=complex)
     match = rf"^X must be frequency-first with 4 lines, got shape \({lines}, 2\)$"
     with pytest.raises(ValueError, match=match):

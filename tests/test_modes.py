@@ -59,6 +59,9 @@ def test_mac_definition_and_invariances():
     [
         (np.ones((4, 2)), np.ones((5, 2)),
          r"^A and B must have the same number of rows \(DOFs\), got 4 and 5$"),
+        # A of more rows than B as well as of fewer
+        (np.ones((5, 2)), np.ones((4, 2)),
+         r"^A and B must have the same number of rows \(DOFs\), got 5 and 4$"),
         (np.ones((4, 2)), np.zeros((4, 2)), "B column 0 is zero"),
         # one zero column among others is refused too (its MAC would be 0 / 0)
         (np.ones((4, 2)), np.array([[1.0, 0.0]] * 4), "^B column 1 is zero: it has no MAC$"),
@@ -71,6 +74,11 @@ def test_mac_definition_and_invariances():
         (np.ones((4, 2)), np.array([[1.0, np.nan]] * 4), "^B contains non-finite"),
         (np.ones((4, 2, 2)), np.ones((4, 2)), r"non-empty \(n, k\) arrays, got \(4, 2, 2\)"),
         (np.ones((4, 2)), np.ones((4, 2, 2)), r"non-empty \(n, k\) arrays, got \(4, 2\) and"),
+        # a scalar, of fewer dimensions than a shape, on either side
+        (2.0, np.ones((4, 2)),
+         r"^A and B must be non-empty \(n, k\) arrays, got \(\) and \(4, 2\)$"),
+        (np.ones((4, 2)), 2.0,
+         r"^A and B must be non-empty \(n, k\) arrays, got \(4, 2\) and \(\)$"),
     ],
 )
 def test_mac_bad_input_is_named(A, B, message):
@@ -529,6 +537,19 @@ def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
     with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
                                          r"\(51, 1, 1\)$"):
         mode_kinds(shapes, w, U[:, :1], [0])  # one DOF short of the shapes'
+    # each count too large as well as too small, and U of too few or too many dimensions
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
+                                         r"\(52, 2, 1\)$"):
+        mode_kinds(shapes, w, np.ones((52, 2, 1)), [0])  # one line too many
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 2\), got "
+                                         r"\(51, 2, 1\)$"):
+        mode_kinds(shapes, w, U, [0, 1])  # two inputs, one load case
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
+                                         r"\(51, 2\)$"):
+        mode_kinds(shapes, w, U[:, :, 0], [0])  # no load-case axis
+    with pytest.raises(ValueError, match=r"^U must be \(s, n, p\) = \(51, 2, 1\), got "
+                                         r"\(51, 2, 1, 1\)$"):
+        mode_kinds(shapes, w, U[..., None], [0])  # one axis too many
     U[3, 0, 0] = np.nan
     with pytest.raises(ValueError, match="U contains non-finite values"):
         mode_kinds(shapes, w, U, [0])
@@ -663,6 +684,10 @@ def test_an_entry_that_was_not_measured_does_not_make_a_pole_visible():
         mode_kinds(shapes, w, U, inputs=[0], measured=measured.T)
     with pytest.raises(ValueError, match=r"^measured must be \(n, p\) = \(2, 1\), got \(2,\)$"):
         mode_kinds(shapes, w, U, inputs=[0], measured=measured[:, 0])
+    # and a mask of more entries than U's (a second load case U lacks): it would broadcast
+    # too, against the one column of U
+    with pytest.raises(ValueError, match=r"^measured must be \(n, p\) = \(2, 1\), got \(2, 2\)$"):
+        mode_kinds(shapes, w, U, inputs=[0], measured=np.ones((2, 2), dtype=bool))
 
 
 def test_the_mac_of_a_shape_with_itself_is_at_most_one():

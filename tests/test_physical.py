@@ -96,6 +96,10 @@ def test_make_physical_refuses_mismatched_or_degenerate_input(noisy_band3):
     U, F = data.project(R)
     with pytest.raises(ValueError, match=r"^the data have order m = 9 but the model has m = 10$"):
         make_physical(result, U[:, :9], F[:, :9], data.omega)
+    # data of a higher order than the model are refused as well
+    with pytest.raises(ValueError, match=r"^the data have order m = 11 but the model has m = 10$"):
+        make_physical(result, np.concatenate([U, U[:, :1]], axis=1),
+                      np.concatenate([F, F[:, :1]], axis=1), data.omega)
     zero_M = replace(result, M=np.zeros_like(result.M))
     with pytest.raises(ValueError, match="M is zero"):
         make_physical(zero_M, U, F, data.omega)
@@ -464,6 +468,14 @@ def test_nearest_psd_names_its_argument():
         nearest_psd(np.ones((2, 3)))
     with pytest.raises(ValueError, match=rf"^K {square} \(0, 0\)$"):
         nearest_psd(np.zeros((0, 0)), name="K")
+    # more rows than columns as well as fewer
+    with pytest.raises(ValueError, match=rf"^A {square} \(3, 2\)$"):
+        nearest_psd(np.ones((3, 2)))
+    # fewer dimensions than a matrix (a vector) and more (a stack of square matrices)
+    with pytest.raises(ValueError, match=rf"^A {square} \(3,\)$"):
+        nearest_psd(np.ones(3))
+    with pytest.raises(ValueError, match=rf"^A {square} \(2, 2, 2\)$"):
+        nearest_psd(np.ones((2, 2, 2)))
 
 
 def test_nearest_psd_refuses_a_complex_matrix_or_a_negative_floor():

@@ -567,3 +567,24 @@ def test_each_pole_is_matched_with_the_previous_orders_nearest_in_frequency():
     cf, c = _match_previous(modes([5.0, 10.0, 30.0]), modes([10.0, 30.0]), F_TOL, ZETA_TOL)
     assert cf.tolist() == [False, True, True]
     assert c.tolist() == [False, True, True]
+
+
+def test_definiteness_is_of_the_symmetric_part_of_a_nearly_symmetric_mass():
+    """M = [[1, b + δ], [b − δ, 1]] with b = 1 + δ/2, δ = 2⁻³⁶ (every entry exact in binary)
+    passes the symmetry test (‖M − Mᵀ‖ = 2√2 δ ≈ 4e-11 ≤ 1e-10 × ‖M‖ ≈ 2e-10). Its
+    symmetric part [[1, b], [b, 1]] has the eigenvalues 1 ± b, the smaller −δ/2 ≈ −7e-12:
+    not positive definite. Its lower triangle read as a symmetric matrix has 1 ± (b − δ),
+    the smaller +δ/2, and would pass. δ/2 is four orders above the eigensolver's round-off
+    (a few eps × ‖M‖ ≈ 1e-15), so the sign is the hand value's."""
+    from dataclasses import replace
+
+    from podid_rs.stabilisation import PHYSICAL_RTOL
+
+    delta = 2.0**-36
+    b = 1.0 + delta / 2
+    M = np.array([[1.0, b + delta], [b - delta, 1.0]])
+    assert np.linalg.norm(M - M.T) <= PHYSICAL_RTOL * np.linalg.norm(M)
+    good = model_with_modes([10.0, 20.0], 0.02)
+    assert not is_physical(replace(good, M=M))
+    # the same matrix made exactly symmetric with the lower triangle's value is physical
+    assert is_physical(replace(good, M=np.array([[1.0, b - delta], [b - delta, 1.0]])))

@@ -122,6 +122,11 @@ def test_malformed_matrices_are_named():
     # the order is M's: a K of another size is named, not M
     with pytest.raises(ValueError, match=r"^K must be a non-empty \(2, 2\) matrix, got \(3, 3\)$"):
         state_space_matrices(ok, ok, np.eye(3))
+    # and one of fewer lines or columns than M's: the check is two-sided
+    with pytest.raises(ValueError, match=r"^C must be a non-empty \(2, 2\) matrix, got \(1, 1\)$"):
+        state_space_matrices(ok, np.eye(1), ok)
+    with pytest.raises(ValueError, match=r"^K must be a non-empty \(2, 2\) matrix, got \(2, 1\)$"):
+        state_space_matrices(ok, ok, np.ones((2, 1)))
     with pytest.raises(ValueError, match=r"^M must be a non-empty \(2, 2\) matrix, got \(2, 3\)$"):
         state_space_matrices(np.ones((2, 3)), ok, ok)
     with pytest.raises(ValueError, match=r"^M must be a non-empty \(0, 0\) matrix, got \(0, 0\)$"):
