@@ -46,6 +46,16 @@ MODULES = [
 #: survivors no input can tell apart from the code, each with the reason: (module, the line
 #: as written, the mutated line), both stripped of indentation
 EQUIVALENT: dict[tuple[str, str, str], str] = {
+    # identification/refinement, identification/order
+    ("identification/refinement", 'if name != "C" and not np.any(d > 0):',
+     'if name > "C" and not np.any(d > 0):'):
+        'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
+        'so > "C" is true exactly where != "C" is',
+    ("identification/refinement",
+     'keep = d.min() >= (START_KEEP * np.abs(d).max() if name != "C" else 0.0)',
+     'keep = d.min() >= (START_KEEP * np.abs(d).max() if name > "C" else 0.0)'):
+        'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
+        'so > "C" is true exactly where != "C" is',
 }
 
 
