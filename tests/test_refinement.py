@@ -542,6 +542,10 @@ def test_every_bad_weighting_is_refused_with_its_whole_message():
         ({"objective": "log-magnitude", "weights": np.ones((40, 3))},
          "weights for the log-magnitude objective must be (s,), (s, p) or per entry (s, n) / "
          "(s, n, p) with n = 6 entries, got (40, 3)"),
+        # a shape beyond (s, n, p) in the other direction: one entry too many
+        ({"objective": "log-magnitude", "weights": np.ones((40, 7))},
+         "weights for the log-magnitude objective must be (s,), (s, p) or per entry (s, n) / "
+         "(s, n, p) with n = 6 entries, got (40, 7)"),
         ({"objective": "log-magnitude", "weights": np.r_[-2.0, np.ones(39)]},
          "weights must be non-negative (found -2)"),
         ({"objective": "log-magnitude", "weights": np.zeros((40, 6))},
@@ -1065,6 +1069,25 @@ def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p()
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
     # and the report names them as the user's, per entry
     assert model.info["refinement"]["weights"] == "log-magnitude, user per entry"
+
+
+def test_log_magnitude_weights_of_shape_s_p_are_per_load_case_with_more_cases_than_entries():
+    """Two coordinates and three load cases: a weight array (s, 3) is (s, p) only, one
+    weight per line and load case for every entry, so the start's reported cost is
+    Σ_iaj W_ij² (ln|x_iaj| − ln|u_iaj|)² — not refused as neither (s, p) nor per entry
+    (the weights' shape check has two sides: p below and p above n). 1e-9: the same
+    sums in another order."""
+    chain, U, F, w = chain_data(n=2, p=3, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    W = np.ones((w.size, 3))
+    W[:, 1], W[:, 2] = 0.1, 0.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
+                       threads=1)
+    X = pr.SecondOrderSystem(*start).response(w, F)
+    want = float(np.sum(W[:, None, :] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
+    assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
 
 
 def test_reduced_data_one_coordinate_short_of_the_start_leave_one_latent():
