@@ -473,6 +473,14 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     cases = [
         ({"basis": np.eye(5)}, r"basis must be (n, m) with n = the measured DOFs of U "
                                r"(s, n[, p]); got basis (5, 5) and U (40, 6, 1)"),
+        # the other side of each part of the basis check: more rows than measured DOFs,
+        # a single column given flat, a stack of bases
+        ({"basis": np.eye(7)[:, :6]}, r"basis must be (n, m) with n = the measured DOFs of U "
+                                      r"(s, n[, p]); got basis (7, 6) and U (40, 6, 1)"),
+        ({"basis": np.eye(6)[:, 0]}, r"basis must be (n, m) with n = the measured DOFs of U "
+                                     r"(s, n[, p]); got basis (6,) and U (40, 6, 1)"),
+        ({"basis": R[:, :, None]}, r"basis must be (n, m) with n = the measured DOFs of U "
+                                   r"(s, n[, p]); got basis (6, 5, 1) and U (40, 6, 1)"),
         ({"measured": np.ones((6, 1), bool)},
          "measured (a mask over the measured DOFs) needs basis="),
         ({"max_iter": 0}, "max_iter must be a positive integer, got 0"),
@@ -498,6 +506,9 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     with pytest.raises(ValueError, match=re.escape("F must have the shape of U (40, 6, 1), "
                                                    "got (40, 6)")):
         refine(start, U, F[:, :, 0], w, basis=np.eye(6))
+    with pytest.raises(ValueError, match=re.escape("F must have the shape of U (40, 6, 1), "
+                                                   "got (40, 6, 2)")):
+        refine(start, U, np.concatenate([F, F], axis=2), w, basis=np.eye(6))
     with pytest.raises(ValueError, match=re.escape("the start model's C is (5, 5), the data "
                                                    "have order m = 6")):
         refine((chain.M, chain.C[:5, :5], chain.K), U, F, w)
