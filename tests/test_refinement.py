@@ -512,6 +512,10 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     with pytest.raises(ValueError, match=re.escape("the start model's C is (5, 5), the data "
                                                    "have order m = 6")):
         refine((chain.M, chain.C[:5, :5], chain.K), U, F, w)
+    # and one larger than the data's order (M gives the order; C's size contradicts it)
+    with pytest.raises(ValueError, match=re.escape("the start model's C is (7, 7), the data "
+                                                   "have order m = 6")):
+        refine((chain.M, np.eye(7), chain.K), U, F, w)
     # a matrix that is not square is named as such, not read as another order (M's rows
     # and its columns each give an order that the other contradicts)
     # (a stack of matrices too: its first two axes agree, and it is no matrix)
