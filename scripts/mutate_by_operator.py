@@ -114,6 +114,16 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     ("measured", "if np.unique(idx).size != idx.size:", "if np.unique(idx).size < idx.size:"):
         "np.unique never returns more elements than it is given, so its size is <= idx.size "
         "and != is <",
+    # identification/refinement, identification/order
+    ("identification/refinement", 'if name != "C" and not np.any(d > 0):',
+     'if name > "C" and not np.any(d > 0):'):
+        'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
+        'so > "C" is true exactly where != "C" is',
+    ("identification/refinement",
+     'keep = d.min() >= (START_KEEP * np.abs(d).max() if name != "C" else 0.0)',
+     'keep = d.min() >= (START_KEEP * np.abs(d).max() if name > "C" else 0.0)'):
+        'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
+        'so > "C" is true exactly where != "C" is',
 }
 
 

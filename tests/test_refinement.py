@@ -274,6 +274,13 @@ def test_a_rank_deficient_start_is_warned_about():
         refine(replace(plain, method="cg"), H, F, w, max_iter=5)
     assert not [c for c in caught if "rank-deficient" in str(c.message)]
     assert any("not physical" in str(c.message) for c in caught)  # the rest as before
+    # only the cg solve is exempt: a rank-deficient result of any other solve carries the
+    # note, whatever its name (one that sorts before "cg" as well as the estimator's
+    # "eigen-min-norm" above)
+    with pytest.warns(StartWarning, match=r"^the start model comes from a rank-deficient "):
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        warnings.filterwarnings("ignore", "the start model was not physical", StartWarning)
+        refine(replace(plain, method="admm"), H, F, w, max_iter=5)
 
 
 def test_per_entry_weights_with_a_basis_are_the_reduced_problem():
@@ -466,6 +473,14 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     cases = [
         ({"basis": np.eye(5)}, r"basis must be (n, m) with n = the measured DOFs of U "
                                r"(s, n[, p]); got basis (5, 5) and U (40, 6, 1)"),
+        # the other side of each part of the basis check: more rows than measured DOFs,
+        # a single column given flat, a stack of bases
+        ({"basis": np.eye(7)[:, :6]}, r"basis must be (n, m) with n = the measured DOFs of U "
+                                      r"(s, n[, p]); got basis (7, 6) and U (40, 6, 1)"),
+        ({"basis": np.eye(6)[:, 0]}, r"basis must be (n, m) with n = the measured DOFs of U "
+                                     r"(s, n[, p]); got basis (6,) and U (40, 6, 1)"),
+        ({"basis": R[:, :, None]}, r"basis must be (n, m) with n = the measured DOFs of U "
+                                   r"(s, n[, p]); got basis (6, 5, 1) and U (40, 6, 1)"),
         ({"measured": np.ones((6, 1), bool)},
          "measured (a mask over the measured DOFs) needs basis="),
         ({"max_iter": 0}, "max_iter must be a positive integer, got 0"),
@@ -491,12 +506,20 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     with pytest.raises(ValueError, match=re.escape("F must have the shape of U (40, 6, 1), "
                                                    "got (40, 6)")):
         refine(start, U, F[:, :, 0], w, basis=np.eye(6))
+    with pytest.raises(ValueError, match=re.escape("F must have the shape of U (40, 6, 1), "
+                                                   "got (40, 6, 2)")):
+        refine(start, U, np.concatenate([F, F], axis=2), w, basis=np.eye(6))
     with pytest.raises(ValueError, match=re.escape("the start model's C is (5, 5), the data "
                                                    "have order m = 6")):
         refine((chain.M, chain.C[:5, :5], chain.K), U, F, w)
+    # and one larger than the data's order (M gives the order; C's size contradicts it)
+    with pytest.raises(ValueError, match=re.escape("the start model's C is (7, 7), the data "
+                                                   "have order m = 6")):
+        refine((chain.M, np.eye(7), chain.K), U, F, w)
     # a matrix that is not square is named as such, not read as another order (M's rows
     # and its columns each give an order that the other contradicts)
-    for bad in (chain.M[:, :5], chain.M[:5, :], chain.M[0]):
+    # (a stack of matrices too: its first two axes agree, and it is no matrix)
+    for bad in (chain.M[:, :5], chain.M[:5, :], chain.M[0], chain.M[:, :, None]):
         with pytest.raises(ValueError, match=re.escape(f"the start model's M must be square, "
                                                        f"got shape {bad.shape}")):
             refine((bad, chain.C, chain.K), U, F, w)
@@ -534,6 +557,10 @@ def test_every_bad_weighting_is_refused_with_its_whole_message():
         ({"objective": "log-magnitude", "weights": np.ones((40, 3))},
          "weights for the log-magnitude objective must be (s,), (s, p) or per entry (s, n) / "
          "(s, n, p) with n = 6 entries, got (40, 3)"),
+        # a shape beyond (s, n, p) in the other direction: one entry too many
+        ({"objective": "log-magnitude", "weights": np.ones((40, 7))},
+         "weights for the log-magnitude objective must be (s,), (s, p) or per entry (s, n) / "
+         "(s, n, p) with n = 6 entries, got (40, 7)"),
         ({"objective": "log-magnitude", "weights": np.r_[-2.0, np.ones(39)]},
          "weights must be non-negative (found -2)"),
         ({"objective": "log-magnitude", "weights": np.zeros((40, 6))},
@@ -1057,6 +1084,25 @@ def test_log_magnitude_weights_of_shape_s_n_are_per_entry_even_when_n_equals_p()
     assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
     # and the report names them as the user's, per entry
     assert model.info["refinement"]["weights"] == "log-magnitude, user per entry"
+
+
+def test_log_magnitude_weights_of_shape_s_p_are_per_load_case_with_more_cases_than_entries():
+    """Two coordinates and three load cases: a weight array (s, 3) is (s, p) only, one
+    weight per line and load case for every entry, so the start's reported cost is
+    Σ_iaj W_ij² (ln|x_iaj| − ln|u_iaj|)² — not refused as neither (s, p) nor per entry
+    (the weights' shape check has two sides: p below and p above n). 1e-9: the same
+    sums in another order."""
+    chain, U, F, w = chain_data(n=2, p=3, lines=40)
+    start = (chain.M, chain.C, 1.05 * chain.K)
+    W = np.ones((w.size, 3))
+    W[:, 1], W[:, 2] = 0.1, 0.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        model = refine(start, U, F, w, objective="log-magnitude", weights=W, max_iter=1,
+                       threads=1)
+    X = pr.SecondOrderSystem(*start).response(w, F)
+    want = float(np.sum(W[:, None, :] ** 2 * np.log(np.abs(X) / np.abs(U)) ** 2))
+    assert model.info["refinement"]["cost_start"] == pytest.approx(want, rel=1e-9)
 
 
 def test_reduced_data_one_coordinate_short_of_the_start_leave_one_latent():
