@@ -553,6 +553,27 @@ def test_mode_kinds_names_the_data_of_the_wrong_shape_or_not_finite():
     U[3, 0, 0] = np.nan
     with pytest.raises(ValueError, match="U contains non-finite values"):
         mode_kinds(shapes, w, U, [0])
+    # a driven DOF outside the shapes' rows, past the end or negative (which NumPy would
+    # read from the end: the second DOF's residue for the first's)
+    for bad in ([2], [-1]):
+        with pytest.raises(ValueError, match=r"^inputs must index the 2 rows of the shapes "
+                                             rf"\(0 … 1\), got \{bad}$"):
+            mode_kinds(shapes, w, model.frf(w)[:, :, :1], bad)
+
+
+def test_mode_kinds_needs_the_lines_in_increasing_order():
+    """The band is the first line to the last: lines given high to low would make every
+    pole fall outside it (a residual term), so they are refused, as is a single line."""
+    from podid_rs.modes import mode_kinds
+
+    model = SecondOrderSystem(np.eye(2), np.diag([0.5, 1.0]), np.diag([400.0, 2500.0]))
+    shapes = mode_shapes(model)
+    w = np.linspace(10.0, 60.0, 51)
+    assert mode_kinds(shapes, w).tolist() == ["structural", "structural"]  # 20, 50 rad/s
+    message = r"^omega must hold at least 2 strictly increasing lines \(rad/s\)$"
+    for bad in (w[::-1], np.r_[w[:10], w[9:]], w[:1]):
+        with pytest.raises(ValueError, match=message):
+            mode_kinds(shapes, bad)
 
 
 def test_each_entry_rises_above_its_own_ring():

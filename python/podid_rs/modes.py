@@ -333,7 +333,7 @@ def mode_kinds(
         The model's modes on the measured DOFs (:func:`mode_shapes` of a symmetric
         model, so that ``modal_a`` is known).
     omega : array_like, (s,)
-        The measured lines (rad/s); their range is the band.
+        The measured lines (rad/s), strictly increasing; their range is the band.
     U : array_like, complex, (s, n, p), optional
         The measured receptances for unit forces at ``inputs`` (FRF data).
     inputs : array_like of int, (p,), optional
@@ -352,10 +352,13 @@ def mode_kinds(
     Raises
     ------
     ValueError
-        For ``U`` without ``inputs``, or arrays whose shapes do not match (``U`` against
-        the lines, the shapes' rows and the inputs; ``measured`` against ``U``'s (n, p)).
+        For lines that are not strictly increasing, ``U`` without ``inputs``, inputs
+        outside the shapes' rows, or arrays whose shapes do not match (``U`` against the
+        lines, the shapes' rows and the inputs; ``measured`` against ``U``'s (n, p)).
     """
     w = as_array(omega, "omega", real=True).reshape(-1)
+    if w.size < 2 or np.any(np.diff(w) <= 0):  # the band is from the first line to the last
+        raise ValueError("omega must hold at least 2 strictly increasing lines (rad/s)")
     lam = shapes.eigenvalues
     kinds = np.full(lam.size, STRUCTURAL, dtype=object)
     # its half-power band must lie in the band: a peak at an edge shows one flank only
@@ -372,6 +375,11 @@ def mode_kinds(
         raise ValueError(
             f"U must be (s, n, p) = ({w.size}, {shapes.shapes.shape[0]}, {idx.size}), "
             f"got {Ua.shape}"
+        )
+    if np.any((idx < 0) | (idx >= Ua.shape[1])):  # a negative one would count from the end
+        raise ValueError(
+            f"inputs must index the {Ua.shape[1]} rows of the shapes (0 … {Ua.shape[1] - 1}), "
+            f"got {idx.tolist()}"
         )
     measured_entries = (np.ones(Ua.shape[1:], dtype=bool) if measured is None
                         else np.asarray(measured))
