@@ -3608,6 +3608,33 @@ AUDIT = [
      "grid = np.array(sorted(set(grid.tolist())))"),
     ("identification/regularisation", "target = _target_residual(data, noise, snr_db, delta)",
      "target = _target_residual(data, noise, snr_db, None)"),
+    # fourteenth audit, the physical model (written before any run, tests unread): a
+    # non-square matrix let through to the eigensolver, K's relative change measured against
+    # M, the eigenvalue floor relative to the Frobenius norm for the 2-norm, the Markdown
+    # table without its first mode, the eigenvalues-only pencil with A and B swapped
+    ("physical", "a.shape[0] != a.shape[1] or a.shape[0] == 0:", "a.shape[0] == 0:"),
+    ("physical", "(K, result.K))", "(K, result.M))"),
+    ("physical", "floor = rtol * float(np.max(np.abs(d)))",
+     "floor = rtol * float(np.linalg.norm(X))"),
+    ("physical", "for r in rows]", "for r in rows[1:]]"),
+    ("physical", "scipy.linalg.eig(A, B, right=False)", "scipy.linalg.eig(B, A, right=False)"),
+    # fourteenth audit, the mode shapes and kinds: residual_zeta ignored for the default, the
+    # common DOFs' rows of a and b swapped, the data's peak without PEAK_RISE, the shapes
+    # conjugated, the three nearest lines no longer forced into the window
+    ("modes", "(shapes.damping_ratios >= residual_zeta)",
+     "(shapes.damping_ratios >= RESIDUAL_ZETA)"),
+    ("modes", "ia, ib = (np.asarray(x)", "ib, ia = (np.asarray(x)"),
+    ("modes", "(peak >= PEAK_RISE * around)", "(peak >= around)"),
+    ("modes", "phi = R @ psi\n", "phi = R @ psi.conj()\n"),
+    ("modes", "        near[lines] = True\n", ""),
+    # fourteenth audit, the stabilisation chart and the state-space form: the band's ends
+    # swapped in the rows, progress=False ignored, a fit's MemoryError without its order,
+    # C's PSD tolerance relative to M's eigenvalues, the basis ignored
+    ("stabilisation", "lo, hi = self.band_hz", "hi, lo = self.band_hz"),
+    ("stabilisation", "enabled=progress,", "enabled=True,"),
+    ("stabilisation", "except (ValueError, MemoryError) as exc:", "except ValueError as exc:"),
+    ("stabilisation", "scale_C = float(np.max(np.abs(eC)))", "scale_C = float(np.max(np.abs(eM)))"),
+    ("statespace", "R = as_basis(basis, m)", "R = as_basis(None, m)"),
 ]
 
 

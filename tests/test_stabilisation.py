@@ -290,6 +290,22 @@ def test_damping_may_be_semidefinite_to_the_tolerance_of_its_largest_eigenvalue(
     assert not is_physical(replace(good, C=np.diag([1.0, -2.0 * PHYSICAL_RTOL])))
 
 
+def test_the_damping_tolerance_is_relative_to_the_damping_not_to_the_mass():
+    """C's smallest eigenvalue may be rtol × C's largest below 0, whatever M's size: with
+    C = diag(1, −ε) the verdict is the same for a mass 10⁴ times smaller or larger than C
+    (each ε a factor 2 inside or outside rtol × 1, so the mass's scale would flip it)."""
+    from dataclasses import replace
+
+    from podid_rs.stabilisation import PHYSICAL_RTOL
+
+    good = model_with_modes([10.0, 20.0], 0.02)
+    for mass in (1e-4, 1e4):
+        assert is_physical(replace(good, M=mass * np.eye(2),
+                                   C=np.diag([1.0, -0.5 * PHYSICAL_RTOL]))), mass
+        assert not is_physical(replace(good, M=mass * np.eye(2),
+                                       C=np.diag([1.0, -2.0 * PHYSICAL_RTOL]))), mass
+
+
 def test_a_pole_at_either_tolerance_exactly_is_consistent():
     # |1.5 - 1| = 0.5 × 1 Hz and |0.75 - 0.5| = 0.5 × 0.5: both exact in binary
     from podid_rs.physical import ModalParameters
@@ -365,6 +381,21 @@ def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
     last = screen.getvalue()[:-1].split("\r")[-1].rstrip(" ")
     assert last.startswith("stabilisation: 100%") and "| 3/3 [" in last
     assert last.endswith(", m = 3]")  # the order last fitted, in the bar's postfix
+
+
+def test_no_progress_bar_when_asked_for_none_even_on_a_terminal(chain_data, monkeypatch):
+    """progress=False silences the bar where it would otherwise be drawn (a terminal)."""
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    screen = Terminal()
+    monkeypatch.setattr(sys, "stderr", screen)
+    assert len(stabilisation_chart(chain_data[1], 2, progress=False).orders) == 2
+    assert screen.getvalue() == ""
 
 
 def test_symmetry_is_judged_relative_to_each_matrix_size():
