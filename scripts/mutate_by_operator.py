@@ -10,7 +10,10 @@ hid them. This script makes them everywhere, so that none is left to a reviewer'
 - **a transpose or a conjugate dropped**: every ``.T`` and every ``.conj()`` removed
   (symmetric matrices and real forces in the fixtures hide them);
 - **a reversal dropped**: every ``[::-1]`` removed;
-- **the wrong axis**: every ``axis=0`` becomes ``axis=1`` and the reverse.
+- **the wrong axis**: every ``axis=0`` becomes ``axis=1`` and the reverse;
+- **an option ignored**: a parameter with a default read as that default, at one of its
+  uses at a time (numbered after all the others; an option tested at one value only, or
+  not passed on, lets it through).
 
 Each mutant runs the module's test files of ``mutate_by_hand.py`` (``TESTS`` and
 ``AUDIT_TESTS``). Run from anywhere:
@@ -28,6 +31,7 @@ kills it, or goes into ``EQUIVALENT`` below with the reason no input can tell it
 
 from __future__ import annotations
 
+import ast
 import io
 import sys
 import tokenize
@@ -172,6 +176,37 @@ def mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
             yield cut(pos(toks[k + 2]), pos(toks[k + 2], end=True), swap)
 
 
+def default_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
+    """A parameter read as its default at one use: (line number, line, mutated line, source)."""
+    src = (PKG / f"{mod}.py").read_text()
+    lines = src.splitlines(keepends=True)
+    at = _offsets(src)
+    found = []
+    for f in ast.walk(ast.parse(src)):
+        if not isinstance(f, ast.FunctionDef | ast.AsyncFunctionDef):
+            continue
+        a = f.args
+        positional = a.posonlyargs + a.args
+        with_default = [*zip(positional[len(positional) - len(a.defaults):], a.defaults,
+                             strict=True),
+                        *((k, d) for k, d in zip(a.kwonlyargs, a.kw_defaults, strict=True)
+                          if d is not None)]
+        for arg, default in with_default:
+            text = ast.get_source_segment(src, default)
+            for node in ast.walk(f):
+                if (isinstance(node, ast.Name) and node.id == arg.arg
+                        and isinstance(node.ctx, ast.Load) and text is not None):
+                    # ast's columns count UTF-8 bytes; the source is indexed by character
+                    row = lines[node.lineno - 1].encode()
+                    a0 = at[node.lineno] + len(row[:node.col_offset].decode())
+                    b0 = at[node.lineno] + len(row[:node.end_col_offset].decode())
+                    found.append((a0, b0, text))
+    for a0, b0, text in sorted(found):
+        row = src.count("\n", 0, a0) + 1
+        new = src[:a0] + text + src[b0:]
+        yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
+
+
 def main() -> None:
     """List or run the mutants the command line selects (all without arguments)."""
     args = [a for a in sys.argv[1:] if a != "--list"]
@@ -182,8 +217,8 @@ def main() -> None:
         only.update(range(int(first), int(last or first) + 1))
     i = 0
     counts = {"KILLED": 0, "SURVIVED": 0, "EQUIVALENT": 0}
-    for mod in MODULES:
-        for row, line, mutated_line, mutated in mutants(mod):
+    for family, mod in [(mutants, m) for m in MODULES] + [(default_mutants, m) for m in MODULES]:
+        for row, line, mutated_line, mutated in family(mod):
             i += 1
             if mod not in mods or (only and i not in only):
                 continue
