@@ -3635,6 +3635,36 @@ AUDIT = [
     ("stabilisation", "except (ValueError, MemoryError) as exc:", "except ValueError as exc:"),
     ("stabilisation", "scale_C = float(np.max(np.abs(eC)))", "scale_C = float(np.max(np.abs(eM)))"),
     ("statespace", "R = as_basis(basis, m)", "R = as_basis(None, m)"),
+    # the POD: the modes property formed one short, k = 0 taken as an energy fraction, the
+    # noise correction's modes from V instead of V Σ⁻¹, round-off negative eigenvalues of
+    # Ruu kept, "auto" taking the larger side
+    ("pod", "self._modes = self._snapshot_modes(self.n_modes)",
+     "self._modes = self._snapshot_modes(self.n_modes - 1)"),
+    ("pod", "if ka.ndim != 0 or not 0 < ka <= 1:", "if ka.ndim != 0 or not 0 <= ka <= 1:"),
+    ("pod", "A, Q @ W, np.ones(theta.size)", "A, V @ W, np.ones(theta.size)"),
+    ("pod", "eigenvalues=np.clip(lam, 0.0, None)", "eigenvalues=lam"),
+    ("pod", 'return "snapshots" if k < n else "correlation"',
+     'return "snapshots" if k > n else "correlation"'),
+    # the simulation: a band without a line let through, the histories swapped, the noise
+    # at −snr_db, spectra conjugated, the Welch check against the outputs' count, the
+    # effective averages without the factor 2 of the overlap sum
+    ("simulation", "    if lines.size == 0:\n", "    if lines.size < 0:\n"),
+    ("simulation", "forces=forces,\n        response=response,",
+     "forces=response,\n        response=forces,"),
+    ("simulation", "/ 10 ** (snr / 10))", "/ 10 ** (-snr / 10))"),
+    ("simulation", "return omega, np.fft.rfft(a, axis=0)[lines]",
+     "return omega, np.fft.rfft(a, axis=0)[lines].conj()"),
+    ("simulation", "n_in = x.shape[2]", "n_in = y.shape[2]"),
+    ("simulation", "effective = k / (1 + 2 * sum(", "effective = k / (1 + sum("),
+    # the line selection: the budget shared by the largest excess instead of the sum, a
+    # block's size one line too many
+    ("identification/lines", "np.floor(budget * share / share.sum())",
+     "np.floor(budget * share / share.max())"),
+    ("identification/lines", "sizes = stops - starts", "sizes = stops - starts + 1"),
+    # the holes: the kept eigenvectors taken as rows, the empty load cases reported 1-based
+    ("identification/holes", "Vk = V[:, keep]", "Vk = V[keep]"),
+    ("identification/holes", "f\"load case(s) {empty.tolist()}",
+     "f\"load case(s) {(empty + 1).tolist()}"),
 ]
 
 
