@@ -3637,7 +3637,7 @@ AUDIT = [
     # hold written as its str instead of refused, the forces saved without their
     # imaginary part
     ("io/npz", "return [_jsonable(v) for v in x]", "return list(x)"),
-    ("io/npz", "meta=json.dumps(meta)", "meta=json.dumps(meta, default=str)"),
+    ("io/npz", "text = json.dumps(meta)", "text = json.dumps(meta, default=str)"),
     ("io/npz", "F=data.F,", "F=data.F.real,"),
 ]
 
