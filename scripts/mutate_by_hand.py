@@ -3665,6 +3665,37 @@ AUDIT = [
     ("identification/holes", "Vk = V[:, keep]", "Vk = V[keep]"),
     ("identification/holes", "f\"load case(s) {empty.tolist()}",
      "f\"load case(s) {(empty + 1).tolist()}"),
+    # fourteenth audit, the measured data and their files (written before any run, tests
+    # unread). MeasuredData: driven DOFs given out of order sorted (forces on the wrong
+    # DOFs), the measured entries zeroed instead of the holes, a band of exactly 2 lines
+    # refused, λ and symmetric swapped on their way to identify(), fit()'s order ignored
+    ("measured", "idx = a.astype(np.int64)", "idx = np.sort(a.astype(np.int64))"),
+    ("measured", "U[:, ~mask] = 0.0", "U[:, mask] = 0.0"),
+    ("measured", "if keep.sum() < 2:", "if keep.sum() <= 2:"),
+    ("measured", "self.omega, lam, symmetric, backend=backend",
+     "self.omega, symmetric, lam, backend=backend"),
+    ("measured", "m=m, m_max=m_max, threads=threads,", "m=None, m_max=m_max, threads=threads,"),
+    # UFF: the grid filled with conjugated FRFs, the least common unit label taken as the
+    # unit, the last non-finite line named for the first, the roving-hammer test's
+    # subset test reversed, a damaged record's response and reference swapped in the
+    # message, a written FRF labelled with the driven DOF's index as its response, the
+    # superfluous force columns no longer dropped
+    ("io/uff", "H[:, rows.index(o), cols.index(r)] = values",
+     "H[:, rows.index(o), cols.index(r)] = values.conj()"),
+    ("io/uff", "unit = ranked[0][0]", "unit = ranked[-1][0]"),
+    ("io/uff", "i = int(bad[0])", "i = int(bad[-1])"),
+    ("io/uff", "set(outs) <= set(refs)", "set(refs) <= set(outs)"),
+    ("io/uff", 'text += f", response {rsp[0]}:{rsp[1]} / reference {ref[0]}:{ref[1]}"',
+     'text += f", response {ref[0]}:{ref[1]} / reference {rsp[0]}:{rsp[1]}"'),
+    ("io/uff", "node, direction = (int(v) for v in dofs[i, :2])",
+     "node, direction = (int(v) for v in dofs[k, :2])"),
+    ("io/uff", "            chosen = others\n", "            pass\n"),
+    # .npz: a model's list of numpy scalars no longer made JSON, an info entry JSON cannot
+    # hold written as its str instead of refused, the forces saved without their
+    # imaginary part
+    ("io/npz", "return [_jsonable(v) for v in x]", "return list(x)"),
+    ("io/npz", "text = json.dumps(meta)", "text = json.dumps(meta, default=str)"),
+    ("io/npz", "F=data.F,", "F=data.F.real,"),
 ]
 
 

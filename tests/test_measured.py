@@ -238,6 +238,18 @@ def test_a_band_of_too_few_lines_names_the_lines_there_are():
         measured.band_lines(freq, (10.0, 20.0 + 1j))
 
 
+def test_a_band_of_exactly_two_lines_is_kept():
+    """Two lines are the fewest a band may keep, and enough: 10–11 Hz on 1 Hz lines keeps
+    10 and 11 (both ends included), and MeasuredData.band returns those two lines."""
+    freq = np.arange(10.0, 31.0)
+    assert np.flatnonzero(measured.band_lines(freq, (10.0, 11.0))).tolist() == [0, 1]
+    chain = mass_spring_chain(3)
+    omega = 2 * np.pi * freq
+    data = from_frf(chain.frf(omega), omega)
+    two = data.band((20.0, 21.0))
+    assert two.s == 2 and np.array_equal(two.omega, omega[10:12])
+
+
 def test_one_load_case_may_be_given_as_two_dimensional_arrays():
     """U (s, n) and F (s, n_in) are one load case, (s, n, 1) and (s, n_in, 1)."""
     chain = mass_spring_chain(3)

@@ -806,6 +806,39 @@ def test_numpy_scalars_in_a_models_info_are_saved_as_numbers(tmp_path, chain6):
     assert type(loaded.info["steps"]) is int and type(loaded.info["converged"]) is bool
 
 
+def test_an_info_entry_json_cannot_hold_is_refused_and_nothing_is_written(tmp_path, chain6):
+    """A complex number in a model's info has no JSON form: save_model raises TypeError
+    (as documented) rather than writing it as some string, and the file it was to write
+    is neither made nor, when it exists, replaced by an empty one."""
+    from dataclasses import replace
+
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    bad = replace(result, info={"pole": 1.0 + 2.0j})
+    with pytest.raises(TypeError, match="complex"):
+        save_model(tmp_path / "new.npz", bad, basis=R)
+    assert not (tmp_path / "new.npz").exists()
+    kept = save_model(tmp_path / "kept.npz", result, basis=R)
+    with pytest.raises(TypeError, match="complex"):
+        save_model(kept, bad, basis=R)
+    assert np.array_equal(load_model(kept)[0].K, result.K)
+
+
+def test_saved_data_keep_complex_forces_of_random_excitation(tmp_path):
+    """Spectra of random excitation (estimator="spectra") have complex forces that vary
+    from line to line, not the unit forces of FRFs: save_data / load_data keep them, real
+    and imaginary parts, bit for bit."""
+    rng = np.random.default_rng(3)
+    s, n, p = 12, 3, 2
+    U = rng.standard_normal((s, n, p)) + 1j * rng.standard_normal((s, n, p))
+    F = rng.standard_normal((s, 1, p)) + 1j * rng.standard_normal((s, 1, p))
+    data = MeasuredData(2 * np.pi * np.arange(1.0, s + 1.0), U, F, None, [1])
+    back = load_data(save_data(tmp_path / "random.npz", data))
+    assert back.F.dtype == np.complex128 and np.array_equal(back.F, F)
+    assert np.array_equal(back.U, U) and not back.is_frf
+
+
 # a suffix that sorts before .npz and one that sorts after it: the check is not an order
 @pytest.mark.parametrize("name", ["frf.csv", "frf.txt"])
 def test_load_data_names_a_file_of_another_format(tmp_path, name):

@@ -35,15 +35,16 @@ H = np.zeros((FREQ.size, 4, 4), dtype=complex)
 H[1:] = CHAIN.frf(2 * np.pi * FREQ[1:])
 
 
-def write(path, pairs, scale=None):
+def write(path, pairs, scale=None, frf=H):
     """One record per (response, reference) pair of 1-based DOF numbers (direction 3),
-    in the given order; ``scale`` maps a record's index to a factor on its values."""
+    in the given order; ``scale`` maps a record's index to a factor on its values;
+    ``frf`` is the receptance written (the 4-DOF chain's unless given)."""
     records = []
     for i, (o, r) in enumerate(pairs):
         factor = 1.0 if scale is None else scale.get(i, 1.0)
         records.append(pyuff.prepare_58(
             func_type=4, rsp_node=o, rsp_dir=3, ref_node=r, ref_dir=3,
-            data=factor * H[:, o - 1, r - 1], x=FREQ, abscissa_spacing=1,
+            data=factor * frf[:, o - 1, r - 1], x=FREQ, abscissa_spacing=1,
             abscissa_spec_data_type=18, ordinate_spec_data_type=8, orddenom_spec_data_type=13,
         ))
     pyuff.UFF(str(path)).write_sets(records, "add")
@@ -215,6 +216,23 @@ def test_a_lost_driving_point_leaves_its_pairs_to_the_other_columns(tmp_path):
     with pytest.warns(DataWarning, match="measured 2 times"):
         data = read_uff(write(tmp_path / "lost.uff", pairs))
     assert columns(data) == [2, 3] and data.complete and data.n == 3
+
+
+def test_a_greedy_column_the_later_ones_make_superfluous_is_dropped(tmp_path):
+    """Six DOFs: H(5, 5), H(5, 6), H(4, 6), H(3, 5), H(1, 3), H(2, 3), H(6, 1). 5 is a
+    column (its driving point); of the pairs left, {4, 6} and {2, 3} share no DOF, so two
+    more columns are needed, and {1, 3}, {1, 6} leave one choice: 3 and 6 — three
+    columns, the fewest. The greedy pass takes 1 first (in two pairs left, as 3 and 6,
+    and the lowest), then 3 and 6, which hold both of 1's pairs: 1 is dropped, not kept
+    as a fourth load case."""
+    chain = pr.mass_spring_chain(6)
+    frf = np.zeros((FREQ.size, 6, 6), dtype=complex)
+    frf[1:] = chain.frf(2 * np.pi * FREQ[1:])
+    pairs = [(5, 5), (5, 6), (4, 6), (3, 5), (1, 3), (2, 3), (6, 1)]
+    data = read_uff(write(tmp_path / "six.uff", pairs, frf=frf))
+    assert columns(data) == [3, 5, 6] and data.p == 3
+    # H(6, 1) is the entry (1, 6) of column 6, by reciprocity
+    assert np.allclose(entry(data, 1, 6), frf[1:, 5, 0], rtol=1e-10)
 
 
 def test_two_measurements_of_one_entry_that_disagree_are_refused(tmp_path):

@@ -187,7 +187,7 @@ def save_model(path: str | Path, result: IdentificationResult, **arrays: object)
     ValueError
         For a result that is not an :class:`IdentificationResult`.
     TypeError
-        For an ``info`` entry that JSON cannot hold.
+        For an ``info`` entry that JSON cannot hold (nothing is written then).
     OSError
         When the file cannot be written.
     """
@@ -203,9 +203,10 @@ def save_model(path: str | Path, result: IdentificationResult, **arrays: object)
             meta[f.name] = _jsonable(v)
     for k, v in arrays.items():
         out[f"extra.{k}"] = np.asarray(v)
+    text = json.dumps(meta)  # before the file is opened: a refused entry leaves no file
     path = Path(path)
     with path.open("wb") as fh:
-        np.savez(fh, format=MODEL_FORMAT, meta=json.dumps(meta), **out)
+        np.savez(fh, format=MODEL_FORMAT, meta=text, **out)
     return path
 
 
