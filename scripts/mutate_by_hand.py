@@ -3696,6 +3696,43 @@ AUDIT = [
     ("io/npz", "return [_jsonable(v) for v in x]", "return list(x)"),
     ("io/npz", "text = json.dumps(meta)", "text = json.dumps(meta, default=str)"),
     ("io/npz", "F=data.F,", "F=data.F.real,"),
+    # fourteenth audit, the output-error refinement, the order sweep, the latent and the modal
+    # starts (written before any run, tests unread): refine's per-DOF log-magnitude weights
+    # all the first DOF's, its measured-entry targets ignored, 2-D data on a basis refused,
+    # a non-symmetric start kept unsymmetrised (and unreported), the order mismatch's message
+    # naming the observed count
+    ("identification/refinement", "W = np.broadcast_to(W[:, :, None], (s, n, p))",
+     "W = np.broadcast_to(W[:, :1, None], (s, n, p))"),
+    ("identification/refinement", "Uc, Fc, _ = targets.columns()", "Uc, Fc, _ = data.columns()"),
+    ("identification/refinement", "if R.ndim != 2 or Un.ndim not in (2, 3) or",
+     "if R.ndim != 2 or Un.ndim != 3 or"),
+    ("identification/refinement", "Y, k = sym, 0", "Y, k = X, 0"),
+    ("identification/refinement", "the data have order m = {m}\")",
+     "the data have order m = {observed}\")"),
+    # the order sweep: the first start kept whatever the trials' costs, the starts blind to
+    # the filled holes, the final fit's complex pass reported with max_iter steps, the
+    # log-magnitude pass's steps without its probe's
+    ("identification/order", "_, name, model = min(trials, key=lambda t: t[0])",
+     "_, name, model = trials[0]"),
+    ("identification/order", "R, U_n if measured is None else filled)", "R, U_n)"),
+    ("identification/order", 'ref["db_after"], model.iterations, ref["stop"])]',
+     'ref["db_after"], max_iter, ref["stop"])]'),
+    ("identification/order", "log_steps += more.iterations", "log_steps = more.iterations"),
+    # latent coordinates: a basis's zero columns counted as observed (and its orthonormality
+    # unchecked), a peak's candidate frequencies one line low, the first damping ratio of
+    # each candidate skipped (no residual term at all)
+    ("identification/latent", "k = observed_count(R)\n    if isinstance(m, bool)",
+     "k = R.shape[1]\n    if isinstance(m, bool)"),
+    ("identification/latent", "[omega[i] * (1 + d) for d in PEAK_OFFSETS]",
+     "[omega[i - 1] * (1 + d) for d in PEAK_OFFSETS]"),
+    ("identification/latent", "for zeta in zetas:", "for zeta in zetas[1:]:"),
+    # modal start: the kept poles' damping ratios not sorted with their frequencies, load
+    # case j taken to drive DOF j, the completing modes placed from the band's lower end
+    ("identification/modal_start", "return wn[keep][order], zeta[keep][order]",
+     "return wn[keep][order], zeta[keep]"),
+    ("identification/modal_start", "inputs[j] = nonzero[0]", "inputs[j] = j"),
+    ("identification/modal_start", "FILL_FACTOR * w_hi * (1.0 + np.arange(m - wk.size))",
+     "FILL_FACTOR * w_lo * (1.0 + np.arange(m - wk.size))"),
 ]
 
 

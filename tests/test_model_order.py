@@ -713,3 +713,29 @@ def test_a_complex_refit_that_leaves_the_median_where_it_was_is_kept(monkeypatch
     before = kept["passes"][0]["db_before"][0]
     assert kept["reason"] == ("the complex refit lowered the median error over every line "
                               f"({before:.2f} → {before:.2f} dB)")
+
+
+def test_the_final_fit_s_complex_pass_reports_the_steps_it_took(monkeypatch, chain_frf):
+    """The exact chain at m = 2, the final fit's complex pass with a budget of 400 steps:
+    it ends by its own stopping test (converged), before the budget, and the pass's entry
+    in the report gives the steps it took and why it stopped — the refit's own — not the
+    budget."""
+    from podid_rs.identification import order
+
+    _, U_n, F_n, w, P = chain_frf
+    sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    real, made = order.refine, []
+
+    def recorded(*args, **kwargs):
+        made.append(real(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(order, "refine", recorded)
+    model, _ = final_fit(sweep, U_n, F_n, w, P, log_magnitude=False, max_iter=400, threads=1)
+    (complex_pass,) = made
+    assert complex_pass.info["refinement"]["converged"]
+    assert complex_pass.iterations < 400
+    entry = model.info["refinement"]["final_refit"]["passes"][0]
+    assert entry["pass"] == "complex refit"
+    assert entry["iterations"] == complex_pass.iterations
+    assert entry["stop"] == complex_pass.info["refinement"]["stop"]

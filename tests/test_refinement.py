@@ -1235,6 +1235,18 @@ def test_a_start_below_the_basis_order_is_refused_as_a_start_of_the_wrong_order(
         refine((np.eye(2), np.eye(2), np.eye(2)), U, F, w, basis=R)
 
 
+def test_a_start_with_latent_coordinates_is_refused_against_the_model_s_order():
+    """The same 3 POD columns on 4 measured DOFs, a start whose M and K are 4 × 4 (one
+    latent coordinate) but whose C is 3 × 3: the data's order is M's 4 — the 3 observed
+    coordinates and the latent one — and the message says so, not the 3 observed ones
+    (which C's size would then seem to match)."""
+    chain, U, F, w = chain_data(n=4, p=1)
+    R = np.eye(4)[:, :3]
+    with pytest.raises(ValueError, match=r"^the start model's C is \(3, 3\), the data have "
+                                         r"order m = 4$"):
+        refine((np.eye(4), np.eye(3), np.eye(4)), U, F, w, basis=R)
+
+
 def test_per_entry_weights_per_line_and_dof_weigh_every_load_case_alike():
     """Weights (s, n) with two load cases (the chain driven at DOF 2, then at DOF 5):
     entry (i, k)'s weight applies to both load cases, so the reported start cost is
