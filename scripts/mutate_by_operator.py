@@ -12,8 +12,11 @@ hid them. This script makes them everywhere, so that none is left to a reviewer'
 - **a reversal dropped**: every ``[::-1]`` removed;
 - **the wrong axis**: every ``axis=0`` becomes ``axis=1`` and the reverse;
 - **an option ignored**: a parameter with a default read as that default, at one of its
-  uses at a time (numbered after all the others; an option tested at one value only, or
-  not passed on, lets it through).
+  uses at a time (numbered after the operators above; an option tested at one value only,
+  or not passed on, lets it through);
+- **a count's boundary**: ``<`` and ``<=``, ``>`` and ``>=`` exchanged where a count or a
+  size is compared (an integer literal on either side, or ``len``, ``.size``, ``.shape``,
+  ``.ndim`` on the line): a limit tested on one side only lets it through (numbered last).
 
 Each mutant runs the module's test files of ``mutate_by_hand.py`` (``TESTS`` and
 ``AUDIT_TESTS``). Run from anywhere:
@@ -207,6 +210,36 @@ def default_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
         yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
 
 
+#: the boundary operator's exchanges, and what makes a comparison one of counts or sizes
+BOUNDARY = {"<": "<=", "<=": "<", ">": ">=", ">=": ">"}
+SIZES = ("len(", ".size", ".shape", ".ndim")
+
+
+def boundary_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
+    """A count's comparison moved across its boundary: (line number, line, mutated line,
+    source)."""
+    src = (PKG / f"{mod}.py").read_text()
+    lines = src.splitlines()
+    at = _offsets(src)
+    toks = [t for t in tokenize.generate_tokens(io.StringIO(src).readline)
+            if t.type not in (tokenize.NL, tokenize.NEWLINE, tokenize.COMMENT)]
+
+    def integer(t: tokenize.TokenInfo) -> bool:
+        return t.type == tokenize.NUMBER and t.string.isdigit()
+
+    for k, t in enumerate(toks):
+        if t.type != tokenize.OP or t.string not in BOUNDARY:
+            continue
+        line = lines[t.start[0] - 1]
+        if not (integer(toks[k - 1]) or integer(toks[k + 1])
+                or (toks[k + 1].string == "-" and integer(toks[k + 2]))
+                or any(size in line for size in SIZES)):
+            continue
+        a0, b0 = at[t.start[0]] + t.start[1], at[t.end[0]] + t.end[1]
+        new = src[:a0] + BOUNDARY[t.string] + src[b0:]
+        yield t.start[0], line, new.splitlines()[t.start[0] - 1], new
+
+
 def main() -> None:
     """List or run the mutants the command line selects (all without arguments)."""
     args = [a for a in sys.argv[1:] if a != "--list"]
@@ -217,7 +250,8 @@ def main() -> None:
         only.update(range(int(first), int(last or first) + 1))
     i = 0
     counts = {"KILLED": 0, "SURVIVED": 0, "EQUIVALENT": 0}
-    for family, mod in [(mutants, m) for m in MODULES] + [(default_mutants, m) for m in MODULES]:
+    for family, mod in [(f, m) for f in (mutants, default_mutants, boundary_mutants)
+                        for m in MODULES]:
         for row, line, mutated_line, mutated in family(mod):
             i += 1
             if mod not in mods or (only and i not in only):
