@@ -38,6 +38,7 @@ import ast
 import io
 import sys
 import tokenize
+import warnings
 from collections.abc import Iterator
 
 from mutate_by_hand import AUDIT_TESTS, PKG, TESTS, run_mutant
@@ -206,8 +207,17 @@ def default_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
                     found.append((a0, b0, text))
     for a0, b0, text in sorted(found):
         row = src.count("\n", 0, a0) + 1
-        new = src[:a0] + text + src[b0:]
-        yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
+        # inside an f-string of the same quotes, a string default needs the other ones
+        for written in (text, text.translate(str.maketrans("\"'", "'\""))):
+            new = src[:a0] + written + src[b0:]
+            try:
+                with warnings.catch_warnings():  # e.g. None[...]: the mutant's, not ours
+                    warnings.simplefilter("ignore", SyntaxWarning)
+                    compile(new, mod, "exec")
+            except SyntaxError:
+                continue
+            yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
+            break
 
 
 #: the boundary operator's exchanges, and what makes a comparison one of counts or sizes
