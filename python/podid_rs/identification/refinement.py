@@ -174,7 +174,6 @@ def physical_start(
 
 def _column_weights(
     weights: object, data: FrequencyData, measured: np.ndarray | None = None,
-    name: str = "weights",
 ) -> tuple[np.ndarray, str]:
     """Scalar weight per column (s·p,), line-major, and a label for the report.
 
@@ -192,21 +191,21 @@ def _column_weights(
             nz = norms > 0
             w[nz] = 1.0 / norms[nz]
             return w, "relative"
-        raise ValueError(f"{name} must be 'relative', 'uniform' or an array, got {weights!r}")
-    w = as_array(weights, name, real=True)
+        raise ValueError(f"weights must be 'relative', 'uniform' or an array, got {weights!r}")
+    w = as_array(weights, "weights", real=True)
     if w.shape == (s,):
         w = np.repeat(w, p)
     elif w.shape == (s, p):
         w = w.reshape(-1)
     else:
         raise ValueError(
-            f"{name} must have shape (s,) = ({s},) or (s, p) = ({s}, {p}) for reduced data "
+            f"weights must have shape (s,) = ({s},) or (s, p) = ({s}, {p}) for reduced data "
             f"(per-entry weights need basis=), got {w.shape}"
         )
     if np.any(w < 0):
-        raise ValueError(f"{name} must be non-negative (found {w.min():.3g})")
+        raise ValueError(f"weights must be non-negative (found {w.min():.3g})")
     if not np.any(w > 0):
-        raise ValueError(f"{name} are all zero: there is nothing to fit")
+        raise ValueError("weights are all zero: there is nothing to fit")
     return w, "user"
 
 
