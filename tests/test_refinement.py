@@ -240,6 +240,10 @@ def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
         assert np.array_equal(got, got.T)
         np.testing.assert_allclose(np.diag(Q.T @ got @ Q), want, rtol=1e-12, atol=1e-12)
     assert rep["eigenvalues_raised"] == (1, 1, 1)
+    # M's zero eigenvalue goes to the rtol floor too: rtol = 1e-6 of its largest, 2
+    (M3, _, _), rep3 = physical_start(sym([0.0, 1.0, 2.0]), C, K, rtol=1e-6)
+    np.testing.assert_allclose(np.diag(Q.T @ M3 @ Q), [2e-6, 1.0, 2.0], rtol=1e-12, atol=1e-12)
+    assert rep3["eigenvalues_raised"] == (1, 1, 1)
     for X, before in zip((M, C, K), given, strict=True):
         assert np.array_equal(X, before)  # the caller's matrices untouched
     # a physical model (a refined one given back) is kept as it is
