@@ -594,6 +594,22 @@ def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
         refine((chain.M, chain.C, chain.K), U, F, w, basis=np.eye(6) * (1 + 1j))
 
 
+@pytest.mark.parametrize("ftol", [1e-2, 1e-3])
+def test_ftol_stops_at_the_first_ten_steps_that_lower_the_cost_by_less_than_ten_ftol(ftol):
+    """The stopping rule recomputed from the reported history (the start's cost, then one
+    per accepted step): the refinement stops at the first accepted step whose ten before
+    it lowered the cost by less than 10·ftol relative, not later (the default 1e-5 takes
+    more steps here). Exact comparisons: the same double operations as the
+    core's test, on the same numbers (no weight constant is added without holes)."""
+    chain, U, F, w = chain_data(n=4, snr=30)
+    rep = refine((chain.M * 1.1, chain.C, chain.K * 0.9), U, F, w, ftol=ftol).info["refinement"]
+    costs = [c for _, c in rep["history"]]
+    slow = [k for k in range(10, len(costs))
+            if costs[k - 10] - costs[k] < 10 * ftol * costs[k - 10]]
+    assert rep["stop"] == "cost converged"
+    assert slow[0] == len(costs) - 1
+
+
 def test_bad_starts_are_refused_by_name():
     chain, U, F, w = chain_data(n=4, p=1)
     with pytest.raises(ValueError, match="^M must be real"):
