@@ -862,6 +862,17 @@ def test_the_log_magnitude_weights_leave_out_entries_beyond_the_dynamic_range_of
     assert label == "log-magnitude, uniform per entry"
 
 
+def test_the_log_magnitude_weights_leave_out_entries_that_were_not_measured():
+    # every entry of the same size (none beyond the dynamic range): only the mask, DOF 1
+    # not measured, gives weight 0, on both lines
+    U = np.array([[[1.0], [0.5], [2.0]], [[3.0], [1.0], [0.5]]], dtype=complex)
+    data = FrequencyData(U, np.ones_like(U), np.array([1.0, 2.0]))
+    mask = np.array([[True], [False], [True]])
+    weighting, label = _log_magnitude_targets("uniform", data, np.eye(3), U, mask)
+    assert np.asarray(weighting.entry_weights).tolist() == [[1, 0, 1], [1, 0, 1]]
+    assert label == "log-magnitude, uniform per entry"
+
+
 def test_a_start_is_kept_only_with_every_eigenvalue_above_start_keep_of_the_largest():
     # K's eigenvalues 1e4 and 1e-8: the smaller is below START_KEEP = 1e-10 of the
     # largest (1e-6), so it is raised to rtol = 1e-8 of the largest (1e-4); M, C kept
