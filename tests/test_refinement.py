@@ -240,6 +240,10 @@ def test_the_start_reflects_negative_eigenvalues_and_keeps_a_physical_model():
         assert np.array_equal(got, got.T)
         np.testing.assert_allclose(np.diag(Q.T @ got @ Q), want, rtol=1e-12, atol=1e-12)
     assert rep["eigenvalues_raised"] == (1, 1, 1)
+    # M's zero eigenvalue goes to the rtol floor too: rtol = 1e-6 of its largest, 2
+    (M3, _, _), rep3 = physical_start(sym([0.0, 1.0, 2.0]), C, K, rtol=1e-6)
+    np.testing.assert_allclose(np.diag(Q.T @ M3 @ Q), [2e-6, 1.0, 2.0], rtol=1e-12, atol=1e-12)
+    assert rep3["eigenvalues_raised"] == (1, 1, 1)
     for X, before in zip((M, C, K), given, strict=True):
         assert np.array_equal(X, before)  # the caller's matrices untouched
     # a physical model (a refined one given back) is kept as it is
@@ -590,6 +594,22 @@ def test_the_bounds_of_ftol_and_the_name_of_a_bad_basis():
         refine((chain.M, chain.C, chain.K), U, F, w, basis=np.eye(6) * (1 + 1j))
 
 
+@pytest.mark.parametrize("ftol", [1e-2, 1e-3])
+def test_ftol_stops_at_the_first_ten_steps_that_lower_the_cost_by_less_than_ten_ftol(ftol):
+    """The stopping rule recomputed from the reported history (the start's cost, then one
+    per accepted step): the refinement stops at the first accepted step whose ten before
+    it lowered the cost by less than 10·ftol relative, not later (the default 1e-5 takes
+    more steps here). Exact comparisons: the same double operations as the
+    core's test, on the same numbers (no weight constant is added without holes)."""
+    chain, U, F, w = chain_data(n=4, snr=30)
+    rep = refine((chain.M * 1.1, chain.C, chain.K * 0.9), U, F, w, ftol=ftol).info["refinement"]
+    costs = [c for _, c in rep["history"]]
+    slow = [k for k in range(10, len(costs))
+            if costs[k - 10] - costs[k] < 10 * ftol * costs[k - 10]]
+    assert rep["stop"] == "cost converged"
+    assert slow[0] == len(costs) - 1
+
+
 def test_bad_starts_are_refused_by_name():
     chain, U, F, w = chain_data(n=4, p=1)
     with pytest.raises(ValueError, match="^M must be real"):
@@ -839,6 +859,17 @@ def test_the_log_magnitude_weights_leave_out_entries_beyond_the_dynamic_range_of
     data = FrequencyData(U, np.ones_like(U), np.array([1.0, 2.0]))
     weighting, label = _log_magnitude_targets("uniform", data, None, None)
     assert np.asarray(weighting.entry_weights).tolist() == [[1, 1, 0], [1, 1, 1]]
+    assert label == "log-magnitude, uniform per entry"
+
+
+def test_the_log_magnitude_weights_leave_out_entries_that_were_not_measured():
+    # every entry of the same size (none beyond the dynamic range): only the mask, DOF 1
+    # not measured, gives weight 0, on both lines
+    U = np.array([[[1.0], [0.5], [2.0]], [[3.0], [1.0], [0.5]]], dtype=complex)
+    data = FrequencyData(U, np.ones_like(U), np.array([1.0, 2.0]))
+    mask = np.array([[True], [False], [True]])
+    weighting, label = _log_magnitude_targets("uniform", data, np.eye(3), U, mask)
+    assert np.asarray(weighting.entry_weights).tolist() == [[1, 0, 1], [1, 0, 1]]
     assert label == "log-magnitude, uniform per entry"
 
 
