@@ -133,10 +133,6 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
         'so > "C" is true exactly where != "C" is',
     # identification/refinement: an option ignored
-    ("identification/refinement", "w = as_array(weights, name, real=True)",
-     'w = as_array(weights, "weights", real=True)'):
-        "_column_weights is private and its only callers (refine's two calls) never pass "
-        "name, so name is always its default \"weights\".",
     ("identification/refinement",
      'if mask is not None and objective == "complex" and not label.endswith("per entry"):',
      'if mask is not None and "complex" == "complex" and not label.endswith("per entry"):'):
