@@ -570,6 +570,8 @@ def test_mode_kinds_needs_the_lines_in_increasing_order():
     shapes = mode_shapes(model)
     w = np.linspace(10.0, 60.0, 51)
     assert mode_kinds(shapes, w).tolist() == ["structural", "structural"]  # 20, 50 rad/s
+    # two lines are a band: 15 and 55 rad/s hold both poles' half-power bands
+    assert mode_kinds(shapes, [15.0, 55.0]).tolist() == ["structural", "structural"]
     message = r"^omega must hold at least 2 strictly increasing lines \(rad/s\)$"
     for bad in (w[::-1], np.r_[w[:10], w[9:]], w[:1]):
         with pytest.raises(ValueError, match=message):
