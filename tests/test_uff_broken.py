@@ -1027,6 +1027,11 @@ def test_a_delimiter_is_minus_one_alone_on_its_line_or_followed_by_blanks_to_col
            b"    -1")  # the end of the file
     padded = raw.index(b"    -1" + b" " * 74)
     assert _delimiters(raw) == [0, padded, len(raw) - 6]
+    # padded to column 80 where the file ends: pyuff takes blanks to column 80 as a
+    # delimiter only with a byte after them (ind + 80 < len), so the check takes none
+    # either (else it would pass a record that pyuff drops); one byte more and it is one
+    assert _delimiters(b"    -1\n" + b"    -1" + b" " * 74) == [0]
+    assert _delimiters(b"    -1\n" + b"    -1" + b" " * 74 + b"\n") == [0, 7]
 
 
 def test_other_datasets_are_not_counted_as_frf_records(tmp_path):
