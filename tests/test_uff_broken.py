@@ -1073,14 +1073,16 @@ def test_frequency_lines_are_compared_relative_only(tmp_path):
         read_uff(path)
 
 
-def test_a_scalar_response_direction_zero_keeps_its_sign(tmp_path):
-    """Direction 0 is a scalar DOF (a microphone's pressure, a temperature): it has no
-    sign to flip, so its FRF is read as written — only a negative code flips one."""
+@pytest.mark.parametrize("ref, driven", [((2, 3), 1), ((1, 0), 0)])
+def test_a_scalar_direction_zero_keeps_its_sign(tmp_path, ref, driven):
+    """Direction 0 is a scalar DOF (a microphone's pressure, a temperature; as the
+    reference, a volume-velocity source): it has no sign to flip, so its FRF is read as
+    written — only a negative code flips one, on the response's side or the reference's."""
     freq = np.arange(1.0, 11.0)
     v = (1.0 + np.arange(10.0)) * (1 + 1j)
-    records = [frf_record((1, 0), (2, 3), freq, v), frf_record((2, 3), (2, 3), freq, 2 * v),
-               frf_record((3, -3), (2, 3), freq, 3 * v)]
+    records = [frf_record((1, 0), ref, freq, v), frf_record((2, 3), ref, freq, 2 * v),
+               frf_record((3, -3), ref, freq, 3 * v)]
     pyuff.UFF(str(tmp_path / "scalar.uff")).write_sets(records, "add")
     data = read_uff(tmp_path / "scalar.uff")
-    assert data.dofs.tolist() == [[1, 0], [2, 3], [3, 3]] and data.inputs.tolist() == [1]
+    assert data.dofs.tolist() == [[1, 0], [2, 3], [3, 3]] and data.inputs.tolist() == [driven]
     np.testing.assert_array_equal(data.U[:, :, 0], np.c_[v, 2 * v, -3 * v])
