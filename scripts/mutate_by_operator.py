@@ -139,6 +139,18 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         'objective is validated to "complex" or "log-magnitude", and every label '
         '_log_magnitude_targets returns ends with "per entry", so for the log-magnitude '
         "objective the last test is False either way.",
+    # pod, simulation, measured, physical, modes, stabilisation, io/uff: a count's boundary
+    ("io/uff", "if k > 0:", "if k >= 0:"):
+        "the loop runs only with two delimiters or more, in increasing order, so at k = 0 "
+        "the gap raw[tags[-1] + 6:tags[0]] starts after it ends: empty, never refused.",
+    ("io/uff",
+     'whole = len(body) >= expected * size and not body[expected * size:].strip(b"\\r\\n")',
+     'whole = len(body) > expected * size and not body[expected * size:].strip(b"\\r\\n")'):
+        "at len(body) == expected * size the mutant's whole is False and held is "
+        "len(body) // size, which is expected, as the original's: the same count.",
+    ("io/uff", "if len(counts) > 1:", "if len(counts) >= 1:"):
+        "with one label the mutant ranks it alone (no tie), takes it as the unit and keeps "
+        "every record (each agrees with itself or has none): what skipping the block does.",
 }
 
 
