@@ -481,6 +481,9 @@ def test_nearest_psd_names_its_argument():
 def test_nearest_psd_refuses_a_complex_matrix_or_a_negative_floor():
     with pytest.raises(ValueError, match="^A must be real"):
         nearest_psd(np.eye(2) + 0j)
+    # the entries' checks name the matrix as the caller does, as the shape check does
+    with pytest.raises(ValueError, match="^M must be real"):
+        nearest_psd(np.eye(2) + 0j, name="M")
     with pytest.raises(ValueError, match="^floor must be a non-negative number, got -1$"):
         nearest_psd(np.eye(2), floor=-1)
 

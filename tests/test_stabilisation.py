@@ -365,7 +365,8 @@ def test_the_chart_sums_the_data_per_line_and_names_a_bad_chosen_order(chain_dat
     assert stabilisation_chart(data, 2, progress=False, chosen_m=1).chosen_m == 1  # the least
 
 
-def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
+@pytest.mark.parametrize("m_min", [1, 2])
+def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch, m_min):
     import io
     import sys
 
@@ -375,11 +376,12 @@ def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch):
 
     screen = Terminal()
     monkeypatch.setattr(sys, "stderr", screen)
-    stabilisation_chart(chain_data[1], 3, progress=True)
+    stabilisation_chart(chain_data[1], 3, m_min=m_min, progress=True)
     # tqdm pads a line with blanks to the length of the one it overwrites (the rate's
     # width varies): the bar's text is the last line without them
     last = screen.getvalue()[:-1].split("\r")[-1].rstrip(" ")
-    assert last.startswith("stabilisation: 100%") and "| 3/3 [" in last
+    orders = 3 - m_min + 1  # m_min … 3: the bar's total is the orders fitted, not m_max
+    assert last.startswith("stabilisation: 100%") and f"| {orders}/{orders} [" in last
     assert last.endswith(", m = 3]")  # the order last fitted, in the bar's postfix
 
 

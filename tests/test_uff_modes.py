@@ -185,6 +185,21 @@ def test_uff_quantity_only_when_the_records_agree(tmp_path):
     assert uff_quantity(beside) == "velocity"
 
 
+def test_uff_quantity_reads_the_headers_only(tmp_path):
+    """The ordinate is in the records' headers: a record whose values pyuff cannot read
+    (a number spelled with letters) still tells it, though reading the data refuses it."""
+    from podid_rs.io.uff import read_uff, uff_quantity
+
+    good = write(tmp_path / "good.uff", frf_record(1, 11))
+    last = "   1.00000000000e+00   0.00000000000e+00\n    -1"
+    text = good.read_text()
+    assert text.count(last) == 1  # the record's last value, just before its delimiter
+    bad = tmp_path / "bad.uff"
+    bad.write_text(text.replace(last, "   abcdefghijklmnop   0.00000000000e+00\n    -1"))
+    with pytest.raises(ValueError, match="could not read dataset 58"):
+        read_uff(bad)
+    assert uff_quantity(bad) == "velocity"
+
 def test_a_single_array_is_not_a_data_file(tmp_path):
     from podid_rs.io.npz import load_data
 
