@@ -3733,6 +3733,38 @@ AUDIT = [
     ("identification/modal_start", "inputs[j] = nonzero[0]", "inputs[j] = j"),
     ("identification/modal_start", "FILL_FACTOR * w_hi * (1.0 + np.arange(m - wk.size))",
      "FILL_FACTOR * w_lo * (1.0 + np.arange(m - wk.size))"),
+    # fifteenth audit, measured data and its files (written before any run, tests unread):
+    # velocity divided by ω without the i, the driven-DOF count taken from the load-case
+    # axis, the output-error fit given the driven DOFs' forces instead of the forces on
+    # every measured DOF, the spectra estimator's responses from the first record only,
+    # identify's projected responses and forces swapped, predict's order check on the
+    # load-case axis
+    ("measured", "return Xa / (1j * w)", "return Xa / w"),
+    ("measured", "n, n_in = U.shape[1], F.shape[1]", "n, n_in = U.shape[1], F.shape[2]"),
+    ("measured", "F_n = data.forces_on_dofs()", "F_n = data.F"),
+    ("measured", "responses_f = [spectra(rec, dt, band_hz) for rec in y]",
+     "responses_f = [spectra(rec, dt, band_hz) for rec in y[:1]]"),
+    ("measured", "U_m, F_m = self.project(R)", "F_m, U_m = self.project(R)"),
+    ("measured", "if F_m.shape[1] != system.n:", "if F_m.shape[2] != system.n:"),
+    # UFF: a damaged record's response node read one column short, complex ordinates'
+    # non-finite values no longer named by line, dataset 55 written with the conjugate
+    # eigenvalue, the dead-channel message's "band" and "file" swapped, dataset-55 sets
+    # that are not modes read as modes, write_uff's modes= mask ignored
+    ("io/uff", "rsp = (_int(ids[41:51]), _int(ids[51:55]))",
+     "rsp = (_int(ids[41:50]), _int(ids[51:55]))"),
+    ("io/uff", "if np.issubdtype(y.dtype, np.number) and y.shape == x.shape:",
+     "if np.issubdtype(y.dtype, np.floating) and y.shape == x.shape:"),
+    ("io/uff", "eig=lam,", "eig=lam.conjugate(),"),
+    ("io/uff", 'where = "of the band" if band_hz is not None else "in the file"',
+     'where = "in the file" if band_hz is not None else "of the band"'),
+    ("io/uff", 'modes = [d for d in sets if d.get("analysis_type") in UFF_MODAL_ANALYSES]',
+     "modes = list(sets)"),
+    ("io/uff", "shapes = shapes.select(keep)", "shapes = shapes"),
+    # .npz: a missing array's message naming every needed array, a tuple of numpy scalars
+    # in a model's info no longer made JSON, a data file tagged with the model format
+    ("io/npz", "{what} needs the arrays {absent}", "{what} needs the arrays {list(keys)}"),
+    ("io/npz", "if isinstance(x, list | tuple):", "if isinstance(x, list):"),
+    ("io/npz", "format=DATA_FORMAT,", "format=MODEL_FORMAT,"),
 ]
 
 
