@@ -806,6 +806,25 @@ def test_numpy_scalars_in_a_models_info_are_saved_as_numbers(tmp_path, chain6):
     assert type(loaded.info["steps"]) is int and type(loaded.info["converged"]) is bool
 
 
+def test_numpy_scalars_inside_tuples_of_a_models_info_are_saved_as_numbers(tmp_path, chain6):
+    """A tuple in a model's info (a shape, a pair of line indices) holding numpy scalars:
+    JSON writes a tuple as a list but not the int64 / bool_ / float32 inside it, so
+    save_model converts tuples as it does lists, and they load equal, as tuples."""
+    from dataclasses import replace
+
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    info = {"shape": (np.int64(6), np.int64(2)), "flags": (np.bool_(False), np.float32(0.25)),
+            "nested": ({"lines": (np.int64(1),)},)}
+    path = save_model(tmp_path / "model.npz", replace(result, info=info), basis=R)
+    loaded, _ = load_model(path)
+    # 0.25 is exact in float32
+    assert loaded.info == {"shape": (6, 2), "flags": (False, 0.25),
+                           "nested": ({"lines": (1,)},)}
+    assert all(type(v) is int for v in loaded.info["shape"])
+
+
 def test_an_info_entry_json_cannot_hold_is_refused_and_nothing_is_written(tmp_path, chain6):
     """A complex number in a model's info has no JSON form: save_model raises TypeError
     (as documented) rather than writing it as some string, and the file it was to write
