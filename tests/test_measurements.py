@@ -763,6 +763,22 @@ def test_a_model_file_of_another_format_version_is_refused(tmp_path, chain6, tag
         load_model(other)
 
 
+def test_a_model_file_without_its_meta_record_is_refused_by_name(tmp_path, chain6):
+    """A file tagged as a model but missing the JSON record of its fields (a hand-made or
+    damaged file) is refused with a ValueError naming the file, not a KeyError."""
+    _, freq, H = chain6
+    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
+    result, R = data.identify(m=2, symmetric=True)
+    path = save_model(tmp_path / "model.npz", result, basis=R)
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files if k != "meta"}
+    other = tmp_path / "other.npz"
+    np.savez(other, **arrays)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(other))}: the model file has no "
+                                         r"'meta' record of its fields$"):
+        load_model(other)
+
+
 def test_save_model_refuses_other_objects(tmp_path):
     with pytest.raises(ValueError, match="^result must be an IdentificationResult, got "
                                          "SecondOrderSystem$"):

@@ -235,6 +235,8 @@ def load_model(path: str | Path) -> tuple[IdentificationResult, dict[str, np.nda
     z = _read_npz(path)
     if "format" not in z or str(z["format"]) != MODEL_FORMAT:
         raise ValueError(f"{path}: not a model file written by save_model ({MODEL_FORMAT})")
+    if "meta" not in z:  # the record of the fields save_model writes beside the arrays
+        raise ValueError(f"{path}: the model file has no 'meta' record of its fields")
     meta = json.loads(str(z["meta"]))
     kwargs: dict[str, object] = {}
     for f in fields(IdentificationResult):
