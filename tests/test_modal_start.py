@@ -190,6 +190,19 @@ def test_an_unstable_pole_of_the_model_is_left_out_and_the_start_stays_physical(
     assert w_start[3] > omega_all[-1] and np.all(z_start > 0)
 
 
+def band_from_zero():
+    """Lines from 0 rad/s up to between modes 2 and 3 of the 4-DOF system, driven at DOF 0:
+    (omega, U, F), U its receptances (the static one, K⁻¹, at the first line)."""
+    wn, _ = natural(M4, C4, K4)
+    omega = np.linspace(0.0, 0.5 * (wn[1] + wn[2]), 400)
+    U = np.empty((omega.size, 4, 1), dtype=complex)
+    U[1:] = pr.SecondOrderSystem(M4, C4, K4).frf(omega[1:])[:, :, [0]]  # frf refuses 0
+    U[0] = np.linalg.inv(K4)[:, [0]]
+    F = np.zeros_like(U)
+    F[:, 0, 0] = 1.0
+    return omega, U, F
+
+
 def test_a_band_from_zero_has_no_residual_pole_below_it():
     """Lines from 0 rad/s (the static receptance K⁻¹ at the first) up to between modes 2
     and 3: no pole fits below the band — one at 0 rad/s would divide the first line by
@@ -199,12 +212,7 @@ def test_a_band_from_zero_has_no_residual_pole_below_it():
     from podid_rs.identification.modal_start import RESIDUAL_FACTOR, RESIDUAL_ZETA
 
     wn, zeta = natural(M4, C4, K4)
-    omega = np.linspace(0.0, 0.5 * (wn[1] + wn[2]), 400)
-    U = np.empty((omega.size, 4, 1), dtype=complex)
-    U[1:] = pr.SecondOrderSystem(M4, C4, K4).frf(omega[1:])[:, :, [0]]  # frf refuses 0
-    U[0] = np.linalg.inv(K4)[:, [0]]
-    F = np.zeros_like(U)
-    F[:, 0, 0] = 1.0
+    omega, U, F = band_from_zero()
     start = modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega)
     assert_physical(start)
     w_start, z_start = natural(*start)
@@ -231,12 +239,7 @@ def test_a_rigid_body_pole_at_zero_is_not_kept_in_a_band_from_zero():
                       [-np.linalg.solve(M5, K5), -np.linalg.solve(M5, C5)]])
     assert 0.0 in np.linalg.eigvals(state)  # the rigid-body pole, exactly, as the start reads it
     wn, _ = natural(M4, C4, K4)
-    omega = np.linspace(0.0, 0.5 * (wn[1] + wn[2]), 400)
-    U = np.empty((omega.size, 4, 1), dtype=complex)
-    U[1:] = pr.SecondOrderSystem(M4, C4, K4).frf(omega[1:])[:, :, [0]]  # frf refuses 0
-    U[0] = np.linalg.inv(K4)[:, [0]]
-    F = np.zeros_like(U)
-    F[:, 0, 0] = 1.0
+    omega, U, F = band_from_zero()
     start = modal_start(pr.SecondOrderSystem(M5, C5, K5), np.eye(5)[:4], U, F, omega)
     assert start is not None
     assert_physical(start)
