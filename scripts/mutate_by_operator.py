@@ -151,6 +151,32 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     ("io/uff", "if len(counts) > 1:", "if len(counts) >= 1:"):
         "with one label the mutant ranks it alone (no tie), takes it as the unit and keeps "
         "every record (each agrees with itself or has none): what skipping the block does.",
+    # identification/refinement, order, latent, lines, modal_start: a count's boundary
+    ("identification/order", "if den <= 0 or num <= 0:", "if den < 0 or num <= 0:"):
+        "den = Σ w²|g|² is a sum of non-negative terms, so for finite data it is 0 only where "
+        "each term is (w = 0 or g = 0), and there each term w²·Re(ḡ·r) of num is 0 too: num <= 0 "
+        "skips the candidate as den <= 0 would (short of every w·|g| lying below 1e-162, whose "
+        "square underflows to 0: a candidate's weighted response 1e-162 of the data's).",
+    ("identification/latent", "if den <= 0 or num <= 0:", "if den < 0 or num <= 0:"):
+        "den = Σ w²|g|² is a sum of non-negative terms, so for finite data it is 0 only where "
+        "each term is (w = 0 or g = 0), and there each term w²·Re(ḡ·r) of num is 0 too: num <= 0 "
+        "skips the candidate as den <= 0 would (short of every w·|g| lying below 1e-162, whose "
+        "square underflows to 0: a candidate's weighted response 1e-162 of the data's).",
+    ("identification/order", "flat = (flat + 1 if order > observed and len(fits) > 1",
+     "flat = (flat + 1 if order > observed and len(fits) >= 1"):
+        "each pass of the sweep appends its fit or leaves the loop, so here len(fits) is the "
+        "order, and order 1 > observed means observed = 0, where the pass fails before its "
+        "fit (basis(0) is refused): wherever order > observed is reached here len(fits) >= 2, "
+        "and > 1 and >= 1 agree.",
+    ("identification/modal_start", "zeta = -lam.real / np.where(wn > 0, wn, 1.0)",
+     "zeta = -lam.real / np.where(wn >= 0, wn, 1.0)"):
+        "lam was filtered to lam.imag > 0 two lines above, so every wn = |lam| >= lam.imag "
+        "> 0 (a NaN fails both tests): np.where picks wn either way.",
+    ("identification/modal_start", "rank = int(np.sum(sv > 1e-3 * sv[0])) if sv[0] > 0 else 0",
+     "rank = int(np.sum(sv > 1e-3 * sv[0])) if sv[0] >= 0 else 0"):
+        "the singular values are non-negative and sv[0] is the largest, so sv[0] == 0 makes "
+        "every one 0 and np.sum(sv > 0) is 0, the value of the else branch (a NaN fails "
+        "both tests).",
 }
 
 

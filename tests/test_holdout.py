@@ -480,6 +480,36 @@ def test_residual_peak_starts_of_order_three_are_least_squares_modes_of_the_resi
     assert max(shares) > 0.5 and min(shares) < 0.05
 
 
+def test_a_residual_peak_without_the_new_coordinate_gets_a_positive_share_of_it():
+    # the order-3 setup above (damping factor 0.5) with nothing in the new coordinate (U's
+    # third row 0, its force still 1): the residual's principal direction at a peak has a
+    # share of exactly 0 there — −0.0 at the one peak with a candidate, as the eigensolver
+    # returns it — which is raised to +0.05: a zero share counts as non-negative, whatever
+    # the sign of its zero. The candidate's new mode is shaped so (1e-9: as above).
+    from podid_rs.identification.order import _residual_modes
+
+    omega = 2 * np.pi * np.linspace(2.0, 60.0, 151)
+    wn = 2 * np.pi * np.array([10.0, 30.0, 45.0])
+    M, C, K = np.eye(3), np.diag(2 * 0.01 * wn), np.diag(wn**2)
+    F = np.ones((omega.size, 3, 1), dtype=complex)
+    U = pr.SecondOrderSystem(M, C, K).response(omega, F)
+    U[:, 2] = 0.0
+    old = (M[:2, :2], 0.5 * C[:2, :2], K[:2, :2])
+    r = U.copy()
+    r[:, :2] -= pr.SecondOrderSystem(*old).response(omega, F[:, :2])
+    candidates = _residual_modes(old, U, F, omega, np.ones((omega.size, 1)))
+    assert candidates
+    for _, mats in candidates:
+        lam, V = scipy.linalg.eigh(mats[2], mats[0])
+        new = int(np.argmax(np.min(np.abs(np.sqrt(lam)[:, None] / wn[:2] - 1), axis=1)))
+        peak = int(np.argmin(np.abs(omega - np.sqrt(lam[new]))))
+        phi = np.linalg.eigh(np.real(r[peak] @ r[peak].conj().T))[1][:, -1]
+        assert phi[-1] == 0.0
+        phi[-1] = 0.05
+        shape = V[:, new] / np.linalg.norm(V[:, new])
+        assert abs(shape @ phi) / np.linalg.norm(phi) == pytest.approx(1.0, abs=1e-9)
+
+
 def test_residual_peak_starts_are_symmetric_bit_for_bit_at_order_nine():
     # order 9 from the 9-mass chain's leading 8 × 8 blocks: each candidate's matrices
     # T⁻ᵀ Y T⁻¹ are symmetric only to rounding (at m = 9 numpy's product, OpenBLAS here,

@@ -5,7 +5,8 @@ Asserted: the observation matrix is [R_p, 0] and malformed bases (unit columns t
 not orthogonal among them, columns orthonormal only to a few digits, an
 empty basis, a 3-D array) and orders that are not integers are refused;
 an order at or below the observed coordinates has no gauge; a latent start
-seen at two sensors takes the residual's dominant direction; the starts are symmetric
+seen at two sensors takes the residual's dominant direction, and a residual no candidate
+mode can be driven to gets none; the starts are symmetric
 bit for bit, and the mass cap of a non-symmetric M is its symmetric part's; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
@@ -347,6 +348,24 @@ def test_a_latent_mode_seen_at_two_sensors_takes_the_residual_s_direction():
     F3[:, :2] = np.eye(2)
     X = pr.SecondOrderSystem(*start).response(omega, F3)[:, :2, :]
     assert np.max(np.abs(X - U)) < 1e-8 * np.max(np.abs(U))
+
+
+def test_a_residual_no_candidate_mode_can_be_driven_to_gets_no_start():
+    """The two uncoupled observed DOFs again, each driven in its own load case, with data
+    that are the model's own response (the package's, so the residual is exactly 0 there)
+    but for a mode seen at DOF 0 in the load case that drives DOF 1 only. The residual's
+    direction is DOF 0 at every line, so each candidate mode has the shape (1, 0): the
+    force of that load case (on DOF 1) does not drive it, and in the load case whose force
+    does, there is nothing to fit. Its amplitude is 0 exactly — no modal mass fits, however
+    large — so no candidate gets a start, rather than a division by zero."""
+    omega = 2 * np.pi * np.arange(20.0, 80.25, 0.5)
+    w_obs = 2 * np.pi * np.array([10.0, 15.0])
+    model = (np.eye(2), np.diag(2 * 0.02 * w_obs), np.diag(w_obs**2))
+    F = np.broadcast_to(np.eye(2), (omega.size, 2, 2)).copy()
+    U = pr.SecondOrderSystem(*model).response(omega, F)
+    wc = 2 * np.pi * 50.0
+    U[:, 0, 1] += 1 / (0.5 * (wc**2 - omega**2 + 2j * 0.01 * wc * omega))
+    assert latent_starts(model, U, F, omega, np.eye(2), np.ones((omega.size, 2))) == []
 
 
 @pytest.mark.parametrize("side", ["above", "below"])

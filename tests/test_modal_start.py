@@ -6,8 +6,9 @@ in the band, the start rebuilt from the system's own poles reproduces the FRFs t
 round-off — observed at every DOF, with a hole in the grid, and from one driving
 point through latent coordinates; with only two modes in the band it keeps those two
 poles exactly, stands in for the others with one pole below and one above the band
-(none below a band from 0 rad/s), and stays physical, also from a model with an unstable
-pole, which it leaves out; a pole exactly on the band's edge is in the band; forces that
+(none below a band from 0 rad/s, where a rigid-body pole at 0 is not kept either), and
+stays physical, also from a model with an unstable pole, which it leaves out; a pole
+exactly on the band's edge is in the band, and an undamped one (ζ = 0) is kept; forces that
 are not unit forces at one DOF (no FRFs, a force with a phase or a second DOF pulled the
 other way among them) give no start;
 and the final fit starts from it when it fits better than the held-out fit —
@@ -189,6 +190,19 @@ def test_an_unstable_pole_of_the_model_is_left_out_and_the_start_stays_physical(
     assert w_start[3] > omega_all[-1] and np.all(z_start > 0)
 
 
+def band_from_zero():
+    """Lines from 0 rad/s up to between modes 2 and 3 of the 4-DOF system, driven at DOF 0:
+    (omega, U, F), U its receptances (the static one, K⁻¹, at the first line)."""
+    wn, _ = natural(M4, C4, K4)
+    omega = np.linspace(0.0, 0.5 * (wn[1] + wn[2]), 400)
+    U = np.empty((omega.size, 4, 1), dtype=complex)
+    U[1:] = pr.SecondOrderSystem(M4, C4, K4).frf(omega[1:])[:, :, [0]]  # frf refuses 0
+    U[0] = np.linalg.inv(K4)[:, [0]]
+    F = np.zeros_like(U)
+    F[:, 0, 0] = 1.0
+    return omega, U, F
+
+
 def test_a_band_from_zero_has_no_residual_pole_below_it():
     """Lines from 0 rad/s (the static receptance K⁻¹ at the first) up to between modes 2
     and 3: no pole fits below the band — one at 0 rad/s would divide the first line by
@@ -198,12 +212,7 @@ def test_a_band_from_zero_has_no_residual_pole_below_it():
     from podid_rs.identification.modal_start import RESIDUAL_FACTOR, RESIDUAL_ZETA
 
     wn, zeta = natural(M4, C4, K4)
-    omega = np.linspace(0.0, 0.5 * (wn[1] + wn[2]), 400)
-    U = np.empty((omega.size, 4, 1), dtype=complex)
-    U[1:] = pr.SecondOrderSystem(M4, C4, K4).frf(omega[1:])[:, :, [0]]  # frf refuses 0
-    U[0] = np.linalg.inv(K4)[:, [0]]
-    F = np.zeros_like(U)
-    F[:, 0, 0] = 1.0
+    omega, U, F = band_from_zero()
     start = modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U, F, omega)
     assert_physical(start)
     w_start, z_start = natural(*start)
@@ -211,6 +220,53 @@ def test_a_band_from_zero_has_no_residual_pole_below_it():
     above = np.array([RESIDUAL_FACTOR, FILL_FACTOR]) * omega[-1]
     np.testing.assert_allclose(w_start[2:], above, rtol=1e-9)
     np.testing.assert_allclose(z_start[2:], RESIDUAL_ZETA, rtol=1e-9)
+
+
+def test_a_rigid_body_pole_at_zero_is_not_kept_in_a_band_from_zero():
+    """The 4-DOF chain and a fifth, free coordinate of its own (no stiffness: a rigid-body
+    mode, poles 0 and −0.2 — both real), not measured, on the band from 0 rad/s of the
+    test above: the pole at 0 lies on the band's lower edge but is not an underdamped
+    pole (λ = 0 is real) and is left out, so the start is the one above with the fifth
+    coordinate completed: the two in-band poles, the residual pole at
+    ω_hi · RESIDUAL_FACTOR and completing modes at FILL_FACTOR · ω_hi times 1 and 2.
+    Kept, the pole at 0 would divide the first line by zero."""
+    from podid_rs.identification.modal_start import RESIDUAL_FACTOR
+
+    M5, C5, K5 = np.zeros((5, 5)), np.zeros((5, 5)), np.zeros((5, 5))
+    M5[:4, :4], C5[:4, :4], K5[:4, :4] = M4, C4, K4
+    M5[4, 4], C5[4, 4] = 1.0, 0.2
+    state = np.block([[np.zeros((5, 5)), np.eye(5)],
+                      [-np.linalg.solve(M5, K5), -np.linalg.solve(M5, C5)]])
+    assert 0.0 in np.linalg.eigvals(state)  # the rigid-body pole, exactly, as the start reads it
+    wn, _ = natural(M4, C4, K4)
+    omega, U, F = band_from_zero()
+    start = modal_start(pr.SecondOrderSystem(M5, C5, K5), np.eye(5)[:4], U, F, omega)
+    assert start is not None
+    assert_physical(start)
+    w_start, _ = natural(*start)
+    # 1e-12, 1e-9: the rebuilt matrices' round-off, as in the tests above
+    np.testing.assert_allclose(w_start[:2], wn[:2], rtol=1e-12)
+    above = np.array([RESIDUAL_FACTOR, FILL_FACTOR, 2 * FILL_FACTOR]) * omega[-1]
+    np.testing.assert_allclose(w_start[2:], above, rtol=1e-9)
+
+
+def test_an_undamped_pole_in_the_band_is_kept():
+    """ζ = 0 is underdamped: an undamped oscillator (m = 2, k = 8e4: ω_n = 200 rad/s,
+    C = 0; its poles ±200i, with a real part of exactly 0 as the start reads them) on
+    a band round its pole is rebuilt exactly — the residue of 1/(k − ω²m) at the pole
+    is 1/m, so φ = 1/√m and M = 1/φ² = m, K = ω_n² M = k, C = 2ζω_n M = 0. Left out,
+    a residual pole would stand in for it."""
+    M, C, K = np.array([[2.0]]), np.zeros((1, 1)), np.array([[8e4]])
+    state = np.array([[0.0, 1.0], [-4e4, 0.0]])
+    assert np.all(np.linalg.eigvals(state).real == 0)
+    omega = np.linspace(100.0, 300.0, 400)  # 200 falls between two lines
+    U = (1.0 / (8e4 - 2.0 * omega**2))[:, None, None].astype(complex)
+    F = np.ones_like(U)
+    M_s, C_s, K_s = modal_start(pr.SecondOrderSystem(M, C, K), np.eye(1), U, F, omega)
+    # 1e-12: the residue's least squares and A's inverse, round-off only
+    np.testing.assert_allclose(M_s, M, rtol=1e-12)
+    np.testing.assert_allclose(K_s, K, rtol=1e-12)
+    np.testing.assert_array_equal(C_s, 0.0)  # 2ζω with ζ = 0 is 0 exactly
 
 
 def test_the_completing_modes_lie_at_multiples_of_fill_factor_times_the_top_line(omega_all):

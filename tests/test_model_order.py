@@ -234,6 +234,11 @@ def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_
     for m in (1, limit):
         sweep = sweep_orders(U_n[few], F_n[few], w[few], P, m=m, max_iter=5)
         assert sweep.chosen == m and sweep.reason == f"m = {m} as asked"
+    # m_max = 1 and max_iter = 1, the smallest positive integers, are accepted as well: a
+    # sweep of order 1 alone, and fits of one step each
+    assert [f.m for f in sweep_orders(U_n[few], F_n[few], w[few], P, m_max=1).fits] == [1]
+    sweep = sweep_orders(U_n[few], F_n[few], w[few], P, m=1, max_iter=1)
+    assert sweep.fits[0].model.iterations <= 1
 
 
 def test_beam_sweep_beats_the_paper_estimator_on_held_out_lines(beam):
@@ -482,6 +487,18 @@ def test_a_decoupled_mode_is_the_candidate_of_least_cost_with_a_positive_mass():
     mu, wc, zeta = min(costs, key=lambda c: c[0])[1]
     got = _decoupled_mode(U, F, omega, np.ones((40, 1)))
     assert np.allclose(got, (mu, 2 * zeta * wc * mu, wc**2 * mu), rtol=1e-10, atol=0)
+
+
+def test_a_coordinate_without_response_gets_no_decoupled_mode():
+    """The last coordinate is driven (a unit force on every line) but does not respond:
+    every candidate's least-squares amplitude is 0 exactly, so no positive modal mass
+    fits — None, as for a negative one, rather than a division by zero."""
+    omega = 2 * np.pi * np.linspace(5.0, 50.0, 40)
+    F = np.zeros((40, 2, 1), dtype=complex)
+    F[:, -1, 0] = 1.0
+    U = np.zeros_like(F)
+    U[:, 0, 0] = 1.0  # the other coordinate responds: the data are not all zero
+    assert _decoupled_mode(U, F, omega, np.ones((40, 1))) is None
 
 
 def test_an_order_whose_free_parameters_equal_the_equations_is_within_the_limit():
