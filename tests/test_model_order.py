@@ -590,6 +590,34 @@ def test_the_steps_after_the_trials_are_the_rest_of_the_budget(monkeypatch):
     assert set(budgets) == {TRIAL_ITER, 3}
 
 
+def test_the_threads_asked_for_reach_every_refinement(monkeypatch):
+    """threads=1 (the default, None, is every core) reaches each refinement of the sweep
+    and of the final fit: the starts' trials (TRIAL_ITER steps), the rest of the best
+    trial's budget (3 steps), the last observed order's run to convergence before a
+    latent one (CONVERGE_MAX_ITER) and the final fit's pass (4 steps). Seen by a spy on
+    refine that records the step budget and the threads of every call (the 4-mass chain
+    seen at two masses, asked for m = 3: order 3 is latent)."""
+    from podid_rs.identification import order
+    from podid_rs.identification.order import CONVERGE_MAX_ITER, TRIAL_ITER
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(2, 4, np.linspace(5.0, 250.0, 60))
+    P = pr.pod_from_frf(U_n, w)
+    calls = []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        calls.append((kwargs["max_iter"], kwargs["threads"]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(order, "refine", spy)
+    sweep = sweep_orders(U_n, F_n, w, P, m=3, max_iter=TRIAL_ITER + 3, threads=1)
+    assert {TRIAL_ITER, 3, CONVERGE_MAX_ITER} <= {steps for steps, _ in calls}
+    swept = len(calls)
+    final_fit(sweep, U_n, F_n, w, P, max_iter=4, log_magnitude=False, threads=1)
+    assert [steps for steps, _ in calls[swept:]] == [4]
+    assert {threads for _, threads in calls} == {1}
+
+
 def test_an_orders_stable_flag_is_its_models(monkeypatch):
     """An order whose fit has a pole with Re λ > 0 says so: order 2's fit is handed back
     with its damping negated (C → −C: every pole mirrored to Re λ = +ζω > 0), order 1's
