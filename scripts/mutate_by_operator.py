@@ -128,6 +128,13 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      'keep = d.min() >= (START_KEEP * np.abs(d).max() if name > "C" else 0.0)'):
         'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
         'so > "C" is true exactly where != "C" is',
+    # identification/order, latent, lines, modal_start: an option ignored
+    ("identification/lines",
+     "if isinstance(target, bool) or not isinstance(target, int | np.integer) or target < 16:",
+     "if isinstance(SWEEP_LINES, bool) or not isinstance(target, int | np.integer) or target "
+     "< 16:"):
+        "a bool target is True or False (bool cannot be subclassed), an int below 16: the "
+        "line's last test refuses it with the same message, so the first test adds nothing.",
 }
 
 
