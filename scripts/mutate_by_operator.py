@@ -177,6 +177,13 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "the singular values are non-negative and sv[0] is the largest, so sv[0] == 0 makes "
         "every one 0 and np.sum(sv > 0) is 0, the value of the else branch (a NaN fails "
         "both tests).",
+    # identification/order, latent, lines, modal_start: an option ignored
+    ("identification/lines",
+     "if isinstance(target, bool) or not isinstance(target, int | np.integer) or target < 16:",
+     "if isinstance(SWEEP_LINES, bool) or not isinstance(target, int | np.integer) or target "
+     "< 16:"):
+        "a bool target is True or False (bool cannot be subclassed), an int below 16: the "
+        "line's last test refuses it with the same message, so the first test adds nothing.",
 }
 
 

@@ -307,11 +307,11 @@ def test_the_sweep_stops_after_flat_latent_orders():
                                  "the training error by less than 1 % each")
 
 
-def _sweep_with_scripted_training_errors(monkeypatch, train_db):
+def _sweep_with_scripted_training_errors(monkeypatch, train_db, **kwargs):
     """The sweep of a 6-DOF chain measured at 2 DOFs (every order past 2 latent) to
-    m_max = 2 + LATENT_FLAT + 1, its scores scripted: ``train_db(m)`` on the training
-    lines, and a held-out error that falls to m = 2 and not after (fewer orders than
-    the patience)."""
+    m_max = 2 + LATENT_FLAT + 1 (or with ``kwargs``), its scores scripted: ``train_db(m)``
+    on the training lines, and a held-out error that falls to m = 2 and not after (fewer
+    orders than the patience)."""
     from podid_rs.identification import order
 
     chain = pr.mass_spring_chain(6)
@@ -330,27 +330,34 @@ def _sweep_with_scripted_training_errors(monkeypatch, train_db):
 
     monkeypatch.setattr(order, "_median_db", scripted)
     return sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), m_max=2 + order.LATENT_FLAT + 1,
-                        threads=1, max_iter=5)
+                        threads=1, max_iter=5, **kwargs)
 
 
-@pytest.mark.parametrize("ratio,stops", [(0.991, True), (0.989, False)])
-def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, ratio, stops):
+@pytest.mark.parametrize("ratio,asked,stops",
+                         [(0.991, False, True), (0.989, False, False), (0.991, True, False)])
+def test_a_latent_order_is_flat_below_a_third_of_the_progress_step(monkeypatch, ratio, asked,
+                                                                   stops):
     """The stop rule alone, on scripted scores: a 6-DOF chain measured at 2 DOFs, so
     every order past 2 has latent coordinates, each lowering the training error to
     ``ratio`` of the order before and the held-out error not at all (fewer orders than
     the patience). 0.9 % less is flat (below a third of the 3 % step): the sweep stops
-    after LATENT_FLAT such orders; 1.1 % less is progress: it runs on to m_max."""
+    after LATENT_FLAT such orders; 1.1 % less is progress: it runs on to m_max. Asked
+    for m = m_max, the flat orders do not stop it: the rule holds only where the sweep
+    chooses the order."""
     from podid_rs.identification import order
 
-    sweep = _sweep_with_scripted_training_errors(
-        monkeypatch, lambda m: 8.0 / 2 ** min(m, 2) * ratio ** max(m - 2, 0))
     m_max = 2 + order.LATENT_FLAT + 1
+    sweep = _sweep_with_scripted_training_errors(
+        monkeypatch, lambda m: 8.0 / 2 ** min(m, 2) * ratio ** max(m - 2, 0),
+        **({"m": m_max} if asked else {}))
     assert [f.latent for f in sweep.fits[:3]] == [0, 0, 1]
     assert [f.m for f in sweep.fits] == list(range(1, (m_max - 1 if stops else m_max) + 1))
     flat = f"stopped after {order.LATENT_FLAT} latent orders that lowered the training error"
     assert (flat in sweep.reason) == stops
-    # the reason's range is the orders fitted (one short of m_max where the sweep stopped)
-    assert f"over m = 1…{sweep.fits[-1].m}; one line in 4 held out" in sweep.reason
+    if asked:
+        assert sweep.reason == f"m = {m_max} as asked"
+    else:  # the reason's range is the orders fitted (one short of m_max where it stopped)
+        assert f"over m = 1…{sweep.fits[-1].m}; one line in 4 held out" in sweep.reason
 
 
 def test_a_flat_observed_order_does_not_count_towards_the_flat_latent_orders(monkeypatch):
@@ -607,6 +614,34 @@ def test_the_steps_after_the_trials_are_the_rest_of_the_budget(monkeypatch):
     assert set(budgets) == {TRIAL_ITER, 3}
 
 
+def test_the_threads_asked_for_reach_every_refinement(monkeypatch):
+    """threads=1 (the default, None, is every core) reaches each refinement of the sweep
+    and of the final fit: the starts' trials (TRIAL_ITER steps), the rest of the best
+    trial's budget (3 steps), the last observed order's run to convergence before a
+    latent one (CONVERGE_MAX_ITER) and the final fit's pass (4 steps). Seen by a spy on
+    refine that records the step budget and the threads of every call (the 4-mass chain
+    seen at two masses, asked for m = 3: order 3 is latent)."""
+    from podid_rs.identification import order
+    from podid_rs.identification.order import CONVERGE_MAX_ITER, TRIAL_ITER
+
+    U_n, F_n, w = _chain_seen_at_its_first_dofs(2, 4, np.linspace(5.0, 250.0, 60))
+    P = pr.pod_from_frf(U_n, w)
+    calls = []
+    real = order.refine
+
+    def spy(*args, **kwargs):
+        calls.append((kwargs["max_iter"], kwargs["threads"]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(order, "refine", spy)
+    sweep = sweep_orders(U_n, F_n, w, P, m=3, max_iter=TRIAL_ITER + 3, threads=1)
+    assert {TRIAL_ITER, 3, CONVERGE_MAX_ITER} <= {steps for steps, _ in calls}
+    swept = len(calls)
+    final_fit(sweep, U_n, F_n, w, P, max_iter=4, log_magnitude=False, threads=1)
+    assert [steps for steps, _ in calls[swept:]] == [4]
+    assert {threads for _, threads in calls} == {1}
+
+
 def test_an_orders_stable_flag_is_its_models(monkeypatch):
     """An order whose fit has a pole with Re λ > 0 says so: order 2's fit is handed back
     with its damping negated (C → −C: every pole mirrored to Re λ = +ζω > 0), order 1's
@@ -654,15 +689,22 @@ def _sweep_with_scripted_held_out_errors(monkeypatch, test_db, **kwargs):
     return sweep_orders(U_n, F_n, w, pr.pod_from_frf(U_n, w), threads=1, max_iter=5, **kwargs)
 
 
-def test_the_patience_counts_from_the_lowest_held_out_error_not_the_last_gain(monkeypatch):
+@pytest.mark.parametrize("order", [{"m_max": 6}, {"m": 6}])
+def test_the_patience_counts_from_the_lowest_held_out_error_not_the_last_gain(monkeypatch,
+                                                                              order):
     """Held-out errors 1.0, 0.98, 0.96, then flat: neither 0.98 nor 0.96 is a 3 % gain on
     the lowest error before it (0.96 > 0.97 × 0.98), though 0.96 is on the last 3 % gain
-    (1.0): with patience 2 the sweep stops at order 3."""
+    (1.0): with patience 2 the sweep stops at order 3. Asked for m = 6, it does not stop:
+    the patience holds only where the sweep chooses the order."""
     errors = {1: 1.0, 2: 0.98, 3: 0.96}
     sweep = _sweep_with_scripted_held_out_errors(
-        monkeypatch, lambda m: errors.get(m, 0.96), m_max=6, patience=2)
-    assert [f.m for f in sweep.fits] == [1, 2, 3]
-    assert sweep.reason.endswith("stopped after 2 orders without a 3 % gain")
+        monkeypatch, lambda m: errors.get(m, 0.96), patience=2, **order)
+    if "m" in order:
+        assert [f.m for f in sweep.fits] == [1, 2, 3, 4, 5, 6]
+        assert sweep.reason == "m = 6 as asked"
+    else:
+        assert [f.m for f in sweep.fits] == [1, 2, 3]
+        assert sweep.reason.endswith("stopped after 2 orders without a 3 % gain")
 
 
 @pytest.mark.parametrize("patience", [8, 10])
