@@ -3765,6 +3765,38 @@ AUDIT = [
     ("io/npz", "{what} needs the arrays {absent}", "{what} needs the arrays {list(keys)}"),
     ("io/npz", "if isinstance(x, list | tuple):", "if isinstance(x, list):"),
     ("io/npz", "format=DATA_FORMAT,", "format=MODEL_FORMAT,"),
+    # fifteenth audit, the POD, the simulation, the informative lines and the holes (written
+    # before any run, tests unread). POD: a scalar noise variance spread over the DOFs
+    # instead of given to each, a channel whose noise equals its mean square (a dead one at
+    # zero) warned about, 2-D spectra read as one DOF of n load cases, the snapshot side's
+    # n counting the snapshots, the Gram matrix's memory guard sized as k instead of k²
+    ("pod", "d = np.full(n, float(d))", "d = np.full(n, float(d) / n)"),
+    ("pod", "over = d > measured", "over = d >= measured"),
+    ("pod", "Xa = Xa[:, :, None]", "Xa = Xa[:, None, :]"),
+    ("pod", "self._n = A.shape[1]", "self._n = A.shape[0]"),
+    ("pod", "3 * FLOAT_BYTES * k**2, f\"the {k}", "3 * FLOAT_BYTES * k, f\"the {k}"),
+    # simulation: the forces' spectrum left unscaled (intensity and record length ignored),
+    # a negative intensity no longer refused, spectra() taking a negative or zero dt, the
+    # H1 line correlation reported at lags 0 and 1, a segment of the whole record refused
+    ("simulation", "    out *= scale\n", ""),
+    ("simulation", 'intensity = as_scalar(intensity, "intensity")', "intensity = float(intensity)"),
+    ("simulation", 'dt = as_scalar(dt, "dt")\n    lines = _band_lines(a.shape[0]',
+     "dt = float(dt)\n    lines = _band_lines(a.shape[0]"),
+    ("simulation", "for lag in (1, 2))", "for lag in (0, 1))"),
+    ("simulation", 'as_count(nperseg, "nperseg", 2, r)', 'as_count(nperseg, "nperseg", 2, r - 1)'),
+    # informative lines: each block's last line left out of it, one evenly spaced line more
+    # per block than its share
+    ("identification/lines", "starts, stops = edges[:-1], edges[1:]",
+     "starts, stops = edges[:-1], edges[1:] - 1"),
+    ("identification/lines", "idx = np.linspace(a, b - 1, c)",
+     "idx = np.linspace(a, b - 1, c + 1)"),
+    # holes: the targets made real (imaginary part dropped), every load case's targets fitted
+    # on the first one's mask, the constant of the cost with its sign flipped
+    ("identification/holes", "Y = np.zeros((s, R.shape[1], p), dtype=np.complex128)",
+     "Y = np.zeros((s, R.shape[1], p), dtype=np.float64)"),
+    ("identification/holes", "d, lam, V, keep = _column_solve(R, measured[:, j])",
+     "d, lam, V, keep = _column_solve(R, measured[:, 0])"),
+    ("identification/holes", "W[:, j] ** 2 * (full - fitted)", "W[:, j] ** 2 * (fitted - full)"),
 ]
 
 

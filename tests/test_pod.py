@@ -514,6 +514,21 @@ def test_noise_variance_limits_are_the_mean_square_and_twice_it():
         P.without_noise([0.0, 2.5])
 
 
+def test_a_scalar_noise_variance_is_that_variance_on_every_dof():
+    # one number is each channel's variance, not a total shared out over the DOFs: on
+    # diag(4, 3, 2) a variance of 1 leaves diag(3, 2, 1), exactly (a diagonal eigenproblem)
+    corrected = diagonal_pod([4.0, 3.0, 2.0]).without_noise(1.0)
+    assert corrected.noise_variance.tolist() == [1.0, 1.0, 1.0]
+    assert corrected.eigenvalues.tolist() == [3.0, 2.0, 1.0]
+    # on the snapshot side too: the same POD as the variance given per DOF
+    X = snapshots(r=8, n=12)
+    v = 1e-3 * float(np.min(np.mean(X**2, axis=0)))  # below every channel's mean square
+    one = pod(X, method="snapshots", noise_variance=v)
+    each = pod(X, method="snapshots", noise_variance=np.full(12, v))
+    np.testing.assert_array_equal(one.noise_variance, each.noise_variance)
+    np.testing.assert_array_equal(one.eigenvalues, each.eigenvalues)
+
+
 @pytest.mark.parametrize(
     ("mean_squares", "d"),
     # the offending DOF is 1 in both; DOF 0 is within twice its mean square
