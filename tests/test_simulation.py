@@ -383,6 +383,22 @@ def test_odd_records_up_to_nyquist_with_or_without_histories(histories):
                                    rtol=1e-9, atol=1e-12 * np.abs(sim.response_spectrum).max())
 
 
+@pytest.mark.parametrize("histories", [True, False])
+def test_threads_reach_the_per_line_solves_with_or_without_histories(histories, monkeypatch):
+    """threads is the per-line solver's (system.response's): a spy on the response records
+    what it is given, on both paths (histories kept and spectra only)."""
+    received = []
+    real = SecondOrderSystem.response
+
+    def response(self, omega, F, *, threads=None):
+        received.append(threads)
+        return real(self, omega, F, threads=threads)
+
+    monkeypatch.setattr(SecondOrderSystem, "response", response)
+    simulate_white_noise(SYSTEM, BAND, DT, 2.0, seed=0, histories=histories, threads=1)
+    assert received == [1]
+
+
 def test_histories_are_kept_up_to_one_gib(monkeypatch):
     # histories=None keeps them when the r × n forces and responses take at most
     # HISTORY_BYTES = 2³⁰ bytes (2 · 8 · r · n); the memory guard's message tells
