@@ -3797,6 +3797,36 @@ AUDIT = [
     ("identification/holes", "d, lam, V, keep = _column_solve(R, measured[:, j])",
      "d, lam, V, keep = _column_solve(R, measured[:, 0])"),
     ("identification/holes", "W[:, j] ** 2 * (full - fitted)", "W[:, j] ** 2 * (fitted - full)"),
+    # fifteenth audit, physical: the infinite eigenvalues of a singular M kept as modes, a
+    # SecondOrderSystem refused as a model, every mode paired with the first true one in
+    # the modal table, an undamped (zero) C refused, the CSV table without its header
+    ("physical", "np.flatnonzero(finite & (lam.imag >= 0))", "np.flatnonzero(lam.imag >= 0)"),
+    ("physical", "isinstance(model, IdentificationResult | SecondOrderSystem)",
+     "isinstance(model, IdentificationResult)"),
+    ("physical", "p = pairs[k]", "p = pairs[0]"),
+    ("physical", "if rtol > 0 and floor == 0.0:", "if floor == 0.0:"),
+    ("physical", "        w.writeheader()\n", ""),
+    # fifteenth audit, modes: repeated lines accepted, an input one past the last row let
+    # through to an IndexError, a model asymmetric at 1e-8 given a modal A, an empty side
+    # of the ring kept (a median of nothing), a second argument that is not ModeShapes
+    # let through to an AttributeError
+    ("modes", "if w.size < 2 or np.any(np.diff(w) <= 0):",
+     "if w.size < 2 or np.any(np.diff(w) < 0):"),
+    ("modes", "(idx >= Ua.shape[1])", "(idx > Ua.shape[1])"),
+    ("modes", "SYMMETRY_RTOL = 1e-12", "SYMMETRY_RTOL = 1e-6"),
+    ("modes", "ring & (w > lam.imag)) if side.any()]", "ring & (w > lam.imag))]"),
+    ("modes", "if not isinstance(a, ModeShapes) or not isinstance(b, ModeShapes):",
+     "if not isinstance(a, ModeShapes):"),
+    # fifteenth audit, stabilisation: the chart's lines in rad/s for Hz, order() blind to
+    # the first order, is_physical's default tolerance 1e-6
+    ("stabilisation", "data.freq_hz.copy()", "data.omega.copy()"),
+    ("stabilisation", "        for o in self.orders:\n            if o.m == m:",
+     "        for o in self.orders[1:]:\n            if o.m == m:"),
+    ("stabilisation", "rtol: float = PHYSICAL_RTOL", "rtol: float = 1e-6"),
+    # fifteenth audit, state space: the input matrix's sign, the refusal naming M's shape
+    # for the matrix that is wrong
+    ("statespace", ", MinvRt])", ", -MinvRt])"),
+    ("statespace", "matrix, got {X.shape}", "matrix, got {mats[0].shape}"),
 ]
 
 
