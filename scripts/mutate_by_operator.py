@@ -1,9 +1,10 @@
 """Reviewer's operators applied at every place they fit, over the pipeline's modules.
 
 ``mutate_by_hand.py`` holds bugs a person chose; mutmut's operators are generic (``<`` for
-``<=``, a string changed, an argument dropped). Two kinds of bug that reviewers plant by
-hand and mutmut never makes kept surviving the hand-made audits, because the test fixtures
-hid them. This script makes them everywhere, so that none is left to a reviewer's luck:
+``<=``, a string changed, an argument dropped), and only a sample of its mutants is run.
+The kinds of bug below kept surviving the hand-made audits, because the test fixtures hid
+them; most of them mutmut never makes. This script makes them everywhere, so that none is
+left to a reviewer's luck:
 
 - **one side of a two-sided check**: every ``!=`` becomes ``<`` and, separately, ``>``
   (a shape check tested only with too few lines passes a check that refuses only too few);
@@ -29,7 +30,8 @@ Each mutant runs the module's test files of ``mutate_by_hand.py`` (``TESTS`` and
 Mutants are numbered in the order of the modules below and of their places in the file;
 a number is stable while the modules' sources are. Every survivor gets the test that
 kills it, or goes into ``EQUIVALENT`` below with the reason no input can tell it apart
-(those are reported, not run). Do not edit the package while it runs.
+(those are reported, not run). Do not edit the package, or list the mutants of the same
+checkout, while it runs: both read the sources it is mutating.
 """
 
 from __future__ import annotations
