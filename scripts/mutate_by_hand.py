@@ -3832,6 +3832,8 @@ AUDIT = [
     # refinement stops at max_iter, the relative residual over the start's cost
     ("identification/refinement", "return T.reshape(s * p, m * m), Y, max(const, 0.0)",
      "return T.reshape(s * p, m * m), Y, 0.0"),
+    # (equivalent, as the same change to `after`: the holes of U3 are zeroed before, and
+    # db_errors drops every entry whose data are 0; kept as the check it was)
     ("identification/refinement", "before = db_errors(X0, measured, mask)",
      "before = db_errors(X0, measured)"),
     ("identification/refinement", 'if out.stop == "max_iter reached":',
