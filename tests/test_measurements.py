@@ -706,15 +706,20 @@ def test_saved_data_carry_their_format_and_refuse_other_objects(tmp_path, chain6
         save_data(tmp_path / "x.npz", H)
 
 
-def test_a_model_file_needs_the_fields_without_defaults(tmp_path, chain6):
-    import json
-
+def _saved_model(tmp_path, chain6):
+    """The 6-DOF chain's order-2 model and basis, saved; with the arrays the file holds."""
     _, freq, H = chain6
     data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
     result, R = data.identify(m=2, symmetric=True)
     path = save_model(tmp_path / "model.npz", result, basis=R)
     with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files}
+        return result, R, {k: z[k] for k in z.files}
+
+
+def test_a_model_file_needs_the_fields_without_defaults(tmp_path, chain6):
+    import json
+
+    result, R, arrays = _saved_model(tmp_path, chain6)
     meta = json.loads(str(arrays["meta"]))
 
     def rewritten(name, drop_array=None, drop_meta=()):
@@ -748,12 +753,7 @@ def test_a_model_file_of_another_format_version_is_refused(tmp_path, chain6, tag
     """A model file tagged with another version of the format, an older one (its tag sorts
     before this reader's) or a newer one (after it), is refused naming the file and the
     format this reader knows, not read field by field as if it were this version."""
-    _, freq, H = chain6
-    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
-    result, R = data.identify(m=2, symmetric=True)
-    path = save_model(tmp_path / "model.npz", result, basis=R)
-    with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files}
+    result, R, arrays = _saved_model(tmp_path, chain6)
     assert str(arrays["format"]) == "podid_rs.IdentificationResult/1"
     arrays["format"] = np.array(tag)
     other = tmp_path / "other.npz"
@@ -766,14 +766,9 @@ def test_a_model_file_of_another_format_version_is_refused(tmp_path, chain6, tag
 def test_a_model_file_without_its_meta_record_is_refused_by_name(tmp_path, chain6):
     """A file tagged as a model but missing the JSON record of its fields (a hand-made or
     damaged file) is refused with a ValueError naming the file, not a KeyError."""
-    _, freq, H = chain6
-    data = from_frf(H[1:, :, :2], 2 * np.pi * freq[1:], inputs=[0, 1])
-    result, R = data.identify(m=2, symmetric=True)
-    path = save_model(tmp_path / "model.npz", result, basis=R)
-    with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files if k != "meta"}
+    _, _, arrays = _saved_model(tmp_path, chain6)
     other = tmp_path / "other.npz"
-    np.savez(other, **arrays)
+    np.savez(other, **{k: v for k, v in arrays.items() if k != "meta"})
     with pytest.raises(ValueError, match=rf"^{re.escape(str(other))}: the model file has no "
                                          r"'meta' record of its fields$"):
         load_model(other)
