@@ -17,7 +17,14 @@ left to a reviewer's luck:
   or not passed on, lets it through);
 - **a count's boundary**: ``<`` and ``<=``, ``>`` and ``>=`` exchanged where a count or a
   size is compared (an integer literal on either side, or ``len``, ``.size``, ``.shape``,
-  ``.ndim`` on the line): a limit tested on one side only lets it through (numbered last).
+  ``.ndim`` on the line): a limit tested on one side only lets it through (numbered after
+  the options);
+- **the wrong one of two similar names**: a name read where a similar one of the same
+  function was meant (``M``, ``C`` and ``K`` for each other; ``db_before`` for ``db_after``,
+  ``U_m`` for ``F_m``, ``omega`` for ``omega_fit``: names sharing their first or their last
+  words), and an attribute of one object for a similar one of the same object
+  (``model.M`` for ``model.K``, ``fit.train_db`` for ``fit.test_db``), at one use at a
+  time; only names already bound at the line are used (numbered last).
 
 Each mutant runs the module's test files of ``mutate_by_hand.py`` (``TESTS`` and
 ``AUDIT_TESTS``). Run from anywhere:
@@ -304,6 +311,60 @@ def boundary_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
         yield t.start[0], line, new.splitlines()[t.start[0] - 1], new
 
 
+def similar(a: str, b: str) -> bool:
+    """Whether two names are ones a person could write for each other: ``M``, ``C`` and
+    ``K``, or names that share their first or their last words (``n_in`` and ``n_out``,
+    ``U_m`` and ``F_m``, ``omega`` and ``omega_fit``; case and leading underscores aside)."""
+    if a == b:
+        return False
+    if {a, b} <= {"M", "C", "K"}:
+        return True
+    wa, wb = a.lstrip("_").lower().split("_"), b.lstrip("_").lower().split("_")
+    if len(wa) == len(wb) == 1:
+        return False
+    if wa[0] == wb[0]:
+        return True  # db_before and db_after, n_in and n_out, omega and omega_fit
+    return len(wa) > 1 and wa[1:] == wb[1:]  # U_m and F_m
+
+
+def name_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
+    """A similar name or attribute read for another at one use: (line number, line, mutated
+    line, source)."""
+    src = (PKG / f"{mod}.py").read_text()
+    lines = src.splitlines(keepends=True)
+    at = _offsets(src)
+    found = set()
+    for f in ast.walk(ast.parse(src)):
+        if not isinstance(f, ast.FunctionDef | ast.AsyncFunctionDef):
+            continue
+        a = f.args
+        bound = {x.arg: f.lineno for x in [*a.posonlyargs, *a.args, *a.kwonlyargs]}
+        attrs: dict[str, set[str]] = {}
+        for node in ast.walk(f):
+            if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                bound[node.id] = min(bound.get(node.id, node.lineno), node.lineno)
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
+                attrs.setdefault(node.value.id, set()).add(node.attr)
+        for node in ast.walk(f):
+            if not isinstance(node.__dict__.get("ctx"), ast.Load):
+                continue
+            row = lines[node.lineno - 1].encode()
+            # ast's columns count UTF-8 bytes; the source is indexed by character
+            b0 = at[node.lineno] + len(row[:node.end_col_offset].decode())
+            if isinstance(node, ast.Name) and node.id in bound:
+                others = [o for o, first in bound.items()
+                          if first <= node.lineno and similar(node.id, o)]
+                found.update((b0 - len(node.id), b0, o) for o in others)
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                    and node.end_lineno == node.lineno):
+                others = [o for o in attrs[node.value.id] if similar(node.attr, o)]
+                found.update((b0 - len(node.attr), b0, o) for o in others)
+    for a0, b0, text in sorted(found):
+        row = src.count("\n", 0, a0) + 1
+        new = src[:a0] + text + src[b0:]
+        yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
+
+
 def main() -> None:
     """List or run the mutants the command line selects (all without arguments)."""
     args = [a for a in sys.argv[1:] if a != "--list"]
@@ -314,7 +375,7 @@ def main() -> None:
         only.update(range(int(first), int(last or first) + 1))
     i = 0
     counts = {"KILLED": 0, "SURVIVED": 0, "EQUIVALENT": 0}
-    for family, mod in [(f, m) for f in (mutants, default_mutants, boundary_mutants)
+    for family, mod in [(f, m) for f in (mutants, default_mutants, boundary_mutants, name_mutants)
                         for m in MODULES]:
         for row, line, mutated_line, mutated in family(mod):
             i += 1
