@@ -3870,6 +3870,37 @@ AUDIT = [
      "np.maximum(w @ b, np.finfo(float).tiny)"),
     ("identification/modal_start", "C = A_inv.T @ ((2.0 * z_all * w_all)",
      "C = A_inv.T @ ((z_all * w_all)"),
+    # sixteenth audit. physical: the nearest PSD matrix of twice the symmetric part, a
+    # zero eigenvalue (a rigid-body mode) given a NaN damping ratio, compare_modes taking
+    # a truth that is no ModalParameters, the table's true frequency the identified one
+    ("physical", "d, Q = np.linalg.eigh(0.5 * (a + a.T))", "d, Q = np.linalg.eigh(a + a.T)"),
+    ("physical", "zeta = np.where(mag > 0, -keep.real / mag, 0.0)",
+     "zeta = np.where(mag >= 0, -keep.real / mag, 0.0)"),
+    ("physical", "or not isinstance(truth, ModalParameters):",
+     "and not isinstance(truth, ModalParameters):"),
+    ("physical", 'f_true_hz=p["f_true_hz"]', 'f_true_hz=p["f_hz"]'),
+    # state space: B's zero block as wide as the basis has columns, a non-square C or K
+    # not refused
+    ("statespace", "B = np.vstack([np.zeros((m, R.shape[0])), MinvRt])",
+     "B = np.vstack([np.zeros((m, R.shape[1])), MinvRt])"),
+    ("statespace", "if X.shape != (m, m) or m == 0:", "if X.shape[0] != m or m == 0:"),
+    # modes: the symmetry test on C twice instead of K, B's columns normalised by the norm
+    # of the whole set, a negative input accepted, no entry measured by default, the ring's
+    # median over every entry at once
+    ("modes", "if _is_symmetric(M, C, model.K):", "if _is_symmetric(M, C, C):"),
+    ("modes", "np.linalg.norm(b, axis=0)", "np.linalg.norm(b)"),
+    ("modes", "if np.any((idx < 0) | (idx >= Ua.shape[1])):", "if np.any(idx >= Ua.shape[1]):"),
+    ("modes", "np.ones(Ua.shape[1:], dtype=bool) if measured is None",
+     "np.zeros(Ua.shape[1:], dtype=bool) if measured is None"),
+    ("modes", "np.median(np.abs(Ua[side]), axis=0)", "np.median(np.abs(Ua[side]))"),
+    # stabilisation: the CSV's consistent column the frequency-only one, an order 0
+    # accepted, the damping tolerance relative to the new pole, f in rad/s
+    ("stabilisation", '"consistent": bool(o.consistent[k]),',
+     '"consistent": bool(o.consistent_f[k]),'),
+    ("stabilisation", 'm_min = as_count(m_min, "m_min", 1)', 'm_min = as_count(m_min, "m_min", 0)'),
+    ("stabilisation", "abs(z - zp[j]) <= zeta_tol * abs(zp[j])",
+     "abs(z - zp[j]) <= zeta_tol * abs(z)"),
+    ("stabilisation", '"f_hz": float(f[k]),', '"f_hz": float(abs(lam)),'),
 ]
 
 
