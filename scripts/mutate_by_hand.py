@@ -3929,7 +3929,8 @@ def run_mutant(mod: str, mutated: str, test_files: list[str]) -> tuple[bool, str
         # the old modification time too: mutmut regenerates the mutants of a source newer
         # than its mutated copy, and 3.8 then forgot the module's verdicts
         os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
-    last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else r.stderr[-200:]
+    last = (r.stdout.strip().splitlines()[-1] if r.stdout.strip()
+            else r.stderr[-200:] or f"no output (exit status {r.returncode})")
     return bool(r.returncode), last
 
 
