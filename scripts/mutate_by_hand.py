@@ -3901,6 +3901,36 @@ AUDIT = [
     ("stabilisation", "abs(z - zp[j]) <= zeta_tol * abs(zp[j])",
      "abs(z - zp[j]) <= zeta_tol * abs(z)"),
     ("stabilisation", '"f_hz": float(f[k]),', '"f_hz": float(abs(lam)),'),
+    # sixteenth audit, POD: the FRF correlation halved, the report's n the modes', the
+    # snapshot-side noise projection without its transpose, the measured mean squares
+    # without the snapshots' scale, the FRF snapshots' eigenvalues doubled
+    ("pod", "R = A.T @ A\n", "R = 0.5 * A.T @ A\n"),
+    ("pod", "PODResult(n={self.n},", "PODResult(n={self.n_modes},"),
+    ("pod", "QtDQ = Q.T @ ADA @ Q", "QtDQ = Q @ ADA @ Q"),
+    ("pod", "return scale * np.einsum(\"ij,ij->j\", A, A)",
+     "return np.einsum(\"ij,ij->j\", A, A)"),
+    ("pod", "_trapezoid_weights(w)), 1.0)", "_trapezoid_weights(w)), 2.0)"),
+    # sixteenth audit, simulation: the message's Nyquist at 1/dt, the record without
+    # histories r = s samples long, an array snr_db taken, a one-sample history taken by
+    # spectra, the line correlation normalised by Σw² once
+    ("simulation", "Nyquist = {nyquist:g} Hz", "Nyquist = {1 / dt:g} Hz"),
+    ("simulation", "t=dt * np.arange(r),\n            forces=None,",
+     "t=dt * np.arange(lines.size),\n            forces=None,"),
+    ("simulation", "if snr.ndim != 0:", "if snr.ndim > 1:"),
+    ("simulation", "if a.ndim != 2 or a.shape[0] < 2 or a.shape[1] == 0:",
+     "if a.ndim != 2 or a.shape[0] < 1 or a.shape[1] == 0:"),
+    ("simulation", "/ np.sum(w2) ** 2)", "/ np.sum(w2))"),
+    # sixteenth audit, informative lines: only the first load case's responses judged, a
+    # block's last evenly spaced line dropped
+    ("identification/lines", "flat = U.reshape(s, -1)", "flat = U[:, :, 0]"),
+    ("identification/lines", "keep[idx] = True", "keep[idx[:-1]] = True"),
+    # sixteenth audit, holes: one load case without a measured response let through, the
+    # complete data's targets conjugated, the metric's columns load-case-major
+    ("identification/holes", "if empty.size:", "if empty.size > 1:"),
+    ("identification/holes", 'return np.einsum("nm,snp->smp", R, U_n)',
+     'return np.einsum("nm,snp->smp", R, U_n.conj())'),
+    ("identification/holes", "return T.reshape(s * p, m * m)",
+     "return T.transpose(1, 0, 2, 3).reshape(s * p, m * m)"),
 ]
 
 

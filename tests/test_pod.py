@@ -199,6 +199,25 @@ def test_pod_from_frf_equals_pod_of_its_correlation():
     np.testing.assert_array_equal(a.modes, b.modes)
 
 
+def test_pod_from_frf_by_snapshots_has_the_energy_of_its_correlation():
+    """A 30-mass chain at 5 lines, one input: 10 real snapshot rows for 30 DOFs, so
+    ``method="auto"`` takes the snapshot side. Its eigenvalues are those of Ruu (eq. 4):
+    they sum to its trace, ∫ Σ|H|² dω by the trapezoid rule over the lines (worked out
+    here from H), and equal the correlation side's. Both to 1e-12 of the largest: the
+    two sides differ by round-off of products of 10 and 30 terms."""
+    chain = mass_spring_chain(30)
+    w = 2 * np.pi * np.array([10.0, 25.0, 40.0, 55.0, 70.0])
+    H = chain.frf(w)[:, :, :1]
+    P = pod_from_frf(H, w)
+    assert P.method == "snapshots"
+    energy = np.sum(np.abs(H) ** 2, axis=(1, 2))
+    trace = np.sum(0.5 * np.diff(w) * (energy[:-1] + energy[1:]))
+    lam = P.eigenvalues
+    assert lam.sum() == pytest.approx(trace, rel=1e-12)
+    lam_c = pod_from_frf(H, w, method="correlation").eigenvalues
+    np.testing.assert_allclose(lam, lam_c, rtol=0, atol=1e-12 * lam_c[0])
+
+
 @pytest.mark.parametrize(
     ("Ruu", "message"),
     [
