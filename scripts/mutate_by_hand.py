@@ -1393,7 +1393,7 @@ AUDIT = [
     # last line left unspent
     ("identification/lines", "phase = np.unwrap(np.angle(flat), axis=0)",
      "phase = np.unwrap(np.angle(flat), axis=1)"),
-    ("identification/lines", "while budget > 0 and", "while budget > 1 and"),
+    ("identification/lines", "if budget <= 0 or", "if budget <= 1 or"),
     # holes: the constant's column weight not squared, the last load case's targets left zero
     ("identification/holes", "const += float(np.sum(W[:, j] ** 2 * (full - fitted)))",
      "const += float(np.sum(W[:, j] * (full - fitted)))"),

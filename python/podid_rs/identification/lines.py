@@ -82,9 +82,12 @@ def informative_lines(U: np.ndarray, target: int = SWEEP_LINES) -> np.ndarray:
     sizes = stops - starts
     count = np.ones(n_blocks, dtype=np.int64)
     budget = target - n_blocks
-    # water-filling: share the budget by excess activity, no block above its size
+    # water-filling: share the budget by excess activity, no block above its size; each pass
+    # hands out at least one line, so the budget bounds the passes
     free = count < sizes
-    while budget > 0 and np.any(free & (excess > 0)):
+    for _ in range(budget):
+        if budget <= 0 or not np.any(free & (excess > 0)):
+            break
         share = np.where(free, excess, 0.0)
         extra = np.floor(budget * share / share.sum()).astype(np.int64)
         if not extra.any():
