@@ -3931,6 +3931,43 @@ AUDIT = [
      'return np.einsum("nm,snp->smp", R, U_n.conj())'),
     ("identification/holes", "return T.reshape(s * p, m * m)",
      "return T.transpose(1, 0, 2, 3).reshape(s * p, m * m)"),
+    # sixteenth audit, measured: the FRFs' unit forces sized by the responses (n) for the
+    # driven DOFs (n_in), the predicted responses laid out load case before DOF, the
+    # reduced forces conjugated, the backend asked for ignored, the H1 path's driven DOFs
+    # dropped, unit forces recognised on the first line only
+    ("measured", "F = np.broadcast_to(np.eye(Ha.shape[2]), (w.size, Ha.shape[2], Ha.shape[2]))",
+     "F = np.broadcast_to(np.eye(Ha.shape[1]), (w.size, Ha.shape[1], Ha.shape[1]))"),
+    ("measured", '"nm,smp->snp", as_array(R, "R", real=True)',
+     '"nm,smp->spn", as_array(R, "R", real=True)'),
+    ("measured", 'np.einsum("im,sip->smp", Ra[self.inputs], self.F)',
+     'np.einsum("im,sip->smp", Ra[self.inputs], self.F.conj())'),
+    ("measured", "backend=backend, threads=threads)", 'backend="rust", threads=threads)'),
+    ("measured", "return from_frf(H, omega, inputs=inputs, dofs=dofs, quantity=quantity)",
+     "return from_frf(H, omega, inputs=None, dofs=dofs, quantity=quantity)"),
+    ("measured", "bool(np.all(self.F == np.eye(self.p)))",
+     "bool(np.all(self.F[0] == np.eye(self.p)))"),
+    # sixteenth audit, io/uff: the missing-delimiter message naming the record after the
+    # gap, a negative reference direction kept as its own DOF, the reciprocity test on the
+    # response instead of the reference, the written FRFs labelled displacement whatever
+    # the quantity, a dataset-58 record's count of values without its values per point,
+    # write_uff's empty inputs no longer refused
+    ("io/uff", "delimiter is missing after {records.describe(k - 1)}",
+     "delimiter is missing after {records.describe(k)}"),
+    ("io/uff", "(ref[0], abs(ref[1]))", "(ref[0], ref[1])"),
+    ("io/uff", "key = (f.response, f.reference) if f.reference in cols else",
+     "key = (f.response, f.reference) if f.response in cols else"),
+    ("io/uff", "ordinate_spec_data_type=UFF_NUMERATOR[quantity],",
+     'ordinate_spec_data_type=UFF_NUMERATOR["displacement"],'),
+    ("io/uff", "expected = points * per_point", "expected = points"),
+    ("io/uff", "if idx.size == 0 or np.any(idx != np.round(idx))",
+     "if np.any(idx != np.round(idx))"),
+    # sixteenth audit, io/npz: a time-history file's forces and responses swapped, a saved
+    # data set's driven DOFs dropped on reading, a model file without its meta record no
+    # longer refused by name
+    ("io/npz", 'z["forces"],\n            z["responses"],',
+     'z["responses"],\n            z["forces"],'),
+    ("io/npz", 'z.get("dofs"), z.get("inputs"), notes', 'z.get("dofs"), None, notes'),
+    ("io/npz", 'if "meta" not in z:', "if False:"),
 ]
 
 
