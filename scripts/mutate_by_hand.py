@@ -3968,6 +3968,41 @@ AUDIT = [
      'z["responses"],\n            z["forces"],'),
     ("io/npz", 'z.get("dofs"), z.get("inputs"), notes', 'z.get("dofs"), None, notes'),
     ("io/npz", 'if "meta" not in z:', "if False:"),
+    # sixteenth audit, refinement: the dB errors signed (their median near 0), the
+    # per-entry weights' constant with y's conjugate missing, the mask of measured entries
+    # checked as (p, n), an unknown objective silently fitted as the complex one
+    ("identification/refinement",
+     "return np.abs(20.0 * (np.log10(a[keep]) - np.log10(b[keep])))",
+     "return 20.0 * (np.log10(a[keep]) - np.log10(b[keep]))"),
+    ("identification/refinement", "np.real(np.vdot(y, Q @ y))", "np.real(np.dot(y, Q @ y))"),
+    ("identification/refinement", "mask = check_measured(measured, U3.shape[1], U3.shape[2])",
+     "mask = check_measured(measured, U3.shape[2], U3.shape[1])"),
+    ("identification/refinement", 'if objective not in ("complex", "log-magnitude"):',
+     "if False:"),
+    # sixteenth audit, order: the continuation's old model shifted one row and column down,
+    # the sweep with m given stopped early by the patience, the final fit's passes with
+    # uniform weights, log_magnitude=False ignored, the modal start left out of the reason
+    ("identification/order", "X[:n, :n] = old", "X[1:, 1:] = old"),
+    ("identification/order", "if m is None and since_best >= (patience",
+     "if since_best >= (patience"),
+    ("identification/order", 'basis=R, weights="relative",\n                objective=objective',
+     'basis=R, weights="uniform",\n                objective=objective'),
+    ("identification/order", "    if log_magnitude:\n", "    if True:\n"),
+    ("identification/order", "    why += start_note\n", ""),
+    # sixteenth audit, latent: the observed columns counted by the rows' norms, the
+    # round-off test's residual without its weights, the residual term above the band
+    # named as the one below
+    ("identification/latent", "norms = np.linalg.norm(R, axis=0)",
+     "norms = np.linalg.norm(R, axis=1)"),
+    ("identification/latent", "base = float(np.sum(w2[:, None, :] * np.abs(r) ** 2))",
+     "base = float(np.sum(np.abs(r) ** 2))"),
+    ("identification/latent", '"residual term above the band"', '"residual term below the band"'),
+    # sixteenth audit, modal start: the modal sum's damping term halved, the rank-one
+    # shapes fitted over the holes, the unseen modes judged on the latent rows
+    ("identification/modal_start", "+ 2j * (zk * wk)[None, :]", "+ 1j * (zk * wk)[None, :]"),
+    ("identification/modal_start", "_shape(r, inputs, measured)", "_shape(r, inputs, None)"),
+    ("identification/modal_start", "np.linalg.norm(A[observed], axis=0)",
+     "np.linalg.norm(A[~observed], axis=0)"),
 ]
 
 

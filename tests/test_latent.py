@@ -6,7 +6,8 @@ not orthogonal among them, columns orthonormal only to a few digits, an
 empty basis, a 3-D array) and orders that are not integers are refused;
 an order at or below the observed coordinates has no gauge; a latent start
 seen at two sensors takes the residual's dominant direction, and a residual no candidate
-mode can be driven to gets none; the starts are symmetric
+mode can be driven to gets none; a common factor of the weights changes no start (only
+their costs); the starts are symmetric
 bit for bit, and the mass cap of a non-symmetric M is its symmetric part's; the
 latent gauge leaves the FRF on the measured DOFs unchanged; from ONE driving-point FRF
 of a 4-mass chain the refinement recovers all four modes (noise-free: to 1e-6); the
@@ -500,6 +501,23 @@ def test_a_latent_start_reports_its_weighted_squared_output_error():
         X = pr.SecondOrderSystem(*start).response(omega, F2)[:, :1, :]
         expected = float(np.sum(w[:, :, None] ** 2 * np.abs(U - X) ** 2))
         assert cost == pytest.approx(expected, rel=1e-8)
+
+
+def test_the_latent_starts_do_not_depend_on_the_scale_of_the_weights():
+    """Weights 2⁴⁰ times larger (the relative weights 1/‖u‖ of receptances in m/N of a
+    stiff structure are of that order) give the same starts, their costs 2⁸⁰ times larger:
+    only the weights' ratios matter, in the fit and in the test for a residual at
+    round-off alike. A power of two scales every product and sum exactly, so the starts
+    are equal bit for bit."""
+    model, U, F, omega = spiked_data()
+    w = np.ones((omega.size, 1))
+    plain = latent_starts(model, U, F, omega, np.eye(1), w)
+    heavy = latent_starts(model, U, F, omega, np.eye(1), 2.0**40 * w)
+    assert len(plain) >= 4 and len(heavy) == len(plain)
+    for (cost, start, name), (cost_h, start_h, name_h) in zip(plain, heavy, strict=True):
+        assert name_h == name and cost_h == 2.0**80 * cost
+        for X, Y in zip(start, start_h, strict=True):
+            assert np.array_equal(X, Y)
 
 
 def model_response(model, omega):
