@@ -193,6 +193,10 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      "< 16:"):
         "a bool target is True or False (bool cannot be subclassed), an int below 16: the "
         "line's last test refuses it with the same message, so the first test adds nothing.",
+    # pod, simulation, measured, physical: the wrong one of two similar names
+    ("measured", "return np.arange(n)", "return np.arange(n_in)"):
+        "the one caller passes n and n_in as U.shape[1] and F.shape[1] (ints), and two lines "
+        "above n_in != n raises, so here n_in is n.",
 }
 
 

@@ -224,8 +224,9 @@ def test_a_band_from_zero_is_a_band_and_an_empty_one_is_refused():
     # a band is a pair: three edges (whose first two would make a band) are refused too,
     # and so are one edge and a bare number
     for band in [(5.0, 5.0), (6.0, 5.0), (-1.0, 5.0), (1.0, 5.0, 8.0), (5.0,), 5.0]:
+        # the band as the caller wrote it, not the lines it was to cut
         with pytest.raises(ValueError, match=r"^band_hz must be a pair \(lo, hi\) in Hz with "
-                           r"0 <= lo < hi, got "):
+                           r"0 <= lo < hi, got " + re.escape(repr(band)) + "$"):
             measured.band_lines(freq, band)
 
 

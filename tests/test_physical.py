@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from podid_rs import SecondOrderSystem, add_noise, identify, mass_spring_chain, simulate_white_noise
+from podid_rs import (
+    IdentificationResult,
+    SecondOrderSystem,
+    add_noise,
+    identify,
+    mass_spring_chain,
+    simulate_white_noise,
+)
 from podid_rs.measured import from_time_histories
 from podid_rs.physical import (
     ModalParameters,
@@ -500,4 +508,28 @@ def test_modal_parameters_name_the_type_they_refuse():
     with pytest.raises(ValueError, match="^model must be an IdentificationResult or a "
                                          "SecondOrderSystem, got ndarray$"):
         modal_parameters(np.eye(2))
+
+
+@pytest.mark.parametrize("shapes", [
+    ((2, 2), (2, 3), (2, 1)),  # C and K as wide as two 2 × 2 blocks: the pencil could be formed
+    ((2, 2), (3, 3), (2, 2)),  # C alone larger
+    ((2, 2), (2, 2), (1, 1)),  # K alone smaller
+    ((2, 3), (2, 2), (2, 2)),  # M alone not square
+    ((), (1, 1), (1, 1)),  # a bare number for M, for C, for K
+    ((1, 1), (), (1, 1)),
+    ((1, 1), (1, 1), ()),
+])
+def test_modal_parameters_refuse_a_hand_built_model_of_mismatched_shapes(shapes):
+    """The companion form needs M, C and K square and of one shape; a result built by hand
+    that breaks it is refused with the three shapes, before any block or eigensolve."""
+    M, C, K = (np.ones(shape) for shape in shapes)
+    model = IdentificationResult(
+        M=M, C=C, K=K, lam=(0.0, 0.0, 0.0), symmetric=False, residual_norm=0.0,
+        penalty_norms=(0.0, 0.0, 0.0), method="test", rank=0, n_unknowns=0,
+        min_pivot_ratio=1.0, backend="test",
+    )
+    message = ("the model's M, C and K must be square matrices of one shape, got "
+               f"{shapes[0]}, {shapes[1]} and {shapes[2]}")
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        modal_parameters(model)
 

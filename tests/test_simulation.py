@@ -146,6 +146,16 @@ def test_add_noise_seed_and_invalid_input():
         add_noise(x, [5.0, 6.0])
 
 
+@pytest.mark.parametrize("snr_db", [np.float32(13.0), np.float16(13.0), np.int64(13), 13,
+                                    np.array(13.0)])
+def test_an_snr_of_any_numeric_type_is_the_number_it_holds(snr_db):
+    # 13 dB is exact in every one of these types, so each is the float64 13.0 and the same
+    # seed gives the same noise bit for bit; 10^1.3 worked out in float32 or float16
+    # (19.952621, 19.94) instead of float64 (19.952623...) would scale it differently
+    x = np.random.default_rng(0).standard_normal((100, 2))
+    np.testing.assert_array_equal(add_noise(x, snr_db, seed=1), add_noise(x, 13.0, seed=1))
+
+
 def test_spectra_invalid_input():
     with pytest.raises(ValueError, match=r"\(r, n\)"):
         spectra(np.ones(10), 0.1)
@@ -459,6 +469,20 @@ def test_band_ends_are_inclusive_and_its_limits_exclusive():
         simulate_white_noise(SYSTEM, (5.01, 5.09), DT, 10.0)
     with pytest.raises(ValueError, match="^band_hz must be real"):
         simulate_white_noise(SYSTEM, (5.0 + 0j, 7.0), DT, 10.0)
+
+
+@pytest.mark.skipif(np.finfo(np.longdouble).eps >= np.finfo(np.float64).eps,
+                    reason="long double is float64 here: no band above a line rounds onto it")
+def test_a_band_of_another_dtype_is_read_as_its_float64_ends():
+    # the band is compared with the lines in float64, as every other frequency: a long-double
+    # lower end 2^-58 Hz above the 5 Hz line is 5.0 in float64 (half its ulp there is 2^-51),
+    # so the 5 Hz line is the band's first, as for (5.0, 7.0); 1000 samples at 0.01 s put a
+    # line at every k / 10 Hz
+    band = np.array([5.0, 7.0], dtype=np.longdouble) + np.array([2.0**-58, 0.0],
+                                                                dtype=np.longdouble)
+    assert band[0] > 5.0 and float(band[0]) == 5.0
+    sim = simulate_white_noise(SYSTEM, band, DT, 10.0, seed=0, histories=False)
+    np.testing.assert_allclose(sim.omega / (2 * np.pi), np.arange(50, 71) / 10, rtol=1e-14)
 
 
 def test_refusals_quote_the_argument_as_given_and_both_shapes():

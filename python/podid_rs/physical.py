@@ -186,10 +186,17 @@ def companion_modes(
     ``B = [[I, 0], [0, M]]`` (``scipy.linalg.eig``), z = [φ; λφ]: the one with
     ``Im λ > 0`` of each complex pair and every real one. Returns the eigenvalues
     ``(k,)``, the vectors φ ``(m, k)`` (None unless ``vectors``) and the number of
-    infinite eigenvalues.
+    infinite eigenvalues. A model whose M, C and K are not square matrices of one
+    shape (a result built by hand) is refused with their shapes: ``A`` and ``B``
+    could otherwise be formed from a non-square C and K whose widths add up to 2m.
     """
     M, C, K = (np.asarray(X, dtype=np.float64) for X in _matrices(model))
-    n = M.shape[0]
+    n = M.shape[0] if M.ndim == 2 else -1  # (-1, -1): no array's shape
+    if any(X.shape != (n, n) for X in (M, C, K)):
+        raise ValueError(
+            "the model's M, C and K must be square matrices of one shape, got "
+            f"{M.shape}, {C.shape} and {K.shape}"
+        )
     eye, zero = np.eye(n), np.zeros((n, n))
     A = np.block([[zero, eye], [-K, -C]])
     B = np.block([[eye, zero], [zero, M]])
@@ -222,7 +229,8 @@ def modal_parameters(model: IdentificationResult | SecondOrderSystem) -> ModalPa
     Raises
     ------
     ValueError
-        For a model of another type.
+        For a model of another type, or whose M, C and K are not square matrices of
+        one shape.
     """
     keep, _, n_infinite = companion_modes(model)
     mag = np.abs(keep)
