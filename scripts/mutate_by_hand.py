@@ -4003,6 +4003,35 @@ AUDIT = [
     ("identification/modal_start", "_shape(r, inputs, measured)", "_shape(r, inputs, None)"),
     ("identification/modal_start", "np.linalg.norm(A[observed], axis=0)",
      "np.linalg.norm(A[~observed], axis=0)"),
+    # seventeenth audit, physical: the nearest PSD matrix clipping its eigenvalues from
+    # above, the raised eigenvalues counted as the ones above the floor, the corrected
+    # model keeping the penalties of the fit it replaced, the companion form with C and K
+    # swapped, the CSV table without its last mode
+    ("physical", "B = (Q * np.maximum(d, floor)) @ Q.T", "B = (Q * np.minimum(d, floor)) @ Q.T"),
+    ("physical", "int(np.sum(d < floor))", "int(np.sum(d > floor))"),
+    ("physical", "penalty_norms=(0.0, 0.0, 0.0),", "penalty_norms=result.penalty_norms,"),
+    ("physical", "A = np.block([[zero, eye], [-K, -C]])", "A = np.block([[zero, eye], [-C, -K]])"),
+    ("physical", "w.writerows(rows)", "w.writerows(rows[:-1])"),
+    # seventeenth audit, modes: the modal A with K for C, a vector B taken as a row, the
+    # band's upper edge one line short, a weak pole needing all three lines, the peak's
+    # lower side taken against Re λ
+    ("modes", '"ik,ij,jk->k", psi, C, psi\n', '"ik,ij,jk->k", psi, model.K, psi\n'),
+    ("modes", "b = b[:, None] if b.ndim == 1 else b", "b = b[None, :] if b.ndim == 1 else b"),
+    ("modes", "(lam.imag + np.abs(lam.real) > w[-1])", "(lam.imag + np.abs(lam.real) > w[-2])"),
+    ("modes", "if sum(seen) < 2:", "if sum(seen) < 3:"),
+    ("modes", "ring & (w < lam.imag)", "ring & (w < lam.real)"),
+    # seventeenth audit, stabilisation: C required definite for a physical model, the
+    # rows without the first order, the summed FRF over lines and DOFs instead of DOFs and
+    # load cases, a chosen order 0 accepted
+    ("stabilisation", "eM.min() > 0 and eK.min() > 0 and", "eM.min() > 0 and eC.min() > 0 and"),
+    ("stabilisation", "out: list[dict[str, object]] = []\n        for o in self.orders:",
+     "out: list[dict[str, object]] = []\n        for o in self.orders[1:]:"),
+    ("stabilisation", "summed = np.sum(np.abs(data.U), axis=(1, 2))",
+     "summed = np.sum(np.abs(data.U), axis=(0, 1))"),
+    ("stabilisation", 'as_count(chosen_m, "chosen_m", 1)', 'as_count(chosen_m, "chosen_m", 0)'),
+    # seventeenth audit, statespace: the output matrix adding the velocities to the
+    # displacements
+    ("statespace", "Cout = np.hstack([R, np.zeros((R.shape[0], m))])", "Cout = np.hstack([R, R])"),
 ]
 
 
