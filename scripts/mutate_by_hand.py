@@ -4034,6 +4034,37 @@ AUDIT = [
     # seventeenth audit, statespace: the output matrix adding the velocities to the
     # displacements
     ("statespace", "Cout = np.hstack([R, np.zeros((R.shape[0], m))])", "Cout = np.hstack([R, R])"),
+    # seventeenth audit, measured data: velocity and acceleration divided along the last
+    # axis instead of the lines, the first note dropped, the measured and driven counts
+    # swapped in the inputs' check, a band that keeps every line's forces, the spectra's
+    # responses stacked with the records as the DOFs
+    ("measured", "w = w.reshape((-1,) + (1,) * (Xa.ndim - 1))",
+     "w = w.reshape((1,) * (Xa.ndim - 1) + (-1,))"),
+    ("measured", "tuple(str(v) for v in self.notes)", "tuple(str(v) for v in self.notes[1:])"),
+    ("measured", "_input_indices(self.inputs, n, n_in)", "_input_indices(self.inputs, n_in, n)"),
+    ("measured", "F=self.F[keep])", "F=self.F)"),
+    ("measured", "Y = np.stack([spectrum for _, spectrum in responses_f], axis=-1)",
+     "Y = np.stack([spectrum for _, spectrum in responses_f], axis=1)"),
+    # seventeenth audit, UFF: a record described from its closing delimiter's line, the
+    # records numbered from 0 in the unit and duplicate messages, quantity defaulting to
+    # displacement over the records' numerator types, the modes' shapes not transposed,
+    # binary= ignored, a repeated driven DOF no longer refused, the last mode's set
+    # left out
+    ("io/uff", "start = self.tags[2 * k]\n", "start = self.tags[2 * k + 1]\n"),
+    ("io/uff", "raw.append((k + 1, (rsp[0]", "raw.append((k, (rsp[0]"),
+    ("io/uff", "quantity: str | None = None,", 'quantity: str | None = "displacement",'),
+    ("io/uff", "[[col.get(key, 0.0) for col in columns] for key in dofs]",
+     "[[col.get(key, 0.0) for key in dofs] for col in columns]"),
+    ("io/uff", "binary=int(binary),", "binary=0,"),
+    ("io/uff", "if np.unique(idx).size != idx.size:  # as MeasuredData",
+     "if False:  # as MeasuredData"),
+    ("io/uff", "for j in range(shapes.n_modes)]", "for j in range(shapes.n_modes - 1)]"),
+    # seventeenth audit, npz: U and F swapped on reading, U written conjugated, the band
+    # ignored for a UFF file
+    ("io/npz", 'MeasuredData(z["omega"], z["U"], z["F"],',
+     'MeasuredData(z["omega"], z["F"], z["U"],'),
+    ("io/npz", "U=data.U,", "U=data.U.conj(),"),
+    ("io/npz", "return read_uff(path, band_hz=band_hz)", "return read_uff(path)"),
 ]
 
 
