@@ -4065,6 +4065,48 @@ AUDIT = [
      'MeasuredData(z["omega"], z["F"], z["U"],'),
     ("io/npz", "U=data.U,", "U=data.U.conj(),"),
     ("io/npz", "return read_uff(path, band_hz=band_hz)", "return read_uff(path)"),
+    # seventeenth audit, modal start: the kept poles' damping ratio divided by ω² instead of
+    # ω, the residues fitted with uniform instead of relative weights, the rank-one
+    # residues' alternating sweeps fitted over the holes
+    ("identification/modal_start", "zeta = -lam.real / np.where(wn > 0, wn, 1.0)",
+     "zeta = -lam.real / np.where(wn > 0, wn**2, 1.0)"),
+    ("identification/modal_start",
+     "w = np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 0)",
+     "w = np.ones_like(norm)"),
+    ("identification/modal_start", "a_next = (w * residue) @ b", "a_next = residue @ b"),
+    # seventeenth audit, latent: a numpy integer order refused, a zero column before an
+    # orthonormal one no longer refused, the residual term below the band shaped by the
+    # residual at the band's top line
+    ("identification/latent",
+     "if isinstance(m, bool) or not isinstance(m, int | np.integer):",
+     "if isinstance(m, bool) or not isinstance(m, int):"),
+    ("identification/latent", "if not np.all(nonzero[:k]):", "if not np.any(nonzero[:k]):"),
+    ("identification/latent", "(0, [omega[0] / RESIDUAL_FACTOR]",
+     "(s - 1, [omega[0] / RESIDUAL_FACTOR]"),
+    # seventeenth audit, refinement: the dB errors over entries where only one of model
+    # and data is non-zero, a start with negative eigenvalues kept because its largest is
+    # positive, per-entry (s, n) log-magnitude weights refused, the report's gauge of the
+    # latent count instead of the observed one
+    ("identification/refinement", "keep = (a > 0) & (b > 0)", "keep = (a > 0) | (b > 0)"),
+    ("identification/refinement", "keep = d.min() >=", "keep = d.max() >="),
+    ("identification/refinement", "elif W.shape == (s, n):", "elif W.shape == (n, s):"),
+    ("identification/refinement", '"gauge": gauge_dimension(m, observed)',
+     '"gauge": gauge_dimension(m, latent)'),
+    # seventeenth audit, order: the residual peaks found with unsquared weights, the order
+    # limit's gauge of one latent coordinate too many, every_line=True ignored, the kept
+    # pass always named the complex refit, the training error scored on the held-out lines
+    ("identification/order", 'energy = np.einsum("sp,smp->s", w2, np.abs(r) ** 2)',
+     'energy = np.einsum("sp,smp->s", w, np.abs(r) ** 2)'),
+    ("identification/order",
+     "while free_parameters(m + 1, min(m + 1, observed)) <= equations:",
+     "while free_parameters(m + 1, min(m, observed)) <= equations:"),
+    ("identification/order",
+     "lines = np.ones(omega.shape[0], dtype=bool) if every_line else sweep.lines",
+     "lines = sweep.lines"),
+    ("identification/order", 'kept_name = "complex refit" if best is model else "held-out fit"',
+     'kept_name = "complex refit"'),
+    ("identification/order", "train_db=_median_db(model, R, F, omega, U_n, train, measured)",
+     "train_db=_median_db(model, R, F, omega, U_n, test, measured)"),
 ]
 
 

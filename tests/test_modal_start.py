@@ -326,6 +326,24 @@ def test_the_rank_one_shape_with_holes_does_not_depend_on_the_units():
                                    rtol=1e-9)
 
 
+def test_the_rank_one_shape_with_holes_reads_nothing_at_a_hole():
+    """φ φ[inputs]ᵀ is fitted on the known entries only, its start too: residues exactly
+    of rank one there give back φ (up to its sign, which residues do not fix) whatever a
+    hole holds — garbage 50 at one, where the residues are of order 1."""
+    from podid_rs.identification.modal_start import _shape
+
+    phi = np.array([1.0, 0.7, -0.4, 1.3, 0.9])
+    inputs = np.array([0, 3])
+    residue = np.outer(phi, phi[inputs])
+    known = np.ones((5, 2), dtype=bool)
+    known[2, 1] = False
+    residue[2, 1] = 50.0
+    shape = _shape(residue, inputs, known)
+    # exact rank-one data on the known entries: the sweeps' fixed point is φ to round-off
+    # (they stop at a relative change of 1e-15); 1e-9 leaves room for their last step
+    np.testing.assert_allclose(np.sign(shape[0]) * shape, phi, rtol=1e-9, atol=1e-12)
+
+
 def test_the_start_does_not_depend_on_the_units_of_the_data(omega_all):
     """Receptances c times larger are those of a structure with matrices c times smaller
     (H = (−ω²M + iωC + K)⁻¹): the start from c·U is the start from U divided by c — in

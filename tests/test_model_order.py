@@ -520,6 +520,16 @@ def test_an_order_whose_free_parameters_equal_the_equations_is_within_the_limit(
     assert order_limit(13, 1, 1, 3) == 4
 
 
+def test_the_order_limit_counts_every_parameter_of_an_observed_order():
+    """Four measured DOFs, one load case, four POD coordinates: two lines give 2·2·4 = 16
+    real equations. Orders 1–3 have no latent coordinate and no gauge: 3, 9 and 3·3·4/2 =
+    18 free parameters, so order 3 (two more than the equations) is beyond the limit,
+    which is 2 — counted with one latent coordinate, order 3 would have 18 − (2 + 1) = 15."""
+    from podid_rs.identification.order import order_limit
+
+    assert order_limit(2, 4, 1, 4) == 2
+
+
 def _chain_seen_at_its_first_dofs(n_seen, n, lines_hz):
     """Receptances of the n-mass chain, force at DOF 0 (DOF 1 for n = 4), on its first
     n_seen DOFs: (U_n, F_n, omega)."""

@@ -108,9 +108,13 @@ def _residues(U_n, omega, wk, zk, measured) -> np.ndarray:
 
 def _shape(residue: np.ndarray, inputs: np.ndarray, known: np.ndarray | None) -> np.ndarray:
     """φ with φ φ[inputs]ᵀ closest to ``residue`` ``(n, p)`` on the ``known`` entries
-    (the leading singular pair; with holes, alternating least squares from it); a zero
+    (the leading singular pair; with holes, alternating least squares from that of
+    the known entries); a zero
     shape where φ[inputs]² < 0."""
-    u, sv, vt = np.linalg.svd(residue, full_matrices=False)
+    # the start from the known entries only: a value at a hole left in the SVD can
+    # dominate its leading pair, and the sweeps then crawl from there
+    u, sv, vt = np.linalg.svd(residue if known is None else known * residue,
+                              full_matrices=False)
     a, b = u[:, 0] * sv[0], vt[0]
     if known is not None:  # rank one on the known entries: a_i b_j ≈ r_ij
         w = known.astype(float)
