@@ -109,8 +109,7 @@ def _residues(U_n, omega, wk, zk, measured) -> np.ndarray:
 def _shape(residue: np.ndarray, inputs: np.ndarray, known: np.ndarray | None) -> np.ndarray:
     """φ with φ φ[inputs]ᵀ closest to ``residue`` ``(n, p)`` on the ``known`` entries
     (the leading singular pair; with holes, alternating least squares from that of
-    the known entries); a zero
-    shape where φ[inputs]² < 0."""
+    the known entries); a zero shape where φ[inputs]² < 0."""
     # the start from the known entries only: a value at a hole left in the SVD can
     # dominate its leading pair, and the sweeps then crawl from there
     u, sv, vt = np.linalg.svd(residue if known is None else known * residue,
