@@ -4107,6 +4107,41 @@ AUDIT = [
      'kept_name = "complex refit"'),
     ("identification/order", "train_db=_median_db(model, R, F, omega, U_n, train, measured)",
      "train_db=_median_db(model, R, F, omega, U_n, test, measured)"),
+    # seventeenth audit, POD: Ruu from an FRF without the quadrature's weights, the
+    # noise-corrected eigenvectors left in ascending order against descending eigenvalues,
+    # the snapshots' scale read from a zero eigenvalue, the refusal of basis(m) naming the
+    # DOFs as the modes that carry energy, an empty spectrum no longer refused, the
+    # correlation matrix's scale taken from its smallest entry
+    ("pod", "A = _stacked_rows(Ha, _trapezoid_weights(w))", "A = _stacked_rows(Ha)"),
+    ("pod", "return np.clip(theta[::-1], 0.0, None), W[:, ::-1]",
+     "return np.clip(theta[::-1], 0.0, None), W"),
+    ("pod", "scale = self._eigenvalues[0] / sigma[0] ** 2",
+     "scale = self._eigenvalues[-1] / sigma[-1] ** 2"),
+    ("pod", 'f"only {self.n_modes} POD modes carry energy',
+     'f"only {self.n} POD modes carry energy'),
+    ("pod", "if Xa.ndim != 3 or 0 in Xa.shape:", "if Xa.ndim != 3:"),
+    ("pod", "scale = np.abs(R).max()", "scale = np.abs(R).min()"),
+    # seventeenth audit, simulation: the band's top line dropped, the kept histories' times
+    # in samples, add_noise's variance broadcast along the wrong axis, the Welch spectra
+    # conjugated, the overlap sum started at zero steps
+    ("simulation", "lines = np.flatnonzero((f >= lo) & (f <= hi))",
+     "lines = np.flatnonzero((f >= lo) & (f < hi))"),
+    ("simulation", "t=dt * np.arange(r),\n        forces=forces,",
+     "t=np.arange(r),\n        forces=forces,"),
+    ("simulation", "np.var(a, axis=axis, keepdims=True)", "np.var(a, axis=axis)"),
+    ("simulation", "self.lines.size).transpose(2, 1, 0)",
+     "self.lines.size).transpose(2, 1, 0).conj()"),
+    ("simulation", "for j in range(1, per_record) if", "for j in range(per_record) if"),
+    # seventeenth audit, lines: the budget shared by activity instead of its excess over
+    # the median, the last line of a pass given to the least active block
+    ("identification/lines", "share = np.where(free, excess, 0.0)",
+     "share = np.where(free, activity, 0.0)"),
+    ("identification/lines", "extra[np.argmax(share)] = 1", "extra[np.argmin(share)] = 1"),
+    # seventeenth audit, holes: a mask with any measured entry taken as complete, the
+    # targets of a column with holes conjugated
+    ("identification/holes", "return None if mask.all() else mask.copy()",
+     "return None if mask.any() else mask.copy()"),
+    ("identification/holes", "/ lam[keep, None])).T", "/ lam[keep, None])).conj().T"),
 ]
 
 
