@@ -256,9 +256,10 @@ def test_two_measurements_exactly_the_limit_apart_are_averaged(tmp_path, monkeyp
     path = write(tmp_path / "edge.uff", shaker + [(3, 2)], scale={4: 2.0})
     apart = abs(20 * np.log10(0.5))  # |a| / |b| = 1/2 exactly: scaling by 2 is exact
     monkeypatch.setattr(uff, "DUPLICATE_DB", apart)
-    with pytest.warns(DataWarning, match="measured 2 times"):
+    with pytest.warns(DataWarning, match="measured 2 times") as caught:
         data = read_uff(path)
     assert np.allclose(entry(data, 3, 2), 1.5 * H[1:, 2, 1], rtol=1e-10)
+    assert [c.filename for c in caught] == [__file__]  # the warning points at the caller
     monkeypatch.setattr(uff, "DUPLICATE_DB", np.nextafter(apart, 0.0))
     with pytest.raises(ValueError, match=r"differ by a median 6\.0 dB"):
         read_uff(path)

@@ -576,7 +576,9 @@ def _driving_point_layout(records: list[_Frf], path: Path) -> _Layout:
         key = (f.response, f.reference) if f.reference in cols else (f.reference, f.response)
         by_reciprocity += f.reference not in cols
         groups.setdefault(key, []).append(f)
-    entries = {key: _average(key, group, path) for key, group in groups.items()}
+    entries = {}
+    for key, group in groups.items():  # a loop, not a comprehension: _average's warning
+        entries[key] = _average(key, group, path)  # counts its frames (3.12 inlines them)
     for (o, r), values in list(entries.items()):
         if o in cols and o != r and (r, o) not in entries:
             entries[(r, o)] = values  # the mirror entry of two columns, by reciprocity
@@ -654,7 +656,7 @@ def _average(key: tuple[Dof, Dof], group: list[_Frf], path: Path) -> np.ndarray:
                     f"{apart:.1f} dB (more than {DUPLICATE_DB:g} dB): they do not measure "
                     "the same thing (calibration, direction or DOF label?); remove one"
                 )
-    warnings.warn(f"{path}: {_duplicate_note(key, group)}", DataWarning, stacklevel=5)
+    warnings.warn(f"{path}: {_duplicate_note(key, group)}", DataWarning, stacklevel=4)
     return np.mean([f.values for f in group], axis=0)
 
 
