@@ -202,6 +202,26 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      "weighting = _scalar_weights(w, m_model, observed)"):
         "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
         "M0.shape[0] is m.",
+    ("identification/refinement", "X = rows.reshape(data.s, p, m).transpose(0, 2, 1)",
+     "X = rows.reshape(data.s, p, m_model).transpose(0, 2, 1)"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", '"gauge": gauge_dimension(m, observed)},',
+     '"gauge": gauge_dimension(m_model, observed)},'):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2",
+     "n_unk = 3 * m_model * (m + 1) // 2"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2",
+     "n_unk = 3 * m * (m_model + 1) // 2"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "rank=n_unk - gauge_dimension(m, observed),",
+     "rank=n_unk - gauge_dimension(m_model, observed),"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
     ("identification/modal_start", "m = M.shape[0]", "m = C.shape[0]"):
         "m only sizes the state matrix's zeros and identity, and its second block row "
         "np.linalg.solve(M, C) refuses a C whose rows are not M's: wherever the state "
