@@ -197,6 +197,52 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     ("measured", "return np.arange(n)", "return np.arange(n_in)"):
         "the one caller passes n and n_in as U.shape[1] and F.shape[1] (ints), and two lines "
         "above n_in != n raises, so here n_in is n.",
+    # modes, stabilisation, statespace, io/npz, refinement, latent, modal_start: similar names
+    ("identification/refinement", "if X.shape != (m, m):", "if X.shape != (m, m_model):"):
+        "M0 is checked first and m_model is M0.shape[0], so the mutant passes M0 only when "
+        "M0.shape == (m, M0.shape[0]), i.e. M0 is (m, m), as the original; C0 and K0 are "
+        "then checked with m_model == m, against (m, m) as the original.",
+    ("identification/refinement", "weighting = _scalar_weights(w, m, observed)",
+     "weighting = _scalar_weights(w, m_model, observed)"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "X = rows.reshape(data.s, p, m).transpose(0, 2, 1)",
+     "X = rows.reshape(data.s, p, m_model).transpose(0, 2, 1)"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", '"gauge": gauge_dimension(m, observed)},',
+     '"gauge": gauge_dimension(m_model, observed)},'):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2",
+     "n_unk = 3 * m_model * (m + 1) // 2"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2",
+     "n_unk = 3 * m * (m_model + 1) // 2"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/refinement", "rank=n_unk - gauge_dimension(m, observed),",
+     "rank=n_unk - gauge_dimension(m_model, observed),"):
+        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+        "M0.shape[0] is m.",
+    ("identification/modal_start", "m = M.shape[0]", "m = C.shape[0]"):
+        "m only sizes the state matrix's zeros and identity, and its second block row "
+        "np.linalg.solve(M, C) refuses a C whose rows are not M's: wherever the state "
+        "matrix is built C.shape[0] is M.shape[0] (the one caller, the order sweep, passes "
+        "refine's models, M, C, K square of one shape).",
+    ("identification/modal_start", "m = M.shape[0]", "m = K.shape[0]"):
+        "m only sizes the state matrix's zeros and identity, and its second block row "
+        "np.linalg.solve(M, K) refuses a K whose rows are not M's: wherever the state "
+        "matrix is built K.shape[0] is M.shape[0] (the one caller, the order sweep, passes "
+        "refine's models, M, C, K square of one shape).",
+    ("identification/modal_start",
+     "done = np.linalg.norm(a_next - a) <= 1e-15 * np.linalg.norm(a_next)",
+     "done = np.linalg.norm(a_next - a) <= 1e-15 * np.linalg.norm(a)"):
+        "| ‖a_next‖ − ‖a‖ | ≤ ‖a_next − a‖, so the two thresholds differ by at most 1e-15 of "
+        "the step: the tests disagree only for a step within round-off of its threshold, "
+        "and then one step of 1e-15 of the shape more or less is taken: the shape moves "
+        "by round-off.",
 }
 
 

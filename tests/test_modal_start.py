@@ -10,7 +10,8 @@ poles exactly, stands in for the others with one pole below and one above the ba
 stays physical, also from a model with an unstable pole, which it leaves out; a pole
 exactly on the band's edge is in the band, and an undamped one (ζ = 0) is kept; forces that
 are not unit forces at one DOF (no FRFs, a force with a phase or a second DOF pulled the
-other way among them) give no start;
+other way among them) give no start, and forces of another shape than the responses are
+refused;
 and the final fit starts from it when it fits better than the held-out fit —
 never reading a hole, and judging the first pass against the held-out fit — and says
 nothing of it otherwise; it keeps the held-out fit when the refit raises the median
@@ -380,6 +381,28 @@ def test_no_start_without_unit_forces(omega_all):
     F[:, 0, 0] = 1j
     assert modal_start(pr.SecondOrderSystem(M4, C4, K4), np.eye(4), U * F[:, :1],
                        F, omega_all) is None
+
+
+def test_forces_of_another_shape_than_the_responses_are_refused(omega_all):
+    """F_n is read against U_n's lines, DOFs and load cases: forces with fewer or more
+    of any are refused with both shapes, by modal_start and so by the final fit, which
+    builds the modal start before any refinement checks its data."""
+    from podid_rs.identification.order import final_fit
+    from podid_rs.measured import from_frf
+
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
+    system = pr.SecondOrderSystem(M4, C4, K4)
+    for G in (F[:300], F[:, :3], F[:, :, :1], np.concatenate([F, F[:, :, :1]], axis=2),
+              np.concatenate([F, F[:, :1]], axis=1)):
+        with pytest.raises(ValueError, match=rf"^F_n must have the shape of U_n \(600, 4, 2\), "
+                                             rf"got {re.escape(str(G.shape))}$"):
+            modal_start(system, np.eye(4), U, G, omega_all)
+    data = from_frf(U, omega_all, inputs=[0, 2])
+    U, F, P = data.U, data.forces_on_dofs(), data.pod()
+    sweep, _, _ = sweep_holding(U, F, omega_all, P, the_truth)
+    with pytest.raises(ValueError, match=r"^F_n must have the shape of U_n \(600, 4, 2\), "
+                                         r"got \(600, 4, 1\)$"):
+        final_fit(sweep, U, F[:, :, :1], omega_all, P, log_magnitude=False)
 
 
 def test_one_line_is_no_band_and_gives_no_start(omega_all):

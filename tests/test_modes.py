@@ -145,11 +145,14 @@ def test_modal_a_makes_the_shapes_a_residue_model(full_order):
     assert np.max(np.abs(H - H_n)) < 1e-8 * np.max(np.abs(H_n))
 
 
-def test_nonsymmetric_model_has_no_modal_a(full_order):
+@pytest.mark.parametrize("name", ["M", "C", "K"])
+def test_nonsymmetric_model_has_no_modal_a(full_order, name):
+    """Any one of M, C, K not symmetric (the others as identified) leaves no modal A."""
     from dataclasses import replace
 
     _, _, result, R = full_order
-    skewed = replace(result, C=result.C + 1e-3 * np.triu(result.C, 1))
+    X = getattr(result, name)
+    skewed = replace(result, **{name: X + 1e-3 * np.triu(X, 1)})
     assert mode_shapes(skewed, R).modal_a is None
 
 
@@ -711,6 +714,9 @@ def test_an_entry_that_was_not_measured_does_not_make_a_pole_visible():
     # too, against the one column of U
     with pytest.raises(ValueError, match=r"^measured must be \(n, p\) = \(2, 1\), got \(2, 2\)$"):
         mode_kinds(shapes, w, U, inputs=[0], measured=np.ones((2, 2), dtype=bool))
+    # a mask given as a list (array_like) is named by the shape it has as an array
+    with pytest.raises(ValueError, match=r"^measured must be \(n, p\) = \(2, 1\), got \(1, 2\)$"):
+        mode_kinds(shapes, w, U, inputs=[0], measured=[[True, False]])
 
 
 def test_the_mac_of_a_shape_with_itself_is_at_most_one():

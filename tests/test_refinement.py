@@ -520,6 +520,15 @@ def test_every_bad_option_is_refused_with_its_whole_message():
     with pytest.raises(ValueError, match=re.escape("the start model's C is (7, 7), the data "
                                                    "have order m = 6")):
         refine((chain.M, np.eye(7), chain.K), U, F, w)
+    # an identified start's matrices are taken as they are: an M of the data's 6 columns
+    # but 5 rows is refused for its shape against the data's order, naming M (its rows
+    # would give another order, which C and K would then seem to contradict)
+    from dataclasses import replace
+
+    identified = replace(pr.identify(U, F, w), M=chain.M[:5, :])
+    with pytest.raises(ValueError, match=re.escape("the start model's M is (5, 6), the data "
+                                                   "have order m = 6")):
+        refine(identified, U, F, w)
     # a matrix that is not square is named as such, not read as another order (M's rows
     # and its columns each give an order that the other contradicts)
     # (a stack of matrices too: its first two axes agree, and it is no matrix)
@@ -1171,17 +1180,28 @@ def test_the_report_counts_the_accepted_steps_apart_from_the_iterations():
     assert ref["accepted"] == len(steps) - 1 < model.iterations
 
 
-def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses(monkeypatch):
+@pytest.mark.parametrize("rank_deficient", [False, True])
+def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses(
+        monkeypatch, rank_deficient):
     """The core reports the start's responses unless it cannot evaluate them; then refine
-    computes them itself (on the data's DOFs, no basis): the same dB errors either way."""
+    computes them itself (on the data's DOFs, no basis): the same dB errors either way —
+    also from the same matrices as the result of an identification that lost a rank,
+    which carries a note."""
     import types
+    from dataclasses import replace
 
     from podid_rs import _core
 
     chain, U, F, w = chain_data(n=4, p=2)
     start = (chain.M, 1.3 * chain.C, 0.9 * chain.K)
+    if rank_deficient:
+        identified = pr.identify(U, F, w)
+        start = replace(identified, **dict(zip("MCK", start, strict=True)),
+                        rank=identified.n_unknowns - 1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
+        warnings.filterwarnings("ignore", "the start model comes from a rank-deficient",
+                                StartWarning)
         given = refine(start, U, F, w, max_iter=2, threads=1)
         core = _core.refine_output_error
 

@@ -171,6 +171,9 @@ def test_every_bad_input_is_refused_with_its_whole_message(chain_data):
          "fit(1) must return an IdentificationResult of order 1, got IdentificationResult"),
         ((data, 2), {"fit": lambda m: "a model"},
          "fit(1) must return an IdentificationResult of order 1, got 'a model'"),
+        # a wrong order between m_min and m_max: the order asked for, named twice
+        ((data, 4), {"m_min": 2, "fit": lambda m: diagonal(m + 1 if m == 3 else m)},
+         "fit(3) must return an IdentificationResult of order 3, got IdentificationResult"),
     ]
     for args, kwargs, message in cases:
         with pytest.raises(ValueError, match=f"^{re.escape(message)}"):
@@ -183,6 +186,16 @@ def test_every_bad_input_is_refused_with_its_whole_message(chain_data):
                                           r"matrix needs 9 GB$"):
         stabilisation_chart(data, 3, m_min=2, fit=out_of_memory, progress=False)
     assert [o.m for o in stabilisation_chart(data, 6, m_min=6, progress=False).orders] == [6]
+
+    def fails_at_three(m: int) -> IdentificationResult:
+        if m == 3:
+            raise ValueError("too few equations")
+        return diagonal(m)
+
+    # an order between m_min and m_max: the message names the order that failed
+    with pytest.raises(ValueError, match=r"^stabilisation chart, order m = 3: too few "
+                                         r"equations$"):
+        stabilisation_chart(data, 4, m_min=2, fit=fails_at_three, progress=False)
     chart = stabilisation_chart(data, 8, m_min=7, fit=diagonal, progress=False, chosen_m=1)
     assert [o.m for o in chart.orders] == [7, 8] and chart.chosen_m == 1
 
@@ -383,6 +396,11 @@ def test_progress_counts_the_orders_on_a_terminal(chain_data, monkeypatch, m_min
     orders = 3 - m_min + 1  # m_min … 3: the bar's total is the orders fitted, not m_max
     assert last.startswith("stabilisation: 100%") and f"| {orders}/{orders} [" in last
     assert last.endswith(", m = 3]")  # the order last fitted, in the bar's postfix
+    # each order's postfix is drawn as its fit starts, k orders done before it: the bar
+    # names every order in turn, not the last one throughout
+    drawn = {(int(done), int(m)) for done, m in
+             re.findall(r"\| (\d+)/\d+ \[[^\]]*, m = (\d+)\]", screen.getvalue())}
+    assert all((m - m_min, m) in drawn for m in range(m_min, 4))
 
 
 def test_no_progress_bar_when_asked_for_none_even_on_a_terminal(chain_data, monkeypatch):

@@ -159,12 +159,20 @@ def modal_start(
         The modal start (symmetric, M, K ≻ 0, C ⪰ 0), or None where it does not apply:
         forces that are not a unit force at one measured DOF per load case (FRFs), or
         a change of coordinates too badly conditioned to write down.
+
+    Raises
+    ------
+    ValueError
+        For forces ``F_n`` of another shape than the responses ``U_n``.
     """
     U_n = np.asarray(U_n)
+    F_n = np.asarray(F_n)
     s, n, p = U_n.shape
+    if F_n.shape != (s, n, p):  # else the forces' DOFs and load cases would be read as U_n's
+        raise ValueError(f"F_n must have the shape of U_n {U_n.shape}, got {F_n.shape}")
     m = R.shape[1]
     measured = check_measured(measured, n, p)
-    inputs = _unit_inputs(np.asarray(F_n))
+    inputs = _unit_inputs(F_n)
     if inputs is None or s < 2:
         return None
     w_lo, w_hi = float(np.min(omega)), float(np.max(omega))
