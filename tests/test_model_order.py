@@ -205,6 +205,34 @@ def test_lines_that_are_not_positive_or_not_one_per_line_are_named(chain_frf):
         sweep_orders(U_n, F_n, longer, P)
 
 
+@pytest.mark.parametrize("step", ["sweep", "final fit"])
+@pytest.mark.parametrize("mismatch", ["one load case too few", "one load case too many",
+                                      "one line too few"])
+def test_forces_of_another_shape_than_the_responses_are_named(chain_frf, step, mismatch):
+    """Forces not of the responses' shape (s, n, p) are refused by name, on entering the
+    sweep and the final fit alike — not left to fail later as no physical start, or
+    inside the modal start's least squares. Both sides of the comparison: forces whose
+    shape sorts below the responses' and above it."""
+    _, U_n, F_n, w, P = chain_frf
+    U, F = {
+        "one load case too few": (U_n[:, :, [0, 0]], F_n),       # F's shape sorts below U's
+        "one load case too many": (U_n, F_n[:, :, [0, 0]]),      # … and above it
+        "one line too few": (U_n, F_n[:-1]),
+    }[mismatch]
+    assert F.shape != U.shape
+    if step == "sweep":
+        def run():
+            return sweep_orders(U, F, w, P)
+    else:
+        sweep = sweep_orders(U_n, F_n, w, P, m=1, max_iter=1)
+
+        def run():
+            return final_fit(sweep, U, F, w, P)
+    with pytest.raises(ValueError, match=re.escape(
+            f"F_n must have the shape of U_n {U.shape}, got {F.shape}")):
+        run()
+
+
 def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_frf):
     """m = 0 and m one past the limit of the data's equations, word for word: the limit,
     the observed and latent coordinates, the free parameters against the real
