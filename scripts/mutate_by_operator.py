@@ -193,6 +193,16 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      "< 16:"):
         "a bool target is True or False (bool cannot be subclassed), an int below 16: the "
         "line's last test refuses it with the same message, so the first test adds nothing.",
+    # identification/order: the wrong one of two similar names
+    ("identification/order",
+     "mask = np.ones(U_n.shape[1:], dtype=bool) if measured is None else measured",
+     "mask = np.ones(F_n.shape[1:], dtype=bool) if measured is None else measured"):
+        "_relative_cost runs only in final_fit, whose first line (_check_forces) refuses F_n "
+        "of another shape than U_n and which passes both indexed by the same lines: "
+        "F_n.shape[1:] is U_n.shape[1:] there.",
+    ("identification/order", "s, n, p = U_n.shape", "s, n, p = F_n.shape"):
+        "_check_forces on the line above refuses F_n of another shape than U_n, so F_n.shape "
+        "is U_n.shape here.",
 }
 
 
