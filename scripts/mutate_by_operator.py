@@ -243,6 +243,28 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "the step: the tests disagree only for a step within round-off of its threshold, "
         "and then one step of 1e-15 of the shape more or less is taken: the shape moves "
         "by round-off.",
+    # identification/order: the wrong one of two similar names
+    ("identification/order",
+     "mask = np.ones(U_n.shape[1:], dtype=bool) if measured is None else measured",
+     "mask = np.ones(F_n.shape[1:], dtype=bool) if measured is None else measured"):
+        "_relative_cost runs only in final_fit, whose first line (_check_forces) refuses F_n "
+        "of another shape than U_n and which passes both indexed by the same lines: "
+        "F_n.shape[1:] is U_n.shape[1:] there.",
+    ("identification/order", "s, n, p = U_n.shape", "s, n, p = F_n.shape"):
+        "_check_forces on the line above refuses F_n of another shape than U_n, so F_n.shape "
+        "is U_n.shape here.",
+    ("identification/order", "if chosen == m", "if chosen == m_max"):
+        "in sweep_orders' branch for a given m, m_max was set to m (m_max = m) and neither "
+        "name is bound again: m_max == m.",
+    ("identification/order",
+     'else f"m = {chosen}: order {chosen + 1} could not be started (m = {m} was asked; "',
+     'else f"m = {chosen}: order {chosen + 1} could not be started (m = {m_max} was asked; "'):
+        "in sweep_orders' branch for a given m, m_max was set to m (m_max = m) and neither "
+        "name is bound again: m_max == m, the same number in the reason.",
+    ("identification/order", "measured = check_measured(measured, *U_n.shape[1:])",
+     "measured = check_measured(measured, *F_n.shape[1:])"):
+        "final_fit's first line (_check_forces) refuses F_n of another shape than U_n, so "
+        "F_n.shape[1:] is U_n.shape[1:] here.",
 }
 
 

@@ -571,16 +571,19 @@ def test_each_damping_ratio_at_a_residual_peak_is_tried_on_its_own():
                for f, z in added)
 
 
-@pytest.mark.parametrize("gain", [True, False])
+@pytest.mark.parametrize("gain,rest", [(True, 0.9), (True, 1.5), (False, 0.9)])
 def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
-        chain_frf, monkeypatch, gain):
+        chain_frf, monkeypatch, gain, rest):
     # a spy makes the first LOG_MAGNITUDE_PROBE steps lower (or raise) the median error over
-    # every line and records the step budget of every log-magnitude call
+    # every line and records the step budget of every log-magnitude call; the rest of the
+    # pass ends lower still (rest 0.9 × the probe's errors) or above the probe's end but
+    # below the pass's start (1.5 × the probe's, 0.75 × the start's): then the probe's end
+    # is the better end and is kept
     import podid_rs.identification.order as order
 
     U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
-    budgets, steps, probe = [], [], []
+    budgets, steps, probe, log_fits = [], [], [], []
     real = order.refine
 
     def spy(*args, **kwargs):
@@ -588,13 +591,14 @@ def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
         if kwargs.get("objective") == "log-magnitude":
             budgets.append(kwargs["max_iter"])
             steps.append(fit.iterations)
+            log_fits.append(fit)
             ref = fit.info["refinement"]
             ref["converged"] = False
             if len(budgets) == 1:  # the probe, from the complex fit
                 probe.extend((0.5 if gain else 2.0) * v for v in ref["db_before"])
                 ref["db_after"] = tuple(probe)
-            else:  # the rest, lower still
-                ref["db_after"] = tuple(0.9 * v for v in probe)
+            else:  # the rest
+                ref["db_after"] = tuple(rest * v for v in probe)
         return fit
 
     monkeypatch.setattr(order, "refine", spy)
@@ -604,12 +608,26 @@ def test_the_log_magnitude_pass_goes_past_its_probe_only_where_the_probe_gained(
     assert budgets[0] == order.LOG_MAGNITUDE_PROBE
     if gain:
         assert budgets == [order.LOG_MAGNITUDE_PROBE, 60 - steps[0]]
-        assert log["iterations"] == model.iterations == sum(steps)
         assert kept["kept"] == "log-magnitude refit"
+    if gain and rest < 1:
+        assert log["iterations"] == model.iterations == sum(steps)
+        assert kept["db_all_lines"] == tuple(rest * v for v in probe)
+    elif gain:  # the rest of the pass ended above the probe: the probe's end is kept
+        assert kept["db_all_lines"] == tuple(probe) and log["db_after"] == tuple(probe)
+        for k in "MCK":
+            np.testing.assert_array_equal(getattr(model, k), getattr(log_fits[0], k))
+        # the pass took both parts' steps; the model is the probe's
+        assert log["iterations"] == sum(steps) and model.iterations == steps[0]
     else:
         assert budgets == [order.LOG_MAGNITUDE_PROBE] and log["iterations"] == steps[0]
         assert f"in its first {steps[0]} steps, and stopped there" in kept["reason"]
         assert kept["kept"] != "log-magnitude refit"
+        # the reason quotes the kept fit's median, then the probe's end (twice the
+        # probe's start: apart at the two digits quoted)
+        before = kept["db_all_lines"][0]
+        assert f"{before:.2f}" != f"{probe[0]:.2f}"
+        assert (f"; the log-magnitude refit did not lower it ({before:.2f} → "
+                f"{probe[0]:.2f} dB) in its first {steps[0]} steps") in kept["reason"]
 
 
 @pytest.mark.parametrize("complex_kept", [True, False])

@@ -566,18 +566,37 @@ def test_latent_orders_do_not_win_where_every_dof_is_measured():
     assert sweep.chosen == 4
 
 
-def test_the_observed_order_takes_the_modal_start_where_it_ends_lower_and_says_so():
+def test_the_observed_order_takes_the_modal_start_where_it_ends_lower_and_says_so(
+        monkeypatch):
     """A 5-mass chain seen at its two ends, exact data: the observed order (m = 2) is run
     to convergence from the modal start and from the sweep's own fit; the modal start's
-    run ends lower and is kept, under its own name."""
+    run ends lower and is kept, under its own name. That start is the one the training
+    lines' responses and forces give: rebuilt here from the sweep's own fit and basis
+    (seen by a spy) on those lines, it is the same bit for bit (the same arithmetic on
+    the same arrays)."""
+    from podid_rs.identification import order
+
     _, data = chain_data(5, [0, 4], np.arange(5.0, 150.25, 0.5))
+    F_n = data.forces_on_dofs()
+    real, built = order.modal_start, []
+
+    def spy(model, R, U_n, F_n, omega, measured=None):
+        start = real(model, R, U_n, F_n, omega, measured)
+        built.append((model, R, start))
+        return start
+
+    monkeypatch.setattr(order, "modal_start", spy)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sweep = sweep_orders(data.U, data.forces_on_dofs(), data.omega, data.pod(), m_max=4,
-                             threads=1)
+        sweep = sweep_orders(data.U, F_n, data.omega, data.pod(), m_max=4, threads=1)
     observed = sweep.fit(2)
     assert observed.start == "modal start, to convergence"
     assert observed.model.info["refinement"]["converged"]
+    train = sweep.lines & ~sweep.test_lines
+    [(model, R, start)] = built  # the sweep builds one: the observed order's
+    again = real(model, R, data.U[train], F_n[train], data.omega[train])
+    for X, Y in zip(start, again, strict=True):
+        np.testing.assert_array_equal(X, Y)
 
 
 def _order(m: int, test_db: float, observed: int) -> OrderFit:

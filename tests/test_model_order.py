@@ -205,6 +205,34 @@ def test_lines_that_are_not_positive_or_not_one_per_line_are_named(chain_frf):
         sweep_orders(U_n, F_n, longer, P)
 
 
+@pytest.mark.parametrize("step", ["sweep", "final fit"])
+@pytest.mark.parametrize("mismatch", ["one load case too few", "one load case too many",
+                                      "one line too few"])
+def test_forces_of_another_shape_than_the_responses_are_named(chain_frf, step, mismatch):
+    """Forces not of the responses' shape (s, n, p) are refused by name, on entering the
+    sweep and the final fit alike — not left to fail later as no physical start, or
+    inside the modal start's least squares. Both sides of the comparison: forces whose
+    shape sorts below the responses' and above it."""
+    _, U_n, F_n, w, P = chain_frf
+    U, F = {
+        "one load case too few": (U_n[:, :, [0, 0]], F_n),       # F's shape sorts below U's
+        "one load case too many": (U_n, F_n[:, :, [0, 0]]),      # … and above it
+        "one line too few": (U_n, F_n[:-1]),
+    }[mismatch]
+    assert F.shape != U.shape
+    if step == "sweep":
+        def run():
+            return sweep_orders(U, F, w, P)
+    else:
+        sweep = sweep_orders(U_n, F_n, w, P, m=1, max_iter=1)
+
+        def run():
+            return final_fit(sweep, U, F, w, P)
+    with pytest.raises(ValueError, match=re.escape(
+            f"F_n must have the shape of U_n {U.shape}, got {F.shape}")):
+        run()
+
+
 def test_the_order_range_is_refused_with_its_whole_message_at_either_edge(chain_frf):
     """m = 0 and m one past the limit of the data's equations, word for word: the limit,
     the observed and latent coordinates, the free parameters against the real
@@ -754,20 +782,28 @@ def test_the_last_observed_order_is_run_to_convergence_only_before_a_latent_one(
     assert run_on.fit(2).start == f"{observed.fit(2).start}, to convergence"
 
 
-def test_a_complex_refit_that_leaves_the_median_where_it_was_is_kept(monkeypatch, chain_frf):
+@pytest.mark.parametrize("scripted", [None, (100.0, 100.0)])
+def test_a_complex_refit_that_leaves_the_median_where_it_was_is_kept(monkeypatch, chain_frf,
+                                                                     scripted):
     """The tie of the final fit's first pass, scripted: the real refit, with its median
     error after set to the one before. A refit no worse over every line is kept (its
     weighted cost is the one it lowered) — the model returned is the refit's, and the
     reason quotes the two equal medians (the modal start switched off, so that the pass
-    starts from the held-out fit)."""
+    starts from the held-out fit). On every line, from the held-out fit, the errors
+    before are the refit's own, not computed again: with both set to 100 dB (no model of
+    the exact chain is that far off, so any error computed from the data would differ)
+    the pass reports the tie at 100 dB."""
     from podid_rs.identification import order
 
     _, U_n, F_n, w, P = chain_frf
     sweep = sweep_orders(U_n, F_n, w, P, m=2, threads=1)
+    assert sweep.fit(2).test_db < 10.0  # far below the scripted 100 dB
     real, made = order.refine, []
 
     def tied(*args, **kwargs):
         fit = real(*args, **kwargs)
+        if scripted is not None:
+            fit.info["refinement"]["db_before"] = scripted
         fit.info["refinement"]["db_after"] = fit.info["refinement"]["db_before"]
         made.append(fit)
         return fit
@@ -782,6 +818,8 @@ def test_a_complex_refit_that_leaves_the_median_where_it_was_is_kept(monkeypatch
     before = kept["passes"][0]["db_before"][0]
     assert kept["reason"] == ("the complex refit lowered the median error over every line "
                               f"({before:.2f} → {before:.2f} dB)")
+    if scripted is not None:
+        assert kept["passes"][0]["db_before"] == kept["passes"][0]["db_after"] == scripted
 
 
 def test_the_final_fit_s_complex_pass_reports_the_steps_it_took(monkeypatch, chain_frf):

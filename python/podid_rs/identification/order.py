@@ -237,6 +237,13 @@ class OrderSweep:
         return "\n".join(lines) + "\n"
 
 
+def _check_forces(U_n: np.ndarray, F_n: np.ndarray) -> None:
+    """Refuse forces whose shape is not the responses' ``(s, n, p)``: every step pairs
+    them line by line, DOF by DOF and load case by load case (as :func:`refine` does)."""
+    if np.shape(F_n) != np.shape(U_n):
+        raise ValueError(f"F_n must have the shape of U_n {np.shape(U_n)}, got {np.shape(F_n)}")
+
+
 def _column_weights(U_n: np.ndarray) -> np.ndarray:
     """Relative weights per (line, load case): 1/‖U‖ over the measured DOFs (0 where ‖U‖ = 0)."""
     norms = np.linalg.norm(U_n, axis=1)  # (s, p)
@@ -563,12 +570,14 @@ def sweep_orders(
     Raises
     ------
     ValueError
-        For lines (``omega``) not positive or not one per line of ``U_n``, ``holdout``
+        For forces ``F_n`` not of the shape of ``U_n``, lines (``omega``) not positive
+        or not one per line of ``U_n``, ``holdout``
         < 2, ``m_max`` or ``max_iter`` not a positive integer, too few
         lines to hold some out, ``m`` out of range (an
         order with more free parameters than the data's equations: the message names
         the limit), or when no order could be fitted.
     """
+    _check_forces(U_n, F_n)
     s, n, p = U_n.shape
     omega = as_omega(omega)
     if omega.size != s:
@@ -803,8 +812,10 @@ def final_fit(
     Raises
     ------
     ValueError
-        As for :func:`podid_rs.refine` (e.g. data that do not match the sweep's).
+        For forces ``F_n`` not of the shape of ``U_n``; as for :func:`podid_rs.refine`
+        (e.g. data that do not match the sweep's).
     """
+    _check_forces(U_n, F_n)
     m = sweep.chosen
     measured = check_measured(measured, *U_n.shape[1:])
     R = sweep.basis(m, pod_result)
