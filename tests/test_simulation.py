@@ -478,6 +478,8 @@ def test_a_band_of_another_dtype_is_read_as_its_float64_ends():
     # lower end 2^-58 Hz above the 5 Hz line is 5.0 in float64 (half its ulp there is 2^-51),
     # so the 5 Hz line is the band's first, as for (5.0, 7.0); 1000 samples at 0.01 s put a
     # line at every k / 10 Hz
+    if np.finfo(np.longdouble).eps >= np.finfo(np.float64).eps:
+        pytest.skip("long double is float64 here (as on Windows and Apple silicon)")
     band = np.array([5.0, 7.0], dtype=np.longdouble) + np.array([2.0**-58, 0.0],
                                                                 dtype=np.longdouble)
     assert band[0] > 5.0 and float(band[0]) == 5.0
