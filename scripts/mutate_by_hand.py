@@ -75,7 +75,9 @@ AUDIT_TESTS = {
                     "tests/test_cli_identify.py::test_identify_writes_the_intervals_of_the_refined_model"],
     # basis(m) one past the snapshots' rank refused (the one test of test_scale.py on the
     # method of snapshots' modes; the file's others take a minute)
-    "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix"],
+    "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix",
+            # pod_from_spectra's two sides, through the simulation's POD
+            "tests/test_simulation.py::test_simulation_pod_passes_the_method_on"],
     "simulation": ["tests/test_uncertainty.py",
                    # histories=False honoured for a small record (the rest of the file is
                    # slow: the one test)
