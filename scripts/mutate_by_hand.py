@@ -75,7 +75,9 @@ AUDIT_TESTS = {
                     "tests/test_cli_identify.py::test_identify_writes_the_intervals_of_the_refined_model"],
     # basis(m) one past the snapshots' rank refused (the one test of test_scale.py on the
     # method of snapshots' modes; the file's others take a minute)
-    "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix"],
+    "pod": ["tests/test_scale.py::test_method_of_snapshots_matches_the_correlation_matrix",
+            # pod_from_spectra's two sides, through the simulation's POD
+            "tests/test_simulation.py::test_simulation_pod_passes_the_method_on"],
     "simulation": ["tests/test_uncertainty.py",
                    # histories=False honoured for a small record (the rest of the file is
                    # slow: the one test)
@@ -4142,6 +4144,42 @@ AUDIT = [
     ("identification/holes", "return None if mask.all() else mask.copy()",
      "return None if mask.any() else mask.copy()"),
     ("identification/holes", "/ lam[keep, None])).T", "/ lam[keep, None])).conj().T"),
+    # eighteenth audit, POD: the correlation matrix's eigenvectors reversed by rows instead
+    # of columns, the spectra's 2/r² scale dropped on the snapshot side, the snapshot side
+    # chosen when the Gram matrix is as large as Ruu, basis(m) one mode along, the
+    # snapshot side's eigenvalues one per snapshot row instead of per DOF
+    ("pod", "lam, phi = lam[::-1], phi[:, ::-1]", "lam, phi = lam[::-1], phi[::-1]"),
+    ("pod", "P = _pod_of_snapshots(_stacked_rows(Xa), scale)",
+     "P = _pod_of_snapshots(_stacked_rows(Xa), 1.0)"),
+    ("pod", 'return "snapshots" if k < n else "correlation"',
+     'return "snapshots" if k <= n else "correlation"'),
+    ("pod", "return self._modes[:, :m].copy()", "return self._modes[:, 1 : m + 1].copy()"),
+    ("pod", "lam = np.zeros(n)", "lam = np.zeros(k)"),
+    # eighteenth audit, simulation: the kept record's band reported as (lo, lo), the
+    # response history of an odd-length record one sample short, add_noise's seed
+    # ignored, one-sample records accepted by the Welch estimators, the effective
+    # averages counted over every record's segments at once, the line correlation with
+    # the window instead of its square
+    ("simulation",
+     "        dt=dt,\n        band_hz=(float(band_hz[0]), float(band_hz[1])),\n    )\n\n\ndef add",
+     "        dt=dt,\n        band_hz=(float(band_hz[0]), float(band_hz[0])),\n    )\n\n\ndef add"),
+    ("simulation", "response = np.fft.irfft(full, n=r, axis=0)",
+     "response = np.fft.irfft(full, axis=0)"),
+    ("simulation", "rng = np.random.default_rng(seed)\n    if np.iscomplexobj(a):",
+     "rng = np.random.default_rng()\n    if np.iscomplexobj(a):"),
+    ("simulation", "if a.ndim != 3 or a.shape[1] < 2 or", "if a.ndim != 3 or a.shape[1] < 1 or"),
+    ("simulation", "k = per_record\n", "k = welch.n_avg\n"),
+    ("simulation", "abs(np.sum(w2 * np.exp(", "abs(np.sum(w * np.exp("),
+    # eighteenth audit, lines: one water-filling pass only (the budget of saturated blocks
+    # never handed on), the passes going on when only full blocks have excess activity
+    ("identification/lines", "for _ in range(budget):", "for _ in range(1):"),
+    ("identification/lines", "if budget <= 0 or not np.any(free & (excess > 0)):",
+     "if budget <= 0 or not np.any(excess > 0):"),
+    # eighteenth audit, holes: the mask's shape checked as (p, n), the metric carrying the
+    # squared weight (the cost then weighted by w⁴)
+    ("identification/holes", "or mask.shape != (n, p):", "or mask.shape != (p, n):"),
+    ("identification/holes", "T[:, j] = W[:, j, None, None] * L",
+     "T[:, j] = W[:, j, None, None] ** 2 * L"),
 ]
 
 
