@@ -4156,7 +4156,8 @@ AUDIT = [
     # second DOF is a column counted as still uncovered, the duplicate note's count one
     # short, a file without modal sets no longer refused as such, negative directions
     # dropped from dataset 55, UFF output without DOF labels no longer refused
-    ("io/uff", "    for k in range(len(tags) // 2):\n", "    for k in range(len(tags) // 2 - 1):\n"),
+    ("io/uff", "    for k in range(len(tags) // 2):\n",
+     "    for k in range(len(tags) // 2 - 1):\n"),
     ("io/uff", "(4, 1): (20,) * 4, (6, 1): (20,) * 4,", "(4, 1): (20,) * 4, (6, 1): (20,) * 3,"),
     ("io/uff", 'if d.get("abscissa_spec_data_type", 0) not in UFF_FREQUENCY_TYPES:', "if False:"),
     ("io/uff", "left = {e for e in pairs if not chosen.intersection(e)}",
