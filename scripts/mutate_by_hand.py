@@ -4180,6 +4180,39 @@ AUDIT = [
     ("identification/holes", "or mask.shape != (n, p):", "or mask.shape != (p, n):"),
     ("identification/holes", "T[:, j] = W[:, j, None, None] * L",
      "T[:, j] = W[:, j, None, None] ** 2 * L"),
+    # eighteenth audit, measured: a response array with fewer lines than omega no longer
+    # refused, predict's check of the model's type skipped, the spectra estimator's
+    # driven DOFs dropped, identify's default order taken only when an energy is given
+    ("measured", "if a.ndim != 3 or a.shape[0] != s or", "if a.ndim != 3 or a.shape[0] > s or"),
+    ("measured", "        if not isinstance(system, SecondOrderSystem):\n", "        if False:\n"),
+    ("measured", "to_receptance(Y, omega, quantity), X, dofs, inputs)",
+     "to_receptance(Y, omega, quantity), X, dofs, None)"),
+    ("measured", "        if m is None:\n            m = basis",
+     "        if energy is not None:\n            m = basis"),
+    # eighteenth audit, UFF: the last record's checks skipped, four complex doubles per
+    # ASCII line read as three, a non-frequency abscissa no longer refused, a pair whose
+    # second DOF is a column counted as still uncovered, the duplicate note's count one
+    # short, a file without modal sets no longer refused as such, negative directions
+    # dropped from dataset 55, UFF output without DOF labels no longer refused
+    ("io/uff", "    for k in range(len(tags) // 2):\n",
+     "    for k in range(len(tags) // 2 - 1):\n"),
+    ("io/uff", "(4, 1): (20,) * 4, (6, 1): (20,) * 4,", "(4, 1): (20,) * 4, (6, 1): (20,) * 3,"),
+    ("io/uff", 'if d.get("abscissa_spec_data_type", 0) not in UFF_FREQUENCY_TYPES:', "if False:"),
+    ("io/uff", "left = {e for e in pairs if not chosen.intersection(e)}",
+     "left = {e for e in pairs if e[0] not in chosen}"),
+    ("io/uff", 'f"response {key[0]} / force at {key[1]} was measured {len(group)} "',
+     'f"response {key[0]} / force at {key[1]} was measured {len(group) - 1} "'),
+    ("io/uff", "    if not modes:\n        kinds", "    if False:\n        kinds"),
+    ("io/uff", "if 1 <= abs(direction) <= 3:", "if 1 <= direction <= 3:"),
+    ("io/uff", '    if dofs is None:\n        raise ValueError(\n            "the model has no',
+     '    if False:\n        raise ValueError(\n            "the model has no'),
+    # eighteenth audit, npz: the first required array's absence not reported, 1-D result
+    # arrays saved as JSON lists, the extra arrays saved under the result's prefix
+    ("io/npz", "absent = [k for k in keys if k not in z]",
+     "absent = [k for k in keys[1:] if k not in z]"),
+    ("io/npz", "if isinstance(v, np.ndarray):\n            out[",
+     "if isinstance(v, np.ndarray) and v.ndim > 1:\n            out["),
+    ("io/npz", 'out[f"extra.{k}"] = np.asarray(v)', 'out[f"result.{k}"] = np.asarray(v)'),
 ]
 
 

@@ -11,7 +11,8 @@ The files are written by the tests from the exact receptances of a uniform 4-DOF
 - the fewest force DOFs that hold every measured pair: a shaker column plus a
   roving-hammer row are two columns (their common FRF averaged, with a
   :class:`DataWarning` saying how far apart the two were); a tie goes to the file's
-  reference, between two references to the lower DOF; a driving point lost from a
+  reference, between two references to the lower DOF; a pair a driving point's column
+  already holds counts for neither of its DOFs there; a driving point lost from a
   shaker grid leaves its pairs to the other columns, by reciprocity;
 - two FRFs of one entry more than 3 dB apart are refused, naming both records;
 - a force DOF no FRF measures as a response is refused (as before).
@@ -205,6 +206,23 @@ def test_a_tie_between_two_references_goes_to_the_lower_dof(tmp_path):
     assert columns(data) == [1, 2]
     assert np.allclose(entry(data, 1, 2), H[1:, 0, 1], rtol=1e-10)
     assert np.allclose(entry(data, 3, 2), H[1:, 1, 2], rtol=1e-10)  # = H(2, 3)
+    assert any("1 entry read by reciprocity" in note for note in data.notes)
+
+
+def test_pairs_a_driving_point_holds_do_not_count_in_the_greedy_choice(tmp_path):
+    """Shakers at 3 and 4 (driving points measured) with an accelerometer at 1 on both,
+    H(2, 3), and a shaker at 2 measured at 1 only: H(3, 3), H(4, 4), H(1, 3), H(1, 4),
+    H(1, 2), H(2, 3). 3 and 4 are columns first, and they hold {1, 3}, {1, 4} and
+    {2, 3} whichever DOF of the pair is the lower; the one pair left, {1, 2}, ties at one
+    pair each and goes to the file's reference 2, so H(1, 2) is read directly. Counted
+    with the pairs 3 and 4 already hold, 1 (in three pairs) would be the column and
+    H(1, 2) would come by reciprocity as the entry (2, 1)."""
+    pairs = [(3, 3), (4, 4), (1, 3), (1, 4), (1, 2), (2, 3)]
+    data = read_uff(write(tmp_path / "held.uff", pairs))
+    assert columns(data) == [2, 3, 4]
+    assert np.allclose(entry(data, 1, 2), H[1:, 0, 1], rtol=1e-10)
+    # H(3, 2), the mirror of H(2, 3) between two force DOFs, is the one reciprocal entry
+    assert np.allclose(entry(data, 3, 2), H[1:, 1, 2], rtol=1e-10)
     assert any("1 entry read by reciprocity" in note for note in data.notes)
 
 
