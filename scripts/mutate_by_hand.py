@@ -4213,6 +4213,54 @@ AUDIT = [
     ("io/npz", "if isinstance(v, np.ndarray):\n            out[",
      "if isinstance(v, np.ndarray) and v.ndim > 1:\n            out["),
     ("io/npz", 'out[f"extra.{k}"] = np.asarray(v)', 'out[f"result.{k}"] = np.asarray(v)'),
+    # eighteenth audit, refinement: the curvature option ignored, a basis whose rows are
+    # not U's measured DOFs no longer refused by name, log-magnitude weights that leave
+    # nothing to fit no longer refused, a start's raised eigenvalues floored at the
+    # smallest instead of the largest, the equation error reported on the per-entry
+    # metric's targets instead of the data
+    ("identification/refinement", "curvature=bool(curvature),", "curvature=False,"),
+    ("identification/refinement",
+     "if R.ndim != 2 or Un.ndim not in (2, 3) or Un.shape[1] != R.shape[0]:",
+     "if R.ndim != 2 or Un.ndim not in (2, 3):"),
+    ("identification/refinement",
+     'if not np.any(W > 0):\n        raise ValueError("no weighted entry',
+     'if False:\n        raise ValueError("no weighted entry'),
+    ("identification/refinement", "floor = tol * float(np.abs(d).max())",
+     "floor = tol * float(np.abs(d).min())"),
+    ("identification/refinement", "residual_norm=residual_norm(M, C, K, data) if",
+     "residual_norm=residual_norm(M, C, K, targets) if"),
+    # eighteenth audit, order: forces of another shape than the responses accepted when
+    # their lines agree, the residual-peak start's old model compared on the wrong
+    # coordinates (the first dropped instead of the new last one), the continuation from
+    # an earlier order named after the previous one, the refusal of m naming m latent
+    # coordinates, the log-magnitude pass started from the complex refit it rejected
+    ("identification/order", "if np.shape(F_n) != np.shape(U_n):",
+     "if np.shape(F_n)[0] != np.shape(U_n)[0]:"),
+    ("identification/order",
+     "X[:, : m - 1] = SecondOrderSystem(*model).response(omega, F[:, : m - 1])",
+     "X[:, 1:] = SecondOrderSystem(*model).response(omega, F[:, 1:])"),
+    ("identification/order", 'f"continuation from m = {best.m}"',
+     'f"continuation from m = {order - 1}"'),
+    ("identification/order", "(POD) and {m - k} latent coordinates",
+     "(POD) and {m} latent coordinates"),
+    ("identification/order", 'logm = refit(best, "log-magnitude"',
+     'logm = refit(model, "log-magnitude"'),
+    # eighteenth audit, latent: the residual peaks ranked by |r| instead of |r|², the
+    # refusal of m naming m as the observed coordinates, a peak's mode tried only at the
+    # residual term's damping
+    ("identification/latent", "excess = np.sum(np.abs(residual) ** 2, axis=(1, 2))",
+     "excess = np.sum(np.abs(residual), axis=(1, 2))"),
+    ("identification/latent", "is below the {k} observed coordinates",
+     "is below the {m} observed coordinates"),
+    ("identification/latent", 'for d in PEAK_OFFSETS], PEAK_ZETAS, "peak")',
+     'for d in PEAK_OFFSETS], (RESIDUAL_ZETA,), "peak")'),
+    # eighteenth audit, modal start: a change of coordinates of any condition written
+    # down, the holes' mask dropped
+    ("identification/modal_start",
+     "if not np.all(np.isfinite(A)) or np.linalg.cond(A) > MAX_CONDITION:",
+     "if not np.all(np.isfinite(A)):"),
+    ("identification/modal_start", "measured = check_measured(measured, n, p)",
+     "measured = check_measured(None, n, p)"),
 ]
 
 

@@ -10,8 +10,9 @@ poles exactly, stands in for the others with one pole below and one above the ba
 stays physical, also from a model with an unstable pole, which it leaves out; a pole
 exactly on the band's edge is in the band, and an undamped one (ζ = 0) is kept; forces that
 are not unit forces at one DOF (no FRFs, a force with a phase or a second DOF pulled the
-other way among them) give no start, and forces of another shape than the responses are
-refused;
+other way among them) give no start, nor does a change of coordinates near singular (a
+mode seen only through FILL_SEEN cancelling a weak direction), and forces of another shape
+than the responses are refused;
 and the final fit starts from it when it fits better than the held-out fit —
 never reading a hole, and judging the first pass against the held-out fit — and says
 nothing of it otherwise; it keeps the held-out fit when the refit raises the median
@@ -412,6 +413,56 @@ def test_one_line_is_no_band_and_gives_no_start(omega_all):
     system = pr.SecondOrderSystem(M4, C4, K4)
     assert modal_start(system, np.eye(4), U[:1], F[:1], omega_all[:1]) is None
     assert modal_start(system, np.eye(4), U[:2], F[:2], omega_all[:2]) is not None
+
+
+def test_no_start_where_the_change_of_coordinates_is_nearly_singular():
+    """Three modes at 10, 20, 30 rad/s driven at DOF 2 of three measured DOFs, seen
+    through two observed coordinates (DOFs 0 and 1) and a latent one. The first shows
+    at the observed coordinates along (1, 1)/√2 with norm 1, the second along
+    (−1, 1)/√2 with norm 2·10⁻³ (just above the rank threshold, 10⁻³ of the largest),
+    the third along (−1, 1)/√2 with norm t ≤ 5·10⁻⁴ — below 10⁻³ of the shapes'
+    scale, so it is seen at DOF 0 with FILL_SEEN times that scale, and at one t that
+    cancels the weak direction: the change of coordinates A passes through singular,
+    where M = A⁻ᵀA⁻¹ has no bound. A golden-section search for the largest
+    ‖M‖₂ = ‖A⁻¹‖² closes in on that t and must meet no start there (cond A >
+    MAX_CONDITION = 10¹²) rather than a model no arithmetic can hold; every start it
+    meets keeps ‖A⁻¹‖ ≤ 10¹³ (‖A‖ ≥ 1 by the first mode's column; 10× for the
+    round-off of a condition number near 10¹²)."""
+    wk, zeta = np.array([10.0, 20.0, 30.0]), 0.01
+    omega = np.linspace(5.0, 40.0, 50)
+    model = pr.SecondOrderSystem(np.eye(3), np.diag(2 * zeta * wk), np.diag(wk**2))
+    R = observation_matrix(np.eye(3)[:, :2], 3)
+    h = np.sqrt(0.5)
+    den = wk**2 - omega[:, None] ** 2 + 2j * zeta * wk * omega[:, None]  # (s, modes)
+    F = np.zeros((omega.size, 3, 1), dtype=complex)
+    F[:, 2, 0] = 1.0
+
+    def largest_mass(t: float) -> float:
+        phi = np.array([[h, -2e-3 * h, -t * h], [h, 2e-3 * h, t * h], [1.0, 1.0, 1.0]])
+        U = np.einsum("nk,sk->sn", phi * phi[2], 1 / den)[:, :, None]  # Σ φ φ[2] / d
+        start = modal_start(model, R, U, F, omega)
+        return np.inf if start is None else float(np.linalg.norm(start[0], 2))
+
+    # ‖M‖ on a coarse grid peaks near t = 1.1·10⁻⁴ (finite at both ends of the bracket)
+    a, b = 7.5e-5, 1.5e-4
+    assert np.isfinite(largest_mass(a)) and np.isfinite(largest_mass(b))
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = largest_mass(c), largest_mass(d)
+    met = [fc, fd]
+    while b - a > 1e-18:
+        if fc >= fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = largest_mass(c)
+            met.append(fc)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = largest_mass(d)
+            met.append(fd)
+    assert np.isinf(met).any()
+    assert max(x for x in met if np.isfinite(x)) <= 1e26
 
 
 def test_the_inputs_are_not_modified(omega_all):

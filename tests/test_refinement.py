@@ -789,6 +789,27 @@ def test_per_entry_weights_of_any_size_give_the_weighted_output_error():
                                                             rel=1e-7)
 
 
+def test_the_residual_norm_with_per_entry_weights_is_the_equation_error_of_the_data():
+    """With a basis and per-entry weights the refinement fits the targets of a reduced
+    metric per column (the weighted least-squares fit of u in the m coordinates, not
+    Rᵀu where the weights differ between entries); residual_norm is still ‖Ax − y‖
+    (eq. 28) on the data the paper's estimator sees, Rᵀu and Rᵀf, by hand here.
+    1e-10: the same sums in another order; the targets differ from Rᵀu by the noise's
+    share of each entry's weight, far more."""
+    chain, U_n, F_n, w = _entry_data(noise=0.02)
+    R = pr.pod_from_frf(U_n, w).basis(5)
+    U, F = np.einsum("nm,snp->smp", R, U_n), np.einsum("nm,snp->smp", R, F_n)
+    start = pr.identify(U, F, w, symmetric=True)
+    W = 10.0 ** np.random.default_rng(11).uniform(-3, 3, U_n.shape)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StartWarning)
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        res = refine(start, U_n, F_n, w, basis=R, weights=W, max_iter=5, threads=1)
+    assert res.info["refinement"]["weights"] == "user, per entry"
+    D = -(w**2)[:, None, None] * res.M + 1j * w[:, None, None] * res.C + res.K  # (s, m, m)
+    want = float(np.linalg.norm(np.einsum("sij,sjp->sip", D, U) - F))
+    assert res.residual_norm == pytest.approx(want, rel=1e-10)
+
 def test_a_line_that_weighs_nothing_is_left_out_whatever_its_data():
     # per-entry weights that are zero on every entry of some lines (a line a user does not
     # trust: mains hum, a shaker drop-out): those lines' data cannot move the answer —
