@@ -4261,6 +4261,39 @@ AUDIT = [
      "if not np.all(np.isfinite(A)):"),
     ("identification/modal_start", "measured = check_measured(measured, n, p)",
      "measured = check_measured(None, n, p)"),
+    # eighteenth audit, physical: the floor of M's and K's eigenvalues scaled by the last
+    # (largest signed) eigenvalue instead of the largest magnitude, C's relative change
+    # measured against the corrected C, K transposed in the companion form, the Markdown
+    # table formatting the integers and printing the floats in full
+    ("physical", "floor = rtol * float(np.max(np.abs(d)))", "floor = rtol * float(d[-1])"),
+    ("physical", "(C, result.C)", "(C, C)"),
+    ("physical", "A = np.block([[zero, eye], [-K, -C]])",
+     "A = np.block([[zero, eye], [-K.T, -C]])"),
+    ("physical", 'f"{v:.4g}" if isinstance(v, float)', 'f"{v:.4g}" if isinstance(v, int)'),
+    # eighteenth audit, modes: the basis checked against the number of modes instead of the
+    # order, the MAC with B conjugated, a pole's term evaluated at the line of its mode
+    # number, a single line accepted as a band, the peak's ring every line on either
+    # side, shape_mac pairing the DOFs by position instead of by label
+    ("modes", "m = psi.shape[0]", "m = psi.shape[1]"),
+    ("modes", "@ (b / nb))", "@ (b / nb).conj())"),
+    ("modes", "(1j * w[j] - lam[k])", "(1j * w[k] - lam[k])"),
+    ("modes", "if w.size < 2 or np.any(np.diff(w) <= 0):",
+     "if w.size < 1 or np.any(np.diff(w) <= 0):"),
+    ("modes", "ring = (distance >= max(PEAK_RING[0] * 2 * half, 2 * spacing)) &",
+     "ring = (distance >= max(PEAK_RING[0] * 2 * half, 2 * spacing)) |"),
+    ("modes", "rows = [(i, where[tuple(d)]) for i, d in", "rows = [(i, i) for i, d in"),
+    # eighteenth audit, stabilisation: a zero matrix (an undamped C) taken as unsymmetric,
+    # the first order's poles marked consistent, the default fit's order ceiling read from
+    # the load cases, the two consistency marks swapped on their way into the order
+    ("stabilisation", "if any(np.linalg.norm(X - X.T) > rtol",
+     "if any(np.linalg.norm(X - X.T) >= rtol"),
+    ("stabilisation", "cf, c = np.zeros(k, dtype=bool), np.zeros(k, dtype=bool)",
+     "cf, c = np.ones(k, dtype=bool), np.ones(k, dtype=bool)"),
+    ("stabilisation", "data.n if fit is None else None", "data.p if fit is None else None"),
+    ("stabilisation", "is_physical(model), cf, c,", "is_physical(model), c, cf,"),
+    # eighteenth audit, statespace: the state's derivative given q instead of q̇
+    ("statespace", "A = np.block([[zero, eye], [-MinvK, -MinvC]])",
+     "A = np.block([[eye, zero], [-MinvK, -MinvC]])"),
 ]
 
 

@@ -20,6 +20,7 @@ from podid_rs import (
 from podid_rs.measured import from_time_histories
 from podid_rs.physical import (
     ModalParameters,
+    companion_modes,
     compare_modes,
     make_physical,
     modal_parameters,
@@ -158,6 +159,32 @@ def test_a_massless_dof_has_one_infinite_root_with_a_damper_and_two_without():
     bare = modal_parameters(SecondOrderSystem(M, np.zeros((2, 2)), K))
     assert bare.n_infinite == 2
     np.testing.assert_allclose(bare.eigenvalues, [2j], rtol=0, atol=1e-12)
+
+
+def test_companion_modes_of_an_unsymmetric_model_solve_its_own_pencil():
+    """A fit with ``symmetric=False`` has unsymmetric C and K. With M = I and C, K upper
+    triangular, λ²M + λC + K = [[p₁(λ), λ + 3], [0, p₂(λ)]] with p₁ = λ² + 0.2λ + 4 and
+    p₂ = λ² + 0.4λ + 9: its roots are those of p₁ and p₂, by hand −0.1 + i√3.99 and
+    −0.2 + i√8.96 (|λ| = 2 and 3, in that order). The first mode's vector is e₀ (the
+    first column is [p₁, 0]); the second's is ∝ [−(λ₂ + 3), p₁(λ₂)] (the first row's
+    null vector). Kᵀ or Cᵀ in its place would pose another pencil, with other roots and
+    vectors."""
+    C = np.array([[0.2, 1.0], [0.0, 0.4]])
+    K = np.array([[4.0, 3.0], [0.0, 9.0]])
+    lam, phi, n_infinite = companion_modes(SecondOrderSystem(np.eye(2), C, K), vectors=True)
+    # a 4 × 4 companion form with entries of order 10: its eigenvalues and vectors are
+    # exact to ~1e-15; 1e-12 leaves room and is far below the mutants' O(0.1) shifts
+    np.testing.assert_allclose(lam, [-0.1 + 1j * np.sqrt(3.99), -0.2 + 1j * np.sqrt(8.96)],
+                               rtol=0, atol=1e-12)
+    assert n_infinite == 0
+    assert abs(phi[1, 0]) <= 1e-12 * abs(phi[0, 0])
+    l2 = lam[1]
+    v = np.array([-(l2 + 3.0), l2**2 + 0.2 * l2 + 4.0])
+    cosine = abs(np.vdot(v, phi[:, 1])) / (np.linalg.norm(v) * np.linalg.norm(phi[:, 1]))
+    assert cosine == pytest.approx(1.0, abs=1e-12)
+    for k in range(2):  # each pair solves (λ²M + λC + K) φ = 0, to round-off
+        residual = (lam[k] ** 2 * np.eye(2) + lam[k] * C + K) @ phi[:, k]
+        assert np.linalg.norm(residual) <= 1e-12 * 10 * np.linalg.norm(phi[:, k])
 
 
 def test_chain_modes_match_rayleigh_theory():
