@@ -24,7 +24,11 @@ left to a reviewer's luck:
   ``U_m`` for ``F_m``, ``omega`` for ``omega_fit``: names sharing their first or their last
   words), and an attribute of one object for a similar one of the same object
   (``model.M`` for ``model.K``, ``fit.train_db`` for ``fit.test_db``), at one use at a
-  time; only names already bound at the line are used (numbered last).
+  time; only names already bound at the line are used (numbered after the boundaries);
+- **a matrix read transposed**: every read of ``M``, ``C`` or ``K`` (a name, or an
+  attribute such as ``model.K``) read as its transpose, at one use at a time (every
+  fixture's model symmetric lets it through where a user's unsymmetric one would not;
+  numbered last).
 
 Each mutant runs the module's test files of ``mutate_by_hand.py`` (``TESTS`` and
 ``AUDIT_TESTS``). Run from anywhere:
@@ -437,6 +441,31 @@ def name_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
         yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
 
 
+def transpose_mutants(mod: str) -> Iterator[tuple[int, str, str, str]]:
+    """A model's matrix read as its transpose at one use: (line number, line, mutated line,
+    source)."""
+    src = (PKG / f"{mod}.py").read_text()
+    lines = src.splitlines(keepends=True)
+    at = _offsets(src)
+    tree = ast.parse(src)
+    transposed = {id(n.value) for n in ast.walk(tree)
+                  if isinstance(n, ast.Attribute) and n.attr == "T"}
+    found = set()
+    for node in ast.walk(tree):
+        name = (node.id if isinstance(node, ast.Name)
+                else node.attr if isinstance(node, ast.Attribute) else None)
+        if (name not in ("M", "C", "K") or not isinstance(node.ctx, ast.Load)
+                or id(node) in transposed or node.end_lineno != node.lineno):
+            continue
+        row = lines[node.lineno - 1].encode()
+        # ast's columns count UTF-8 bytes; the source is indexed by character
+        found.add(at[node.lineno] + len(row[:node.end_col_offset].decode()))
+    for b0 in sorted(found):
+        row = src.count("\n", 0, b0) + 1
+        new = src[:b0] + ".T" + src[b0:]
+        yield row, lines[row - 1].rstrip("\n"), new.splitlines()[row - 1], new
+
+
 def main() -> None:
     """List or run the mutants the command line selects (all without arguments)."""
     args = [a for a in sys.argv[1:] if a != "--list"]
@@ -447,7 +476,8 @@ def main() -> None:
         only.update(range(int(first), int(last or first) + 1))
     i = 0
     counts = {"KILLED": 0, "SURVIVED": 0, "EQUIVALENT": 0}
-    for family, mod in [(f, m) for f in (mutants, default_mutants, boundary_mutants, name_mutants)
+    for family, mod in [(f, m) for f in (mutants, default_mutants, boundary_mutants, name_mutants,
+                                     transpose_mutants)
                         for m in MODULES]:
         for row, line, mutated_line, mutated in family(mod):
             i += 1
