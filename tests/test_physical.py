@@ -466,6 +466,12 @@ def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):
         with pytest.raises(ValueError, match=f"^{name} must be real, got complex dtype"):
             make_physical(replace(result, **{name: getattr(result, name) + 0j}), U, F,
                           data.omega)
+        # not square: refused with its own shape as given (not a transpose's), before
+        # a column could broadcast against its transpose into an m × m matrix
+        for shape in ((m, m + 1), (m, 1)):
+            with pytest.raises(ValueError, match=f"^{name} must be a non-empty square matrix, "
+                                                 fr"got shape \({shape[0]}, {shape[1]}\)$"):
+                make_physical(replace(result, **{name: np.ones(shape)}), U, F, data.omega)
 
 
 def test_a_model_that_is_not_symmetric_is_judged_by_its_symmetric_part(noisy_band3):
