@@ -269,6 +269,120 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      "measured = check_measured(measured, *F_n.shape[1:])"):
         "final_fit's first line (_check_forces) refuses F_n of another shape than U_n, so "
         "F_n.shape[1:] is U_n.shape[1:] here.",
+    # physical, modes, stabilisation, statespace: a matrix read transposed
+    ("physical", "after = residual_norm(M, C, K, data)",
+     "after = residual_norm(M.T, C, K, data)"):
+        "make_physical's M, C and K here are nearest_psd's 0.5 * (B + Bᵀ), exactly symmetric (IEEE"
+        " addition commutes, so entries (i, j) and (j, i) are the same sum): the transpose has the"
+        " same values.",
+    ("physical", "after = residual_norm(M, C, K, data)",
+     "after = residual_norm(M, C.T, K, data)"):
+        "as for the mutant of the same line above: the same reason.",
+    ("physical", "after = residual_norm(M, C, K, data)",
+     "after = residual_norm(M, C, K.T, data)"):
+        "as for the mutant of the same line above: the same reason.",
+    ("physical", "for new, old in ((M, result.M), (C, result.C), (K, result.K))",
+     "for new, old in ((M.T, result.M), (C, result.C), (K, result.K))"):
+        "new is nearest_psd's 0.5 * (B + Bᵀ), exactly symmetric (IEEE addition commutes), so new.T"
+        " has new's values and the relative change is the same.",
+    ("physical", "for new, old in ((M, result.M), (C, result.C), (K, result.K))",
+     "for new, old in ((M, result.M.T), (C, result.C), (K, result.K))"):
+        "new is exactly symmetric (nearest_psd's 0.5 * (B + Bᵀ)), so new − oldᵀ is (new − old)ᵀ "
+        "entry for entry and ‖oldᵀ‖ has old's entries: the Frobenius norms are equal, up to the "
+        "order numpy sums the same squares in.",
+    ("physical", "for new, old in ((M, result.M), (C, result.C), (K, result.K))",
+     "for new, old in ((M, result.M), (C.T, result.C), (K, result.K))"):
+        "as for M.T read as new above: the same reason.",
+    ("physical", "for new, old in ((M, result.M), (C, result.C), (K, result.K))",
+     "for new, old in ((M, result.M), (C, result.C.T), (K, result.K))"):
+        "as for result.M.T read as old above: the same reason.",
+    ("physical", "for new, old in ((M, result.M), (C, result.C), (K, result.K))",
+     "for new, old in ((M, result.M), (C, result.C), (K.T, result.K))"):
+        "as for M.T read as new above: the same reason.",
+    ("physical", "for new, old in ((M, result.M), (C, result.C), (K, result.K))",
+     "for new, old in ((M, result.M), (C, result.C), (K, result.K.T))"):
+        "as for result.M.T read as old above: the same reason.",
+    ("physical", "M=M,",
+     "M=M.T,"):
+        "the corrected matrix is nearest_psd's 0.5 * (B + Bᵀ), exactly symmetric (IEEE addition "
+        "commutes): its transpose has the same values, even read from its buffer in either order.",
+    ("physical", "C=C,",
+     "C=C.T,"):
+        "as for M=M.T above: the same reason.",
+    ("physical", "K=K,",
+     "K=K.T,"):
+        "as for M=M.T above: the same reason.",
+    ("physical", "n = M.shape[0] if M.ndim == 2 else -1  # (-1, -1): no array's shape",
+     "n = M.T.shape[0] if M.ndim == 2 else -1  # (-1, -1): no array's shape"):
+        "for a square M, M.T.shape[0] is M.shape[0]; for a 2-D M that is not square M's own shape "
+        "fails X.shape != (n, n) with either n and the message prints the matrices' shapes, not n.",
+    ("physical", "n = M.shape[0] if M.ndim == 2 else -1  # (-1, -1): no array's shape",
+     "n = M.shape[0] if M.T.ndim == 2 else -1  # (-1, -1): no array's shape"):
+        "a transpose has its array's ndim.",
+    ("physical", "if any(X.shape != (n, n) for X in (M, C, K)):",
+     "if any(X.shape != (n, n) for X in (M.T, C, K)):"):
+        "X.T.shape is X.shape reversed, and a shape equals (n, n) exactly when its reversal does.",
+    ("physical", "if any(X.shape != (n, n) for X in (M, C, K)):",
+     "if any(X.shape != (n, n) for X in (M, C.T, K)):"):
+        "as for the mutant of the same line above: the same reason.",
+    ("physical", "if any(X.shape != (n, n) for X in (M, C, K)):",
+     "if any(X.shape != (n, n) for X in (M, C, K.T)):"):
+        "as for the mutant of the same line above: the same reason.",
+    ("modes",
+     "return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X)"
+     " for X in (M, C, K))",
+     "return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X)"
+     " for X in (M.T, C, K))"):
+        "‖Xᵀ − X‖ is of the entries of X − Xᵀ negated (a − b is −(b − a) exactly) and ‖Xᵀ‖ of X's "
+        "entries: the symmetry test gets the same norms, up to the order numpy sums the same "
+        "squares in.",
+    ("modes",
+     "return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X)"
+     " for X in (M, C, K))",
+     "return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X)"
+     " for X in (M, C.T, K))"):
+        "as for the mutant of the same line above: the same reason.",
+    ("modes",
+     "return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X)"
+     " for X in (M, C, K))",
+     "return all(np.linalg.norm(X - X.T) <= SYMMETRY_RTOL * np.linalg.norm(X)"
+     " for X in (M, C, K.T))"):
+        "as for the mutant of the same line above: the same reason.",
+    ("modes", "M, C = model.M, model.C",
+     "M, C = model.M.T, model.C"):
+        "M and C are used only in the symmetry test (transpose-invariant: the same entries) and in"
+        " modal A's quadratic forms ψᵀXψ (einsum ik,ij,jk, no conjugate), and ψᵀXᵀψ = (ψᵀXψ)ᵀ is "
+        "the same scalar for every X: the same sums in another order.",
+    ("modes", "M, C = model.M, model.C",
+     "M, C = model.M, model.C.T"):
+        "as for the mutant of the same line above: the same reason.",
+    ("modes", "if _is_symmetric(M, C, model.K):",
+     "if _is_symmetric(M.T, C, model.K):"):
+        "as for _is_symmetric's own line above: the same reason.",
+    ("modes", "if _is_symmetric(M, C, model.K):",
+     "if _is_symmetric(M, C.T, model.K):"):
+        "as for the mutant of the same line above: the same reason.",
+    ("modes", "if _is_symmetric(M, C, model.K):",
+     "if _is_symmetric(M, C, model.K.T):"):
+        "as for the mutant of the same line above: the same reason.",
+    ("modes", "modal_a = lam * np.einsum(\"ik,ij,jk->k\", psi, 2 * M, psi) + np.einsum(",
+     "modal_a = lam * np.einsum(\"ik,ij,jk->k\", psi, 2 * M.T, psi) + np.einsum("):
+        "modal A's ψᵀXψ (einsum ik,ij,jk, no conjugate) is a scalar, equal to its own transpose "
+        "ψᵀXᵀψ for every X: the same products summed in another order.",
+    ("modes", "\"ik,ij,jk->k\", psi, C, psi",
+     "\"ik,ij,jk->k\", psi, C.T, psi"):
+        "as for 2 * M.T in modal A above: the same reason.",
+    ("stabilisation", "mats = (model.M, model.C, model.K)",
+     "mats = (model.M.T, model.C, model.K)"):
+        "is_physical reads each matrix only through ‖X − Xᵀ‖ against ‖X‖ (for Xᵀ the same entries,"
+        " negated) and eigvalsh of 0.5 (X + Xᵀ), which for Xᵀ is the same array bit for bit (IEEE "
+        "addition commutes).",
+    ("stabilisation", "mats = (model.M, model.C, model.K)",
+     "mats = (model.M, model.C.T, model.K)"):
+        "as for the mutant of the same line above: the same reason.",
+    ("stabilisation", "mats = (model.M, model.C, model.K)",
+     "mats = (model.M, model.C, model.K.T)"):
+        "as for the mutant of the same line above: the same reason.",
 }
 
 

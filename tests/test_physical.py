@@ -161,17 +161,20 @@ def test_a_massless_dof_has_one_infinite_root_with_a_damper_and_two_without():
     np.testing.assert_allclose(bare.eigenvalues, [2j], rtol=0, atol=1e-12)
 
 
-def test_companion_modes_of_an_unsymmetric_model_solve_its_own_pencil():
-    """A fit with ``symmetric=False`` has unsymmetric C and K. With M = I and C, K upper
-    triangular, λ²M + λC + K = [[p₁(λ), λ + 3], [0, p₂(λ)]] with p₁ = λ² + 0.2λ + 4 and
-    p₂ = λ² + 0.4λ + 9: its roots are those of p₁ and p₂, by hand −0.1 + i√3.99 and
-    −0.2 + i√8.96 (|λ| = 2 and 3, in that order). The first mode's vector is e₀ (the
-    first column is [p₁, 0]); the second's is ∝ [−(λ₂ + 3), p₁(λ₂)] (the first row's
-    null vector). Kᵀ or Cᵀ in its place would pose another pencil, with other roots and
-    vectors."""
+@pytest.mark.parametrize("mass_coupling", [0.0, 0.5])
+def test_companion_modes_of_an_unsymmetric_model_solve_its_own_pencil(mass_coupling):
+    """A fit with ``symmetric=False`` has unsymmetric M, C and K. With M = [[1, μ], [0, 1]]
+    (μ = ``mass_coupling``) and C, K upper triangular, λ²M + λC + K =
+    [[p₁(λ), μλ² + λ + 3], [0, p₂(λ)]] with p₁ = λ² + 0.2λ + 4 and p₂ = λ² + 0.4λ + 9:
+    its roots are those of p₁ and p₂, by hand −0.1 + i√3.99 and −0.2 + i√8.96 (|λ| = 2
+    and 3, in that order), whatever μ. The first mode's vector is e₀ (the first column
+    is [p₁, 0]); the second's is ∝ [−(μλ₂² + λ₂ + 3), p₁(λ₂)] (the first row's null
+    vector). Mᵀ, Kᵀ or Cᵀ in its place would pose another pencil, no longer
+    triangular, with other roots and vectors."""
+    M = np.array([[1.0, mass_coupling], [0.0, 1.0]])
     C = np.array([[0.2, 1.0], [0.0, 0.4]])
     K = np.array([[4.0, 3.0], [0.0, 9.0]])
-    lam, phi, n_infinite = companion_modes(SecondOrderSystem(np.eye(2), C, K), vectors=True)
+    lam, phi, n_infinite = companion_modes(SecondOrderSystem(M, C, K), vectors=True)
     # a 4 × 4 companion form with entries of order 10: its eigenvalues and vectors are
     # exact to ~1e-15; 1e-12 leaves room and is far below the mutants' O(0.1) shifts
     np.testing.assert_allclose(lam, [-0.1 + 1j * np.sqrt(3.99), -0.2 + 1j * np.sqrt(8.96)],
@@ -179,11 +182,11 @@ def test_companion_modes_of_an_unsymmetric_model_solve_its_own_pencil():
     assert n_infinite == 0
     assert abs(phi[1, 0]) <= 1e-12 * abs(phi[0, 0])
     l2 = lam[1]
-    v = np.array([-(l2 + 3.0), l2**2 + 0.2 * l2 + 4.0])
+    v = np.array([-(mass_coupling * l2**2 + l2 + 3.0), l2**2 + 0.2 * l2 + 4.0])
     cosine = abs(np.vdot(v, phi[:, 1])) / (np.linalg.norm(v) * np.linalg.norm(phi[:, 1]))
     assert cosine == pytest.approx(1.0, abs=1e-12)
     for k in range(2):  # each pair solves (λ²M + λC + K) φ = 0, to round-off
-        residual = (lam[k] ** 2 * np.eye(2) + lam[k] * C + K) @ phi[:, k]
+        residual = (lam[k] ** 2 * M + lam[k] * C + K) @ phi[:, k]
         assert np.linalg.norm(residual) <= 1e-12 * 10 * np.linalg.norm(phi[:, k])
 
 
@@ -463,6 +466,12 @@ def test_make_physical_reports_what_it_changed_and_names_bad_input(noisy_band3):
         with pytest.raises(ValueError, match=f"^{name} must be real, got complex dtype"):
             make_physical(replace(result, **{name: getattr(result, name) + 0j}), U, F,
                           data.omega)
+        # not square: refused with its own shape as given (not a transpose's), before
+        # a column could broadcast against its transpose into an m × m matrix
+        for shape in ((m, m + 1), (m, 1)):
+            with pytest.raises(ValueError, match=f"^{name} must be a non-empty square matrix, "
+                                                 fr"got shape \({shape[0]}, {shape[1]}\)$"):
+                make_physical(replace(result, **{name: np.ones(shape)}), U, F, data.omega)
 
 
 def test_a_model_that_is_not_symmetric_is_judged_by_its_symmetric_part(noisy_band3):
@@ -480,6 +489,16 @@ def test_a_model_that_is_not_symmetric_is_judged_by_its_symmetric_part(noisy_ban
     # the nearest symmetric PSD matrix is the symmetric part itself, to round-off of
     # the eigendecomposition (~1e-15 of its unit eigenvalues)
     np.testing.assert_allclose(phys.C, np.eye(m), rtol=0, atol=1e-13)
+    # M, C and K all with a skew part a tenth of their norm: the residual reported
+    # before is that of the three as given, not of a transpose (which flips the skew
+    # part's sign and moves ‖Ax − y‖ by a fraction of it), written out independently
+    # (both sum the same products: 1e-10 relative is round-off with margin)
+    lopsided = replace(result, **{name: getattr(result, name)
+                                  + 0.1 * np.linalg.norm(getattr(result, name)) * skew / 3.0
+                                  for name in "MCK"})
+    phys = make_physical(lopsided, U, F, data.omega)
+    before = _data_residual(lopsided, U, F, data.omega)
+    assert phys.info["physical"]["residual_before"] == pytest.approx(before, rel=1e-10)
 
 
 def test_an_undamped_model_keeps_its_zero_damping_with_no_change(noisy_band3):

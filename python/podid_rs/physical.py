@@ -31,15 +31,21 @@ from .identification.result import IdentificationResult, residual_norm
 from .systems import SecondOrderSystem
 
 
+def _square_matrix(A: object, name: str) -> np.ndarray:
+    """``A`` as a real, finite, non-empty square float64 array, refused under ``name``."""
+    a = as_array(A, name, real=True)
+    if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] == 0:
+        raise ValueError(f"{name} must be a non-empty square matrix, got shape {a.shape}")
+    return a
+
+
 def nearest_psd(A: object, floor: float = 0.0, name: str = "A") -> np.ndarray:
     """Nearest symmetric matrix to ``A`` whose eigenvalues are all ``>= floor`` (Frobenius).
 
     Higham (1988): take the symmetric part ``(A + Aᵀ)/2 = Q diag(d) Qᵀ`` and raise
     ``d`` to ``max(d, floor)``. The result is exactly symmetric.
     """
-    a = as_array(A, name, real=True)
-    if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] == 0:
-        raise ValueError(f"{name} must be a non-empty square matrix, got shape {a.shape}")
+    a = _square_matrix(A, name)
     floor = as_scalar(floor, "floor", allow_zero=True)
     d, Q = np.linalg.eigh(0.5 * (a + a.T))
     B = (Q * np.maximum(d, floor)) @ Q.T
@@ -51,9 +57,10 @@ def _raise_eigenvalues(X: np.ndarray, rtol: float, name: str) -> tuple[np.ndarra
 
     ``rtol > 0`` asks for a positive definite answer, which a zero X cannot give. A NaN
     or complex entry (a result built by hand) is refused under ``name`` before the
-    eigenvalues, which LAPACK may fail to converge on.
+    eigenvalues, which LAPACK may fail to converge on, and so is a matrix that is not
+    square (a column would broadcast against its transpose into a square one).
     """
-    X = as_array(X, name, real=True)
+    X = _square_matrix(X, name)
     d = np.linalg.eigvalsh(0.5 * (X + X.T))
     floor = rtol * float(np.max(np.abs(d)))
     if rtol > 0 and floor == 0.0:
@@ -95,7 +102,8 @@ def make_physical(
     ------
     ValueError
         For a result that is not an :class:`IdentificationResult`, malformed data or
-        data of another order, a non-positive ``rtol``, or a zero M or K.
+        data of another order, a non-positive ``rtol``, a matrix that is not square
+        (a result built by hand), or a zero M or K.
     """
     if not isinstance(result, IdentificationResult):
         raise ValueError(f"result must be an IdentificationResult, got {type(result).__name__}")
