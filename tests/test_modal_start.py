@@ -422,6 +422,25 @@ def test_forces_of_another_shape_than_the_responses_are_refused(omega_all):
         final_fit(sweep, U, F[:, :, :1], omega_all, P, log_magnitude=False)
 
 
+def test_a_model_whose_matrices_are_not_square_of_one_shape_is_refused(omega_all):
+    """An identified model built by hand is not checked on construction: a stack of one
+    matrix (which numpy's stacked solve would read as that matrix), a vector, non-square
+    matrices and matrices of different shapes (C's or K's, or both C's and K's against
+    M's) are refused with every shape as it is."""
+    from dataclasses import replace
+
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
+    identified = pr.identify(U, F, omega_all, symmetric=True)
+    for M, C, K in ((M4[None], C4[None], K4[None]), (M4[0], C4, K4),
+                    (M4[:, :3], C4[:, :3], K4[:, :3]), (M4, C4[:, :3], K4[:3]),
+                    (M4, C4, K4[:3, :3]), (M4, C4[:3, :3], K4), (M4, C4[:3, :3], K4[:3, :3])):
+        model = replace(identified, M=M, C=C, K=K)
+        with pytest.raises(ValueError, match=re.escape(
+                f"the model's M, C and K must be square matrices of one shape, got "
+                f"{M.shape}, {C.shape} and {K.shape}")):
+            modal_start(model, np.eye(4), U, F, omega_all)
+
+
 def test_one_line_is_no_band_and_gives_no_start(omega_all):
     """A band needs two lines: on one, the poles in it and the residues fitted there
     mean nothing, so no start is made; on the first two lines of the same data, one is."""
