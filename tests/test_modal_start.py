@@ -426,14 +426,15 @@ def test_a_model_whose_matrices_are_not_square_of_one_shape_is_refused(omega_all
     """An identified model built by hand is not checked on construction: a stack of one
     matrix (which numpy's stacked solve would read as that matrix), a vector, non-square
     matrices and matrices of different shapes (C's or K's, or both C's and K's against
-    M's) are refused with every shape as it is."""
+    M's; a scalar or a vector among them) are refused with every shape as it is."""
     from dataclasses import replace
 
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
     identified = pr.identify(U, F, omega_all, symmetric=True)
     for M, C, K in ((M4[None], C4[None], K4[None]), (M4[0], C4, K4),
                     (M4[:, :3], C4[:, :3], K4[:, :3]), (M4, C4[:, :3], K4[:3]),
-                    (M4, C4, K4[:3, :3]), (M4, C4[:3, :3], K4), (M4, C4[:3, :3], K4[:3, :3])):
+                    (M4, C4, K4[:3, :3]), (M4, C4[:3, :3], K4), (M4, C4[:3, :3], K4[:3, :3]),
+                    (M4, C4[0, 0], K4[0]), (M4, C4[0], K4[0, 0])):
         model = replace(identified, M=M, C=C, K=K)
         with pytest.raises(ValueError, match=re.escape(
                 f"the model's M, C and K must be square matrices of one shape, got "
