@@ -383,6 +383,217 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     ("stabilisation", "mats = (model.M, model.C, model.K)",
      "mats = (model.M, model.C, model.K.T)"):
         "as for the mutant of the same line above: the same reason.",
+    # identification/refinement, order, modal_start: a model's matrix read transposed
+    ("identification/refinement",
+     "return model.M, model.C, model.K, None",
+     "return model.M.T, model.C, model.K, None"):
+        "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
+        "so refine's shape checks see the same shapes, and refine reads their values only in "
+        "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
+        "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
+        "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
+        "measured, equal in the rest), which no tolerance a test could defend separates.",
+    ("identification/refinement",
+     "return model.M, model.C, model.K, None",
+     "return model.M, model.C.T, model.K, None"):
+        "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
+        "so refine's shape checks see the same shapes, and refine reads their values only in "
+        "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
+        "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
+        "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
+        "measured, equal in the rest), which no tolerance a test could defend separates.",
+    ("identification/refinement",
+     "return model.M, model.C, model.K, None",
+     "return model.M, model.C, model.K.T, None"):
+        "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
+        "so refine's shape checks see the same shapes, and refine reads their values only in "
+        "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
+        "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
+        "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
+        "measured, equal in the rest), which no tolerance a test could defend separates.",
+    ("identification/refinement", "return M, C, K, None", "return M.T, C, K, None"):
+        "the tuple's matrices are refused unless square on the lines above, so refine's shape "
+        "checks see the same shapes, and refine reads their values only in physical_start, whose "
+        "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
+        "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
+        "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
+        "which no tolerance a test could defend separates.",
+    ("identification/refinement", "return M, C, K, None", "return M, C.T, K, None"):
+        "the tuple's matrices are refused unless square on the lines above, so refine's shape "
+        "checks see the same shapes, and refine reads their values only in physical_start, whose "
+        "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
+        "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
+        "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
+        "which no tolerance a test could defend separates.",
+    ("identification/refinement", "return M, C, K, None", "return M, C, K.T, None"):
+        "the tuple's matrices are refused unless square on the lines above, so refine's shape "
+        "checks see the same shapes, and refine reads their values only in physical_start, whose "
+        "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
+        "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
+        "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
+        "which no tolerance a test could defend separates.",
+    ("identification/refinement",
+     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
+     'for X, name, tol in ((M.T, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):'):
+        "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
+        "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
+        "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
+        "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
+        "matrices measured), which no tolerance a test could defend separates.",
+    ("identification/refinement",
+     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
+     'for X, name, tol in ((M, "M", rtol), (C.T, "C", 0.0), (K, "K", rtol)):'):
+        "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
+        "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
+        "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
+        "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
+        "matrices measured), which no tolerance a test could defend separates.",
+    ("identification/refinement",
+     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
+     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K.T, "K", rtol)):'):
+        "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
+        "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
+        "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
+        "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
+        "matrices measured), which no tolerance a test could defend separates.",
+    ("identification/refinement",
+     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
+     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M.T, out.C, out.K))"):
+        "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
+        "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
+        "commutes).",
+    ("identification/refinement",
+     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
+     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C.T, out.K))"):
+        "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
+        "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
+        "commutes).",
+    ("identification/refinement",
+     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
+     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K.T))"):
+        "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
+        "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
+        "commutes).",
+    ("identification/refinement",
+     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
+     "M, C, K = (0.5 * (X + X.T) for X in (M.T, C, K))"):
+        "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
+        "commutes).",
+    ("identification/refinement",
+     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
+     "M, C, K = (0.5 * (X + X.T) for X in (M, C.T, K))"):
+        "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
+        "commutes).",
+    ("identification/refinement",
+     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
+     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K.T))"):
+        "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
+        "commutes).",
+    ("identification/refinement", "M=M,", "M=M.T,"):
+        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+        "the transpose is the same matrix.",
+    ("identification/refinement", "C=C,", "C=C.T,"):
+        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+        "the transpose is the same matrix.",
+    ("identification/refinement", "K=K,", "K=K.T,"):
+        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+        "the transpose is the same matrix.",
+    ("identification/refinement",
+     "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
+     "residual_norm=residual_norm(M.T, C, K, data) if latent == 0 else math.nan,"):
+        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+        "the transpose is the same matrix.",
+    ("identification/refinement",
+     "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
+     "residual_norm=residual_norm(M, C.T, K, data) if latent == 0 else math.nan,"):
+        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+        "the transpose is the same matrix.",
+    ("identification/refinement",
+     "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
+     "residual_norm=residual_norm(M, C, K.T, data) if latent == 0 else math.nan,"):
+        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+        "the transpose is the same matrix.",
+    ("identification/order",
+     "model = (best.model.M, best.model.C, best.model.K)",
+     "model = (best.model.M.T, best.model.C, best.model.K)"):
+        "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
+        "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
+        "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
+        "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
+        "for bit with all three transposed here and where previous is set).",
+    ("identification/order",
+     "model = (best.model.M, best.model.C, best.model.K)",
+     "model = (best.model.M, best.model.C.T, best.model.K)"):
+        "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
+        "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
+        "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
+        "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
+        "for bit with all three transposed here and where previous is set).",
+    ("identification/order",
+     "model = (best.model.M, best.model.C, best.model.K)",
+     "model = (best.model.M, best.model.C, best.model.K.T)"):
+        "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
+        "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
+        "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
+        "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
+        "for bit with all three transposed here and where previous is set).",
+    ("identification/order",
+     "previous = (model.M, model.C, model.K)",
+     "previous = (model.M.T, model.C, model.K)"):
+        "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
+        "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
+        "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
+        "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
+        "chain, one with latent orders, gave the same fits bit for bit.",
+    ("identification/order",
+     "previous = (model.M, model.C, model.K)",
+     "previous = (model.M, model.C.T, model.K)"):
+        "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
+        "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
+        "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
+        "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
+        "chain, one with latent orders, gave the same fits bit for bit.",
+    ("identification/order",
+     "previous = (model.M, model.C, model.K)",
+     "previous = (model.M, model.C, model.K.T)"):
+        "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
+        "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
+        "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
+        "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
+        "chain, one with latent orders, gave the same fits bit for bit.",
+    ("identification/modal_start",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):",
+     "if not (M.T.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):"):
+        "a transpose has its array's ndim.",
+    ("identification/modal_start",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.T.shape == C.shape == K.shape):"):
+        "the two conditions before it (and short-circuits) have made M a square 2-D matrix, whose "
+        "transpose has its shape.",
+    ("identification/modal_start",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.T.shape == K.shape):"):
+        "M is square (n, n) where this is reached, so M.shape == C.T.shape holds exactly when C is "
+        "(n, n), and then C.T.shape == K.shape is C.shape == K.shape.",
+    ("identification/modal_start",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):",
+     "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.T.shape):"):
+        "M and C are square (n, n) where K is compared, so C.shape == K.T.shape holds exactly when "
+        "K is (n, n), as C.shape == K.shape does.",
+    ("identification/modal_start", "m = M.shape[0]", "m = M.T.shape[0]"):
+        "the check above refuses M unless a square 2-D matrix, so M.T.shape[0] is M.shape[0].",
+    ("identification/modal_start",
+     "return (M + M.T) / 2, (C + C.T) / 2, (K + K.T) / 2",
+     "return (M.T + M.T) / 2, (C + C.T) / 2, (K + K.T) / 2"):
+        "M = A_inv.T @ A_inv is one array times its own transpose, which NumPy's matmul computes "
+        "with BLAS syrk and mirrors (2000 random A: bit-symmetric every time), so M.T is M and "
+        "(M.T + M.T) / 2 is (M + M.T) / 2 = M bit for bit.",
 }
 
 

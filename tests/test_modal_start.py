@@ -83,6 +83,22 @@ def test_every_mode_in_band_observed_everywhere_is_reproduced(omega_all):
     np.testing.assert_allclose(natural(*start)[0], natural(M4, C4, K4)[0], rtol=1e-12)
 
 
+def test_an_unsymmetric_model_s_poles_are_read_from_m_inverse_k_and_m_inverse_c(omega_all):
+    """A user's unsymmetric model M = S, C = S diag(2ζω), K = S diag(ω²) (S upper
+    triangular, its symmetric part positive definite): M⁻¹K = diag(ω²) and M⁻¹C =
+    diag(2ζω), so its poles are the 4-DOF system's, and the start keeps them; M read
+    transposed (S⁻ᵀ S diag(ω²)), or C or K (S⁻¹ diag · Sᵀ), would move them."""
+    wn, zeta = natural(M4, C4, K4)
+    S = np.eye(4) + np.diag([0.5, -0.4, 0.3], k=1) + np.diag([0.2, 0.1], k=2)
+    model = pr.SecondOrderSystem(S, S @ np.diag(2 * zeta * wn), S @ np.diag(wn**2))
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
+    w_start, z_start = natural(*modal_start(model, np.eye(4), U, F, omega_all))
+    # 1e-12, 1e-9: the rebuilt matrices' round-off, as for the in-band poles below
+    # (M⁻¹K and M⁻¹C of the triangular S are the diagonals to round-off too)
+    np.testing.assert_allclose(w_start, wn, rtol=1e-12)
+    np.testing.assert_allclose(z_start, zeta, rtol=1e-9)
+
+
 def test_a_hole_in_the_grid_weighs_nothing(omega_all):
     U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
     measured = np.ones((4, 2), dtype=bool)
@@ -404,6 +420,26 @@ def test_forces_of_another_shape_than_the_responses_are_refused(omega_all):
     with pytest.raises(ValueError, match=r"^F_n must have the shape of U_n \(600, 4, 2\), "
                                          r"got \(600, 4, 1\)$"):
         final_fit(sweep, U, F[:, :, :1], omega_all, P, log_magnitude=False)
+
+
+def test_a_model_whose_matrices_are_not_square_of_one_shape_is_refused(omega_all):
+    """An identified model built by hand is not checked on construction: a stack of one
+    matrix (which numpy's stacked solve would read as that matrix), a vector, non-square
+    matrices and matrices of different shapes (C's or K's, or both C's and K's against
+    M's; a scalar or a vector among them) are refused with every shape as it is."""
+    from dataclasses import replace
+
+    U, F = frf_data(omega_all, [0, 1, 2, 3], [0, 2])
+    identified = pr.identify(U, F, omega_all, symmetric=True)
+    for M, C, K in ((M4[None], C4[None], K4[None]), (M4[0], C4, K4),
+                    (M4[:, :3], C4[:, :3], K4[:, :3]), (M4, C4[:, :3], K4[:3]),
+                    (M4, C4, K4[:3, :3]), (M4, C4[:3, :3], K4), (M4, C4[:3, :3], K4[:3, :3]),
+                    (M4, C4[0, 0], K4[0]), (M4, C4[0], K4[0, 0])):
+        model = replace(identified, M=M, C=C, K=K)
+        with pytest.raises(ValueError, match=re.escape(
+                f"the model's M, C and K must be square matrices of one shape, got "
+                f"{M.shape}, {C.shape} and {K.shape}")):
+            modal_start(model, np.eye(4), U, F, omega_all)
 
 
 def test_one_line_is_no_band_and_gives_no_start(omega_all):

@@ -522,13 +522,15 @@ def test_every_bad_option_is_refused_with_its_whole_message():
         refine((chain.M, np.eye(7), chain.K), U, F, w)
     # an identified start's matrices are taken as they are: an M of the data's 6 columns
     # but 5 rows is refused for its shape against the data's order, naming M (its rows
-    # would give another order, which C and K would then seem to contradict)
+    # would give another order, which C and K would then seem to contradict); C or K of
+    # 5 rows likewise, with its own shape as it is, not transposed
     from dataclasses import replace
 
-    identified = replace(pr.identify(U, F, w), M=chain.M[:5, :])
-    with pytest.raises(ValueError, match=re.escape("the start model's M is (5, 6), the data "
-                                                   "have order m = 6")):
-        refine(identified, U, F, w)
+    for name, X in (("M", chain.M), ("C", chain.C), ("K", chain.K)):
+        identified = replace(pr.identify(U, F, w), **{name: X[:5, :]})
+        with pytest.raises(ValueError, match=re.escape(f"the start model's {name} is (5, 6), "
+                                                       "the data have order m = 6")):
+            refine(identified, U, F, w)
     # a matrix that is not square is named as such, not read as another order (M's rows
     # and its columns each give an order that the other contradicts)
     # (a stack of matrices too: its first two axes agree, and it is no matrix)

@@ -61,6 +61,12 @@ def _poles_in_band(model: object, w_lo: float, w_hi: float) -> tuple[np.ndarray,
     """Natural frequencies (rad/s) and damping ratios of ``model``'s underdamped poles
     in ``[w_lo, w_hi]`` with ζ < ZETA_MAX, by the state matrix (M ≻ 0)."""
     M, C, K = (np.asarray(getattr(model, name), dtype=float) for name in ("M", "C", "K"))
+    if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):
+        # else a stack of one matrix would be read as that matrix, other shapes fail in numpy
+        raise ValueError(
+            f"the model's M, C and K must be square matrices of one shape, got {M.shape}, "
+            f"{C.shape} and {K.shape}"
+        )
     m = M.shape[0]
     state = np.block([
         [np.zeros((m, m)), np.eye(m)],
@@ -163,7 +169,8 @@ def modal_start(
     Raises
     ------
     ValueError
-        For forces ``F_n`` of another shape than the responses ``U_n``.
+        For forces ``F_n`` of another shape than the responses ``U_n``, or a model whose
+        M, C and K are not square matrices of one shape.
     """
     U_n = np.asarray(U_n)
     F_n = np.asarray(F_n)
