@@ -705,6 +705,37 @@ def test_residues_at_the_poles_are_exact_and_a_line_without_response_weighs_noth
     assert np.max(np.abs(got[:, 0, 0] - r)) < 1e-10 * np.max(np.abs(r))
 
 
+@pytest.mark.parametrize("unit", [1.0, 1e9])  # displacements in metres, in nanometres
+def test_a_line_of_exact_zeros_in_a_load_case_weighs_nothing_in_any_units(unit):
+    """Where every measured response of a load case is exactly zero at a line (a drop-out),
+    that line's weight is 0, not 1/0 nor whatever memory held: each load case's residues
+    are those of the same least squares without its lost line. The data are noisy, so the
+    modal sum does not pass through the zeros and any weight on them would move the fit —
+    the more so in small units, where the relative weights of the other lines are small."""
+    from podid_rs.identification.modal_start import _residues
+
+    rng = np.random.default_rng(7)
+    omega = 2 * np.pi * np.linspace(5.0, 100.0, 60)
+    wk, zk = 2 * np.pi * np.array([20.0, 60.0]), np.array([0.02, 0.01])
+    r = unit * rng.standard_normal((2, 3, 2))  # residues (N, n, p): 3 DOFs, 2 load cases
+    den = wk[None, :] ** 2 - omega[:, None] ** 2 + 2j * (zk * wk)[None, :] * omega[:, None]
+    U = np.einsum("sk,knp->snp", 1.0 / den, r)
+    U *= 1.0 + 0.05 * (rng.standard_normal(U.shape) + 1j * rng.standard_normal(U.shape))
+    lost = (40, 17)  # the line lost in load case 0, in load case 1
+    for j, line in enumerate(lost):
+        U[line, :, j] = 0.0
+    got = _residues(U, omega, wk, zk, None)
+    assert np.all(np.isfinite(got))
+    for j, line in enumerate(lost):
+        keep = np.arange(omega.size) != line
+        without = _residues(U[keep][:, :, j:j + 1], omega[keep], wk, zk, None)
+        # the same problem solved twice, once with an extra row of zeros: equal to
+        # rounding, ~1e-15 times the design's condition number (two poles 40 Hz apart:
+        # their columns are far from parallel), many decades below 1e-10
+        np.testing.assert_allclose(got[:, :, j:j + 1], without, rtol=0,
+                                   atol=1e-10 * np.max(np.abs(without)))
+
+
 def test_completing_modes_are_seen_at_the_observed_coordinates_in_turn(omega_all):
     """A driving point with two measured DOFs on an order-8 model: four in-band modes and
     the two residual poles leave two completing modes (at FILL_FACTOR · ω_hi times 1 and
