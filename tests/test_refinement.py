@@ -631,8 +631,12 @@ def test_bad_starts_are_refused_by_name():
         refine((chain.M, chain.C, -chain.K), U, F, w)
     with pytest.raises(ValueError, match="order m = 4"):
         refine((np.eye(3), np.eye(3), np.eye(3)), U, F, w)
-    with pytest.raises(ValueError, match="IdentificationResult, a SecondOrderSystem"):
-        refine("model", U, F, w)
+    # what is not a model, word for word; two matrices are no (M, C, K) either
+    for model, kind in (("model", "str"), ((chain.M, chain.K), "tuple")):
+        with pytest.raises(ValueError, match="^" + re.escape(
+                "model must be an IdentificationResult, a SecondOrderSystem or a tuple "
+                f"(M, C, K), got {kind}") + "$"):
+            refine(model, U, F, w)
     with pytest.raises(ValueError, match="NaN"):
         refine((chain.M, chain.C, chain.K), U * np.nan, F, w)
 
