@@ -1207,13 +1207,16 @@ def test_the_report_counts_the_accepted_steps_apart_from_the_iterations():
     assert ref["accepted"] == len(steps) - 1 < model.iterations
 
 
-@pytest.mark.parametrize("rank_deficient", [False, True])
+@pytest.mark.parametrize(("rank_deficient", "rotated"),
+                         [(False, False), (True, False), (False, True)])
 def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses(
-        monkeypatch, rank_deficient):
+        monkeypatch, rank_deficient, rotated):
     """The core reports the start's responses unless it cannot evaluate them; then refine
     computes them itself (on the data's DOFs, no basis): the same dB errors either way —
     also from the same matrices as the result of an identification that lost a rank,
-    which carries a note."""
+    which carries a note, and on measured DOFs other than the model's coordinates, with a
+    basis: the chain measured in rotated axes Q (u = Q q, f = Q f_q, so Qᵀ f = f_q), where
+    refine must carry its responses back to the measured DOFs through the basis."""
     import types
     from dataclasses import replace
 
@@ -1221,6 +1224,11 @@ def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses
 
     chain, U, F, w = chain_data(n=4, p=2)
     start = (chain.M, 1.3 * chain.C, 0.9 * chain.K)
+    basis = {}
+    if rotated:
+        Q = np.linalg.qr(np.random.default_rng(3).standard_normal((4, 4)))[0]
+        U, F = np.einsum("nm,smp->snp", Q, U), np.einsum("nm,smp->snp", Q, F)
+        basis = {"basis": Q}
     if rank_deficient:
         identified = pr.identify(U, F, w)
         start = replace(identified, **dict(zip("MCK", start, strict=True)),
@@ -1229,7 +1237,7 @@ def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses
         warnings.simplefilter("ignore", ConvergenceWarning)
         warnings.filterwarnings("ignore", "the start model comes from a rank-deficient",
                                 StartWarning)
-        given = refine(start, U, F, w, max_iter=2, threads=1)
+        given = refine(start, U, F, w, max_iter=2, threads=1, **basis)
         core = _core.refine_output_error
 
         def without_start_responses(*args, **kwargs):
@@ -1239,7 +1247,7 @@ def test_the_start_error_is_computed_here_when_the_core_gives_no_start_responses
                                          | {"responses_start": None})
 
         monkeypatch.setattr(_core, "refine_output_error", without_start_responses)
-        computed = refine(start, U, F, w, max_iter=2, threads=1)
+        computed = refine(start, U, F, w, max_iter=2, threads=1, **basis)
     a, b = given.info["refinement"]["db_before"], computed.info["refinement"]["db_before"]
     assert a[0] > 0.1  # the start is off: a real error to compare
     np.testing.assert_allclose(b, a, rtol=1e-9)
