@@ -907,9 +907,11 @@ def test_a_set_pyuff_reads_short_of_or_beyond_its_header_is_refused(tmp_path, mo
         return d
 
     monkeypatch.setattr(pyuff.UFF, "read_sets", changed)
-    with pytest.raises(ValueError, match=r"record 6 of the file \(dataset 58, response 2:3 / "
-                                         rf"reference 3:3, from line \d+\) holds {held} values "
-                                         r"for the 301 points its header announces"):
+    # the whole message: the file, the record, and what may be wrong with it
+    message = (r"record 6 of the file \(dataset 58, response 2:3 / reference 3:3, from line "
+               rf"\d+\) holds {held} values for the 301 points its header announces: the "
+               r"record is truncated or its header is wrong$")
+    with pytest.raises(ValueError, match="^" + re.escape(f"{path}: ") + message):
         read_uff(path)
 
 
