@@ -659,6 +659,19 @@ def test_to_receptance_names_an_unknown_quantity():
         to_receptance(np.ones((2, 1)), [1.0, 2.0], "strain")
 
 
+@pytest.mark.parametrize("quantity", QUANTITIES)
+def test_to_receptance_names_x_when_its_values_cannot_be_converted(quantity):
+    """A NaN or an infinite value in X, or X of text, is refused naming X (the argument
+    the user passed), whatever the quantity."""
+    for bad in (np.nan, np.inf, 1j * np.inf):
+        X = np.ones((2, 3), dtype=complex)
+        X[1, 2] = bad
+        with pytest.raises(ValueError, match=r"^X contains non-finite values \(NaN or inf\)$"):
+            to_receptance(X, [1.0, 2.0], quantity)
+    with pytest.raises(ValueError, match=r"^X must be a numeric array, got dtype <U1$"):
+        to_receptance(["a", "b"], [1.0, 2.0], quantity)
+
+
 def test_to_receptance_refuses_a_scalar_and_takes_one_spectrum_of_its_lines():
     """A scalar has no lines: refused with the same message as X of other lines (not an
     IndexError from its empty shape). One spectrum of the lines, X of shape (s,), is the
