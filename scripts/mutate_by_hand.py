@@ -4294,6 +4294,37 @@ AUDIT = [
     # eighteenth audit, statespace: the state's derivative given q instead of q̇
     ("statespace", "A = np.block([[zero, eye], [-MinvK, -MinvC]])",
      "A = np.block([[eye, zero], [-MinvK, -MinvC]])"),
+    # nineteenth audit, physical: a complex matrix taken for a real one, a model with a
+    # non-square C let through to the companion form, every identified mode paired with
+    # the first true frequency in the report, the Markdown header one column short, a
+    # result of another type let through make_physical's check
+    ("physical", "a = as_array(A, name, real=True)", "a = as_array(A, name)"),
+    ("physical", "if any(X.shape != (n, n) for X in (M, C, K)):",
+     "if any(X.shape != (n, n) for X in (M, K)):"),
+    ("physical", '"f_true_hz": float(f_true[j]),', '"f_true_hz": float(f_true[0]),'),
+    ("physical", 'lines = ["| " + " | ".join(keys) + " |"',
+     'lines = ["| " + " | ".join(keys[1:]) + " |"'),
+    ("physical", "if not isinstance(result, IdentificationResult):", "if result is None:"),
+    # nineteenth audit, modes: the basis ignored (shapes left in POD coordinates), shapes
+    # with more rows than the others let through the MAC's check, the common DOFs' rows of
+    # b one off, U without inputs let through, the data's peak looked for at |λ| not Im λ
+    ("modes", "R = as_basis(basis, m)", "R = as_basis(None, m)"),
+    ("modes", "if a.shape[0] != b.shape[0]:", "if a.shape[0] < b.shape[0]:"),
+    ("modes", "where = {tuple(d): i for i, d in enumerate(b.dofs.tolist())}",
+     "where = {tuple(d): i for i, d in enumerate(b.dofs.tolist(), 1)}"),
+    ("modes", "if inputs is None:", "if False:"),
+    ("modes", "distance = np.abs(w - lam.imag)", "distance = np.abs(w - abs(lam))"),
+    # nineteenth audit, stabilisation: an order the chart lacks answered with its last,
+    # a negative damping tolerance let through, the rows' order one low
+    ("stabilisation", 'raise KeyError(f"the chart has no order m = {m}")',
+     "return self.orders[-1]"),
+    ("stabilisation", 'zeta_tol = as_scalar(zeta_tol, "zeta_tol")', "zeta_tol = float(zeta_tol)"),
+    ("stabilisation", '"m": o.m,', '"m": o.m - 1,'),
+    # nineteenth audit, statespace: the identity block sized by the measured DOFs, not
+    # the order; C's block without M⁻¹
+    ("statespace", "zero, eye = np.zeros((m, m)), np.eye(m)",
+     "zero, eye = np.zeros((m, m)), np.eye(R.shape[0])"),
+    ("statespace", "[-MinvK, -MinvC]", "[-MinvK, -Cm]"),
 ]
 
 
