@@ -4325,6 +4325,39 @@ AUDIT = [
     ("statespace", "zero, eye = np.zeros((m, m)), np.eye(m)",
      "zero, eye = np.zeros((m, m)), np.eye(R.shape[0])"),
     ("statespace", "[-MinvK, -MinvC]", "[-MinvK, -Cm]"),
+    # nineteenth audit, measured: an unknown estimator read as H1, a 2-D U or F (one load
+    # case) refused, a band's lower edge left out, F's shape error naming U, the
+    # frequency-first error showing the lines' shape instead of X's
+    ("measured", 'if estimator == "h1":', 'if estimator != "spectra":'),
+    ("measured", "if a.ndim == 2:\n        a = a[:, :, None]",
+     "if a.ndim < 2:\n        a = a[:, :, None]"),
+    ("measured", "keep = (freq_hz >= b[0]) & (freq_hz <= b[1])",
+     "keep = (freq_hz > b[0]) & (freq_hz <= b[1])"),
+    ("measured", 'F = _load_cases(self.F, "F", w.size)', 'F = _load_cases(self.F, "U", w.size)'),
+    ("measured", "with {w.size} lines, got shape {Xa.shape}",
+     "with {w.size} lines, got shape {w.shape}"),
+    # nineteenth audit, io/uff: a record's reference direction read one column short in
+    # messages, every entry of a measured response's row marked measured, two unit labels
+    # of one ordinate let through, the written modes' Y and Z swapped, a bad quantity not
+    # refused by write_uff, a denominator that is not a force accepted, the roving-hammer
+    # note tested against the references instead of the responses
+    ("io/uff", "ref = (_int(ids[66:76]), _int(ids[76:80]))",
+     "ref = (_int(ids[66:76]), _int(ids[76:79]))"),
+    ("io/uff", "mask[rows.index(o), cols.index(r)] = True", "mask[rows.index(o), :] = True"),
+    ("io/uff", "        if len(counts) > 1:\n", "        if len(counts) > 2:\n"),
+    ("io/uff", "r2=r[1],\n        r3=r[2],", "r2=r[2],\n        r3=r[1],"),
+    ("io/uff", "    if quantity not in QUANTITIES:\n        raise",
+     "    if False:\n        raise"),
+    ("io/uff", 'if d.get("orddenom_spec_data_type", 0) not in UFF_FORCE_TYPES:', "if False:"),
+    ("io/uff", "set(outs) <= set(refs) and columns == outs:",
+     "set(outs) <= set(refs) and columns == refs:"),
+    # nineteenth audit, io/npz: the extra arrays' names kept with their "extra." prefix, a
+    # model file lacking a field not refused by name, one missing array of a data file let
+    # through
+    ("io/npz", 'extras = {k.removeprefix("extra."): v for k, v',
+     'extras = {k: v for k, v'),
+    ("io/npz", 'raise ValueError(f"{path}: the model lacks the field {f.name!r}")', "pass"),
+    ("io/npz", "    if absent:\n", "    if len(absent) > 1:\n"),
 ]
 
 

@@ -594,6 +594,9 @@ def test_a_damaged_compressed_npz_file_is_refused_as_unreadable(tmp_path):
                                     r"lines, got \(2, 3, 2\)$"),
         ({"U": np.ones(3)}, r"^U must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
                             r"lines, got \(3,\)$"),
+        # F of 4 lines against omega's 3: the message names F, the array that is wrong
+        ({"F": np.ones((4, 2, 2))}, r"^F must have shape \(s, ·\) or \(s, ·, p\) with s = 3 "
+                                    r"lines, got \(4, 2, 2\)$"),
         # F of more load cases (3) than U (2)
         ({"F": np.ones((3, 2, 3))}, r"^U and F must have the same number of load cases p, "
                                     r"got 2 and 3$"),
