@@ -4358,6 +4358,44 @@ AUDIT = [
      'extras = {k: v for k, v'),
     ("io/npz", 'raise ValueError(f"{path}: the model lacks the field {f.name!r}")', "pass"),
     ("io/npz", "    if absent:\n", "    if len(absent) > 1:\n"),
+    # nineteenth audit, POD: the correlation side's modes left unsigned, the snapshot side
+    # one mode short, an unknown method taken as the snapshots, the noise-corrected
+    # snapshot POD keeping the uncorrected eigenvalues, the snapshots' memory check halved
+    ("pod", "modes=phi * _lead_signs(phi))\n\n\ndef _pod_of_snapshots",
+     "modes=phi)\n\n\ndef _pod_of_snapshots"),
+    ("pod", "A, V[:, :rank], np.sqrt(mu[:rank]))", "A, V[:, : rank - 1], np.sqrt(mu[: rank - 1]))"),
+    ("pod", "    if method not in METHODS:\n        raise ValueError(f\"method must be one of "
+     "{METHODS}, got {method!r}\")\n", ""),
+    ("pod", "eigenvalues[: theta.size] = theta", "eigenvalues[: theta.size] = lam"),
+    ("pod", "require_memory(2 * 2 * FLOAT_BYTES * s * n * p,",
+     "require_memory(2 * FLOAT_BYTES * s * n * p,"),
+    # nineteenth audit, simulation: the last block of draws a full block, the histories
+    # counted against memory when they are not kept, the coherence's S_xx averaged where
+    # S_yy and S_yx are summed, complex signals refused by add_noise, H1's responses read
+    # from the forces
+    ("simulation", "rng.standard_normal((min(block, shape[0] - i), shape[1]))",
+     "rng.standard_normal((min(block, shape[0]), shape[1]))"),
+    ("simulation", "(history_bytes + 16 * (r // 2 + 1) * system.n if keep else 0)",
+     "(history_bytes + 16 * (r // 2 + 1) * system.n)"),
+    ("simulation", "Sxx = np.sum(np.abs(X) ** 2, axis=1)",
+     "Sxx = np.sum(np.abs(X) ** 2, axis=1) / welch.n_avg"),
+    ("simulation", '    a = as_array(x, "x")\n', '    a = as_array(x, "x", real=True)\n'),
+    ("simulation", "    Y = welch.spectra(welch.y)\n    Xh",
+     "    Y = welch.spectra(welch.x)\n    Xh"),
+    # nineteenth audit, informative lines: blocks with no excess activity still sharing the
+    # budget, a block's first line never among its evenly spaced ones, the log-magnitude's
+    # range taken over the entries as well as the lines
+    ("identification/lines", "not np.any(free & (excess > 0)):",
+     "not np.any(free & (excess >= 0)):"),
+    ("identification/lines", "idx = np.linspace(a, b - 1, c).round()",
+     "idx = np.linspace(a + 1, b - 1, c).round()"),
+    ("identification/lines", "np.ptp(logmag[a:b], axis=0)", "np.ptp(logmag[a:b], axis=None)"),
+    # nineteenth audit, holes: the metric's factor transposed, a load case with a single
+    # measured entry refused
+    ("identification/holes", "T[:, j] = W[:, j, None, None] * L\n",
+     "T[:, j] = W[:, j, None, None] * L.T\n"),
+    ("identification/holes", "empty = np.flatnonzero(~mask.any(axis=0))",
+     "empty = np.flatnonzero(mask.sum(axis=0) < 2)"),
 ]
 
 
