@@ -4303,6 +4303,8 @@ AUDIT = [
     ("identification/refinement", "latent = data.m - observed", "latent = observed - data.m"),
     ("identification/refinement", 'for X, name in ((M0, "M"), (C0, "C"), (K0, "K")):',
      'for X, name in ((M0, "M"), (C0, "C"), (K0, "C")):'),
+    # (equivalent: both labels of the log-magnitude objective end in "per entry", so the
+    # test of the objective never decides)
     ("identification/refinement",
      'if mask is not None and objective == "complex" and not label.endswith("per entry"):',
      'if mask is not None and not label.endswith("per entry"):'),
