@@ -64,6 +64,73 @@ MODULES = [
     "identification/modal_start",
 ]
 
+#: reasons that several survivors share (EQUIVALENT below)
+_M_AND_K_SORT_AFTER_C = (
+    'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
+    'so > "C" is true exactly where != "C" is'
+)
+_DEN_ZERO_ONLY_WHERE_NUM_IS = (
+    "den = Σ w²|g|² is a sum of non-negative terms, so for finite data it is 0 only where "
+    "each term is (w = 0 or g = 0), and there each term w²·Re(ḡ·r) of num is 0 too: num <= 0 "
+    "skips the candidate as den <= 0 would (short of every w·|g| lying below 1e-162, whose "
+    "square underflows to 0: a candidate's weighted response 1e-162 of the data's)."
+)
+_M_MODEL_IS_M_PAST_THE_SHAPE_CHECK = (
+    "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
+    "M0.shape[0] is m."
+)
+_A_SYSTEM_START_IS_READ_SYMMETRISED = (
+    "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
+    "so refine's shape checks see the same shapes, and refine reads their values only in "
+    "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
+    "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
+    "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
+    "measured, equal in the rest), which no tolerance a test could defend separates."
+)
+_A_TUPLE_START_IS_READ_SYMMETRISED = (
+    "the tuple's matrices are refused unless square on the lines above, so refine's shape "
+    "checks see the same shapes, and refine reads their values only in physical_start, whose "
+    "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
+    "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
+    "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
+    "which no tolerance a test could defend separates."
+)
+_PHYSICAL_START_READS_THE_SYMMETRIC_PART = (
+    "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
+    "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
+    "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
+    "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
+    "matrices measured), which no tolerance a test could defend separates."
+)
+_THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT = (
+    "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
+    "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
+    "commutes)."
+)
+_THE_SYMMETRISATION_COMMUTES = (
+    "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
+    "commutes)."
+)
+_SYMMETRISED_A_FEW_LINES_ABOVE = (
+    "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
+    "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
+    "the transpose is the same matrix."
+)
+_THE_SWEEPS_FITS_ARE_SYMMETRIC = (
+    "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
+    "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
+    "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
+    "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
+    "for bit with all three transposed here and where previous is set)."
+)
+_REFINED_MODELS_ARE_SYMMETRIC = (
+    "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
+    "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
+    "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
+    "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
+    "chain, one with latent orders, gave the same fits bit for bit."
+)
+
 #: survivors no input can tell apart from the code, each with the reason: (module, the line
 #: as written, the mutated line), both stripped of indentation
 EQUIVALENT: dict[tuple[str, str, str], str] = {
@@ -138,13 +205,11 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     # identification/refinement, identification/order
     ("identification/refinement", 'if name != "C" and not np.any(d > 0):',
      'if name > "C" and not np.any(d > 0):'):
-        'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
-        'so > "C" is true exactly where != "C" is',
+        _M_AND_K_SORT_AFTER_C,
     ("identification/refinement",
      'keep = d.min() >= (START_KEEP * np.abs(d).max() if name != "C" else 0.0)',
      'keep = d.min() >= (START_KEEP * np.abs(d).max() if name > "C" else 0.0)'):
-        'name runs over the literal ("M", "C", "K") and both "M" and "K" sort after "C", '
-        'so > "C" is true exactly where != "C" is',
+        _M_AND_K_SORT_AFTER_C,
     # identification/refinement: an option ignored
     ("identification/refinement",
      'if mask is not None and objective == "complex" and not label.endswith("per entry"):',
@@ -166,15 +231,9 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "every record (each agrees with itself or has none): what skipping the block does.",
     # identification/refinement, order, latent, lines, modal_start: a count's boundary
     ("identification/order", "if den <= 0 or num <= 0:", "if den < 0 or num <= 0:"):
-        "den = Σ w²|g|² is a sum of non-negative terms, so for finite data it is 0 only where "
-        "each term is (w = 0 or g = 0), and there each term w²·Re(ḡ·r) of num is 0 too: num <= 0 "
-        "skips the candidate as den <= 0 would (short of every w·|g| lying below 1e-162, whose "
-        "square underflows to 0: a candidate's weighted response 1e-162 of the data's).",
+        _DEN_ZERO_ONLY_WHERE_NUM_IS,
     ("identification/latent", "if den <= 0 or num <= 0:", "if den < 0 or num <= 0:"):
-        "den = Σ w²|g|² is a sum of non-negative terms, so for finite data it is 0 only where "
-        "each term is (w = 0 or g = 0), and there each term w²·Re(ḡ·r) of num is 0 too: num <= 0 "
-        "skips the candidate as den <= 0 would (short of every w·|g| lying below 1e-162, whose "
-        "square underflows to 0: a candidate's weighted response 1e-162 of the data's).",
+        _DEN_ZERO_ONLY_WHERE_NUM_IS,
     ("identification/order", "flat = (flat + 1 if order > observed and len(fits) > 1",
      "flat = (flat + 1 if order > observed and len(fits) >= 1"):
         "each pass of the sweep appends its fit or leaves the loop, so here len(fits) is the "
@@ -208,28 +267,22 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
         "then checked with m_model == m, against (m, m) as the original.",
     ("identification/refinement", "weighting = _scalar_weights(w, m, observed)",
      "weighting = _scalar_weights(w, m_model, observed)"):
-        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
-        "M0.shape[0] is m.",
+        _M_MODEL_IS_M_PAST_THE_SHAPE_CHECK,
     ("identification/refinement", "X = rows.reshape(data.s, p, m).transpose(0, 2, 1)",
      "X = rows.reshape(data.s, p, m_model).transpose(0, 2, 1)"):
-        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
-        "M0.shape[0] is m.",
+        _M_MODEL_IS_M_PAST_THE_SHAPE_CHECK,
     ("identification/refinement", '"gauge": gauge_dimension(m, observed)},',
      '"gauge": gauge_dimension(m_model, observed)},'):
-        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
-        "M0.shape[0] is m.",
+        _M_MODEL_IS_M_PAST_THE_SHAPE_CHECK,
     ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2",
      "n_unk = 3 * m_model * (m + 1) // 2"):
-        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
-        "M0.shape[0] is m.",
+        _M_MODEL_IS_M_PAST_THE_SHAPE_CHECK,
     ("identification/refinement", "n_unk = 3 * m * (m + 1) // 2",
      "n_unk = 3 * m * (m_model + 1) // 2"):
-        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
-        "M0.shape[0] is m.",
+        _M_MODEL_IS_M_PAST_THE_SHAPE_CHECK,
     ("identification/refinement", "rank=n_unk - gauge_dimension(m, observed),",
      "rank=n_unk - gauge_dimension(m_model, observed),"):
-        "past the start's shape check (M0.shape == (m, m), or refine raises), m_model = "
-        "M0.shape[0] is m.",
+        _M_MODEL_IS_M_PAST_THE_SHAPE_CHECK,
     ("identification/modal_start", "m = M.shape[0]", "m = C.shape[0]"):
         "m only sizes the state matrix's zeros and identity, and its second block row "
         "np.linalg.solve(M, C) refuses a C whose rows are not M's: wherever the state "
@@ -387,186 +440,99 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
     ("identification/refinement",
      "return model.M, model.C, model.K, None",
      "return model.M.T, model.C, model.K, None"):
-        "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
-        "so refine's shape checks see the same shapes, and refine reads their values only in "
-        "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
-        "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
-        "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
-        "measured, equal in the rest), which no tolerance a test could defend separates.",
+        _A_SYSTEM_START_IS_READ_SYMMETRISED,
     ("identification/refinement",
      "return model.M, model.C, model.K, None",
      "return model.M, model.C.T, model.K, None"):
-        "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
-        "so refine's shape checks see the same shapes, and refine reads their values only in "
-        "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
-        "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
-        "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
-        "measured, equal in the rest), which no tolerance a test could defend separates.",
+        _A_SYSTEM_START_IS_READ_SYMMETRISED,
     ("identification/refinement",
      "return model.M, model.C, model.K, None",
      "return model.M, model.C, model.K.T, None"):
-        "a SecondOrderSystem's M, C, K are square of one shape (its constructor refuses others), "
-        "so refine's shape checks see the same shapes, and refine reads their values only in "
-        "physical_start, whose 0.5 * (X + X.T) is the same bits for X transposed (IEEE addition "
-        "commutes) and whose relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the "
-        "same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random matrices "
-        "measured, equal in the rest), which no tolerance a test could defend separates.",
+        _A_SYSTEM_START_IS_READ_SYMMETRISED,
     ("identification/refinement", "return M, C, K, None", "return M.T, C, K, None"):
-        "the tuple's matrices are refused unless square on the lines above, so refine's shape "
-        "checks see the same shapes, and refine reads their values only in physical_start, whose "
-        "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
-        "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
-        "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
-        "which no tolerance a test could defend separates.",
+        _A_TUPLE_START_IS_READ_SYMMETRISED,
     ("identification/refinement", "return M, C, K, None", "return M, C.T, K, None"):
-        "the tuple's matrices are refused unless square on the lines above, so refine's shape "
-        "checks see the same shapes, and refine reads their values only in physical_start, whose "
-        "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
-        "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
-        "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
-        "which no tolerance a test could defend separates.",
+        _A_TUPLE_START_IS_READ_SYMMETRISED,
     ("identification/refinement", "return M, C, K, None", "return M, C, K.T, None"):
-        "the tuple's matrices are refused unless square on the lines above, so refine's shape "
-        "checks see the same shapes, and refine reads their values only in physical_start, whose "
-        "0.5 * (X + X.T) is the same bits for X transposed (IEEE addition commutes) and whose "
-        "relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) then sums the same entries in "
-        "another order: round-off only (up to 3 ulp in 624 of 4000 random matrices measured), "
-        "which no tolerance a test could defend separates.",
+        _A_TUPLE_START_IS_READ_SYMMETRISED,
     ("identification/refinement",
      'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
      'for X, name, tol in ((M.T, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):'):
-        "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
-        "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
-        "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
-        "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
-        "matrices measured), which no tolerance a test could defend separates.",
+        _PHYSICAL_START_READS_THE_SYMMETRIC_PART,
     ("identification/refinement",
      'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
      'for X, name, tol in ((M, "M", rtol), (C.T, "C", 0.0), (K, "K", rtol)):'):
-        "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
-        "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
-        "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
-        "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
-        "matrices measured), which no tolerance a test could defend separates.",
+        _PHYSICAL_START_READS_THE_SYMMETRIC_PART,
     ("identification/refinement",
      'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
      'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K.T, "K", rtol)):'):
-        "physical_start's one caller, refine, passes it matrices checked square (m, m); there 0.5 "
-        "* (X + X.T) is the same bits for X transposed (IEEE addition commutes), so d, Q and the "
-        "returned matrices are, and the relative change ‖Y − X‖/‖X‖ (Y symmetric bit for bit) sums "
-        "the same entries in another order: round-off only (up to 3 ulp in 624 of 4000 random "
-        "matrices measured), which no tolerance a test could defend separates.",
+        _PHYSICAL_START_READS_THE_SYMMETRIC_PART,
     ("identification/refinement",
      "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
      "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M.T, out.C, out.K))"):
-        "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
-        "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
-        "commutes).",
+        _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT,
     ("identification/refinement",
      "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
      "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C.T, out.K))"):
-        "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
-        "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
-        "commutes).",
+        _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT,
     ("identification/refinement",
      "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
      "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K.T))"):
-        "the core's out.M, out.C, out.K are read only here, and the next line makes each X 0.5 * "
-        "(X + X.T): for X transposed that is 0.5 * (X.T + X), the same bits (IEEE addition "
-        "commutes).",
+        _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT,
     ("identification/refinement",
      "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
      "M, C, K = (0.5 * (X + X.T) for X in (M.T, C, K))"):
-        "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
-        "commutes).",
+        _THE_SYMMETRISATION_COMMUTES,
     ("identification/refinement",
      "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
      "M, C, K = (0.5 * (X + X.T) for X in (M, C.T, K))"):
-        "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
-        "commutes).",
+        _THE_SYMMETRISATION_COMMUTES,
     ("identification/refinement",
      "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
      "M, C, K = (0.5 * (X + X.T) for X in (M, C, K.T))"):
-        "0.5 * (X.T + X.T.T) is 0.5 * (X.T + X), the same bits as 0.5 * (X + X.T) (IEEE addition "
-        "commutes).",
+        _THE_SYMMETRISATION_COMMUTES,
     ("identification/refinement", "M=M,", "M=M.T,"):
-        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
-        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
-        "the transpose is the same matrix.",
+        _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement", "C=C,", "C=C.T,"):
-        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
-        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
-        "the transpose is the same matrix.",
+        _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement", "K=K,", "K=K.T,"):
-        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
-        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
-        "the transpose is the same matrix.",
+        _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement",
      "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
      "residual_norm=residual_norm(M.T, C, K, data) if latent == 0 else math.nan,"):
-        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
-        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
-        "the transpose is the same matrix.",
+        _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement",
      "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
      "residual_norm=residual_norm(M, C.T, K, data) if latent == 0 else math.nan,"):
-        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
-        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
-        "the transpose is the same matrix.",
+        _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement",
      "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
      "residual_norm=residual_norm(M, C, K.T, data) if latent == 0 else math.nan,"):
-        "M, C, K were made 0.5 * (X + X.T) a few lines above, whose (i, j) and (j, i) entries are "
-        "the same two numbers added in either order, equal bit for bit (IEEE addition commutes): "
-        "the transpose is the same matrix.",
+        _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/order",
      "model = (best.model.M, best.model.C, best.model.K)",
      "model = (best.model.M.T, best.model.C, best.model.K)"):
-        "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
-        "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
-        "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
-        "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
-        "for bit with all three transposed here and where previous is set).",
+        _THE_SWEEPS_FITS_ARE_SYMMETRIC,
     ("identification/order",
      "model = (best.model.M, best.model.C, best.model.K)",
      "model = (best.model.M, best.model.C.T, best.model.K)"):
-        "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
-        "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
-        "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
-        "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
-        "for bit with all three transposed here and where previous is set).",
+        _THE_SWEEPS_FITS_ARE_SYMMETRIC,
     ("identification/order",
      "model = (best.model.M, best.model.C, best.model.K)",
      "model = (best.model.M, best.model.C, best.model.K.T)"):
-        "best.model is a fit of the sweep (sweep_orders, the only caller), which makes its models "
-        "only by refine, whose M, C, K are symmetric bit for bit (0.5 * (X + X.T)), and the tuple "
-        "is read only by _extend, which copies its values into fresh arrays: the same starts bit "
-        "for bit (two sweeps of the 8-DOF chain, one with latent orders, gave the same fits bit "
-        "for bit with all three transposed here and where previous is set).",
+        _THE_SWEEPS_FITS_ARE_SYMMETRIC,
     ("identification/order",
      "previous = (model.M, model.C, model.K)",
      "previous = (model.M.T, model.C, model.K)"):
-        "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
-        "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
-        "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
-        "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
-        "chain, one with latent orders, gave the same fits bit for bit.",
+        _REFINED_MODELS_ARE_SYMMETRIC,
     ("identification/order",
      "previous = (model.M, model.C, model.K)",
      "previous = (model.M, model.C.T, model.K)"):
-        "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
-        "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
-        "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
-        "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
-        "chain, one with latent orders, gave the same fits bit for bit.",
+        _REFINED_MODELS_ARE_SYMMETRIC,
     ("identification/order",
      "previous = (model.M, model.C, model.K)",
      "previous = (model.M, model.C, model.K.T)"):
-        "model is refine's result here (a trial's, _refine_quietly's or _converged's), whose M, C, "
-        "K are symmetric bit for bit (0.5 * (X + X.T)), so the transposes are the same values in a "
-        "Fortran-ordered view, read by copies (_extend, _with_mode), eigvalsh of the symmetric "
-        "part and SecondOrderSystem.response (the same bits, measured): two sweeps of the 8-DOF "
-        "chain, one with latent orders, gave the same fits bit for bit.",
+        _REFINED_MODELS_ARE_SYMMETRIC,
     ("identification/modal_start",
      "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):",
      "if not (M.T.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):"):
