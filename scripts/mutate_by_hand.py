@@ -4436,6 +4436,45 @@ AUDIT = [
     ("identification/modal_start", "M.shape == C.shape == K.shape", "M.shape == K.shape"),
     ("identification/modal_start", "norm = np.linalg.norm(u, axis=1)",
      "norm = np.linalg.norm(u, axis=0)"),
+    # twentieth audit, measured: a frequency-last X let through to_receptance, a repeated
+    # frequency line accepted, velocity multiplied by iω instead of divided, the forces of
+    # the first n_in DOFs projected instead of the driven ones, the driven DOFs dropped
+    # from spectra data, U and F's load cases compared on F's DOF axis
+    ("measured", "if Xa.ndim == 0 or Xa.shape[0] != w.size:",
+     "if Xa.ndim == 0 or Xa.shape[-1] != w.size:"),
+    ("measured", "if w.size < 2 or np.any(np.diff(w) <= 0):",
+     "if w.size < 2 or np.any(np.diff(w) < 0):"),
+    ("measured", "return Xa / (1j * w)", "return Xa * (1j * w)"),
+    ("measured", 'F_m = np.einsum("im,sip->smp", Ra[self.inputs], self.F)',
+     'F_m = np.einsum("im,sip->smp", Ra[: self.F.shape[1]], self.F)'),
+    ("measured",
+     "return MeasuredData(omega, to_receptance(Y, omega, quantity), X, dofs, inputs)",
+     "return MeasuredData(omega, to_receptance(Y, omega, quantity), X, dofs)"),
+    ("measured", "if F.shape[2] != U.shape[2]:", "if F.shape[1] != U.shape[2]:"),
+    # twentieth audit, io/uff: a 2-line constant FRF taken for a dead channel, duplicates'
+    # distance in 10 log10 (power dB) for amplitudes, a normal mode's damping sign flipped,
+    # the written mobility conjugated, the geometry's y and z swapped, the holes' note with
+    # its grid's rows and columns swapped
+    ("io/uff", "if v.size >= 3 and np.all(v == v[0]):", "if v.size >= 2 and np.all(v == v[0]):"),
+    ("io/uff",
+     "return float(np.median(np.abs(20 * np.log10(np.abs(a[both]) / np.abs(b[both])))))",
+     "return float(np.median(np.abs(10 * np.log10(np.abs(a[both]) / np.abs(b[both])))))"),
+    ("io/uff", "eig.append(w * complex(-z, np.sqrt(max(1.0 - z * z, 0.0))))",
+     "eig.append(w * complex(z, np.sqrt(max(1.0 - z * z, 0.0))))"),
+    ("io/uff", '"velocity": 1j * omega', '"velocity": -1j * omega'),
+    ("io/uff", "rows[int(node)] = (float(x), float(y), float(z))",
+     "rows[int(node)] = (float(x), float(z), float(y))"),
+    ("io/uff",
+     'f"{path.name}: {len(holes)} of the {len(rows)} \u00d7 {len(columns)} entries "',
+     'f"{path.name}: {len(holes)} of the {len(columns)} \u00d7 {len(rows)} entries "'),
+    # twentieth audit, io/npz: a time-history file's nperseg ignored, a file with forces
+    # but no responses read as a data set, the last required array not checked
+    ("io/npz",
+     'opts = {k: z[k].item() for k in ("quantity", "estimator", "nperseg") if k in z}',
+     'opts = {k: z[k].item() for k in ("quantity", "estimator") if k in z}'),
+    ("io/npz", 'if "forces" in z or "responses" in z:', 'if "forces" in z and "responses" in z:'),
+    ("io/npz", "absent = [k for k in keys if k not in z]",
+     "absent = [k for k in keys[:-1] if k not in z]"),
 ]
 
 
