@@ -4475,6 +4475,44 @@ AUDIT = [
     ("io/npz", 'if "forces" in z or "responses" in z:', 'if "forces" in z and "responses" in z:'),
     ("io/npz", "absent = [k for k in keys if k not in z]",
      "absent = [k for k in keys[:-1] if k not in z]"),
+    # twentieth audit, refinement: a start whose K has no positive part accepted (and a
+    # zero C refused), a column of zero weight refusing the weights, the log-magnitude
+    # objective's dynamic range taken as an absolute floor, the report's metric "diagonal"
+    # for the default "auto"
+    ("identification/refinement", 'if name != "C" and not np.any(d > 0):',
+     'if name != "K" and not np.any(d > 0):'),
+    ("identification/refinement", "if not np.any(w > 0):", "if not np.all(w > 0):"),
+    ("identification/refinement",
+     "W = np.where(A > LOG_DYNAMIC_RANGE * A.max(axis=1, keepdims=True), W, 0.0)",
+     "W = np.where(A > LOG_DYNAMIC_RANGE, W, 0.0)"),
+    ("identification/refinement", '"metric": ("diagonal" if metric == "diagonal" else "modal")',
+     '"metric": ("diagonal" if metric != "modal" else "modal")'),
+    # twentieth audit, order: no line held out accepted, the relative cost as a ratio of
+    # sums, an order m = 0 accepted, fewer frequencies than lines accepted
+    ("identification/order", "if train.sum() < 2 or test.sum() < 1:",
+     "if train.sum() < 2 and test.sum() < 1:"),
+    ("identification/order", "return float(np.sum(diff[norm > 0] / norm[norm > 0]))",
+     "return float(np.sum(diff[norm > 0]) / np.sum(norm[norm > 0]))"),
+    ("identification/order", "if not 1 <= m <= limit:", "if not 0 <= m <= limit:"),
+    ("identification/order", "if omega.size != s:", "if omega.size > s:"),
+    # twentieth audit, latent: the heaviest latent mode allowed the model's largest mass
+    # (no ratio), the round-off test against the residual itself, a candidate's cost
+    # without the weights
+    ("identification/latent", "max_mass = MAX_MASS_RATIO * float(", "max_mass = float("),
+    ("identification/latent",
+     'scale = float(np.sum(w2[:, None, :] * np.abs(np.einsum("nk,snp->skp", Rp, U_n)) ** 2))',
+     "scale = float(np.sum(w2[:, None, :] * np.abs(r) ** 2))"),
+    ("identification/latent", "cost = float(np.sum(w2[:, None, :] * np.abs(a * g - r) ** 2))",
+     "cost = float(np.sum(np.abs(a * g - r) ** 2))"),
+    # twentieth audit, modal start: forces with other load cases than the responses let
+    # through, the shape's scale over every DOF instead of the driven ones, the residual
+    # poles damped at ZETA_MAX, the kept poles' damping bound the residual poles' ratio
+    ("identification/modal_start", "if F_n.shape != (s, n, p):", "if F_n.shape[:2] != (s, n):"),
+    ("identification/modal_start", "max(float(at_inputs @ at_inputs),", "max(float(a @ a),"),
+    ("identification/modal_start", "np.full(min(room, len(residual)), RESIDUAL_ZETA)",
+     "np.full(min(room, len(residual)), ZETA_MAX)"),
+    ("identification/modal_start", "& (zeta < ZETA_MAX) & (zeta >= 0)",
+     "& (zeta < RESIDUAL_ZETA) & (zeta >= 0)"),
 ]
 
 
