@@ -4513,6 +4513,46 @@ AUDIT = [
      "np.full(min(room, len(residual)), ZETA_MAX)"),
     ("identification/modal_start", "& (zeta < ZETA_MAX) & (zeta >= 0)",
      "& (zeta < RESIDUAL_ZETA) & (zeta >= 0)"),
+    # twentieth audit, statespace: the state matrix reading K where C belongs (M⁻¹K twice),
+    # a nearly singular M (condition up to 1e28) let through
+    ("statespace", "for X in (Km, Cm, R.T))", "for X in (Km, Km, R.T))"),
+    ("statespace", "if not np.isfinite(cond) or cond > MAX_MASS_CONDITION:",
+     "if not np.isfinite(cond) or cond > MAX_MASS_CONDITION ** 2:"),
+    # twentieth audit, physical: the nearest PSD matrix without its transpose, an eigenvalue
+    # at the floor counted as raised, the relative change against the new matrix, the
+    # comparison's relative error against the identified frequency
+    ("physical", "B = (Q * np.maximum(d, floor)) @ Q.T", "B = (Q * np.maximum(d, floor)) @ Q"),
+    ("physical", "return nearest_psd(X, floor, name), int(np.sum(d < floor))",
+     "return nearest_psd(X, floor, name), int(np.sum(d <= floor))"),
+    ("physical",
+     "float(np.linalg.norm(new - old) / max(np.linalg.norm(old), np.finfo(float).tiny))",
+     "float(np.linalg.norm(new - old) / max(np.linalg.norm(new), np.finfo(float).tiny))"),
+    ("physical", '"f_rel_error": float((f - f_true[j]) / f_true[j]),',
+     '"f_rel_error": float((f - f_true[j]) / f),'),
+    # twentieth audit, modes: the band's upper end excluded, ψ left unscaled (the modal A
+    # of other shapes than φ), two nearest lines instead of three, the data's peak judged
+    # against the higher side of the ring
+    ("modes", "return self.select((f >= band_hz[0]) & (f <= band_hz[1]))",
+     "return self.select((f >= band_hz[0]) & (f < band_hz[1]))"),
+    ("modes", "    psi = psi / top\n", "    psi = psi\n"),
+    ("modes", 'lines = np.argsort(np.abs(w - lam[k].imag), kind="stable")[:3]',
+     'lines = np.argsort(np.abs(w - lam[k].imag), kind="stable")[:2]'),
+    ("modes",
+     "around = np.min([np.median(np.abs(Ua[side]), axis=0) for side in sides], axis=0)",
+     "around = np.max([np.median(np.abs(Ua[side]), axis=0) for side in sides], axis=0)"),
+    # (and a shape_mac with no modes in its second set let through)
+    ("modes", "if a.n_modes == 0 or b.n_modes == 0:", "if a.n_modes == 0:"),
+    # twentieth audit, stabilisation: the damping tolerance relative to the new pole, a
+    # pole at the band's lower end out of band, pod_fit's symmetric option ignored, C's
+    # tolerance below 0 dropped
+    ("stabilisation", "c[i] = cf[i] and abs(z - zp[j]) <= zeta_tol * abs(zp[j])",
+     "c[i] = cf[i] and abs(z - zp[j]) <= zeta_tol * abs(z)"),
+    ("stabilisation", '"in_band": bool(lo <= f[k] <= hi),', '"in_band": bool(lo < f[k] <= hi),'),
+    ("stabilisation", "return identify(U_m, F_m, data.omega, lam, symmetric)",
+     "return identify(U_m, F_m, data.omega, lam)"),
+    ("stabilisation",
+     "return bool(eM.min() > 0 and eK.min() > 0 and eC.min() >= -rtol * scale_C)",
+     "return bool(eM.min() > 0 and eK.min() > 0 and eC.min() >= 0)"),
 ]
 
 
