@@ -4436,6 +4436,43 @@ AUDIT = [
     ("identification/modal_start", "M.shape == C.shape == K.shape", "M.shape == K.shape"),
     ("identification/modal_start", "norm = np.linalg.norm(u, axis=1)",
      "norm = np.linalg.norm(u, axis=0)"),
+    # twentieth audit, pod: a scalar noise variance refused, the refusal's message naming
+    # twice the channel's mean square as the mean square, the snapshots' correlation no
+    # longer made exactly symmetric, the noise-corrected snapshot POD's eigenvalues cut to
+    # its rank, m beyond the snapshots' rank no longer refused
+    ("pod", "if d.ndim == 0:", "if d.ndim == 1:"),
+    ("pod", "square of that channel ({measured[j]:.3g})",
+     "square of that channel ({2 * measured[j]:.3g})"),
+    ("pod", "R = u.T @ u / u.shape[0]\n    return 0.5 * (R + R.T)",
+     "R = u.T @ u / u.shape[0]\n    return R"),
+    ("pod", "eigenvalues = np.zeros(self.n)", "eigenvalues = np.zeros(theta.size)"),
+    ("pod", "if m > self.n_modes:", "if m > self.n:"),
+    # twentieth audit, simulation: the record's band reversed without histories, a band of
+    # three numbers accepted, the Welch segments' mean taken over the segments instead of
+    # each segment's samples, the memory message naming histories when they are not kept
+    ("simulation",
+     "band_hz=(float(band_hz[0]), float(band_hz[1])),\n        )",
+     "band_hz=(float(band_hz[1]), float(band_hz[0])),\n        )"),
+    ("simulation", "if band.shape != (2,):", "if band.ndim != 1:"),
+    ("simulation", "seg = seg - seg.mean(axis=-1, keepdims=True)",
+     "seg = seg - seg.mean(axis=1, keepdims=True)"),
+    ("simulation", 'with {r}-sample histories" if keep else "")',
+     'with {r}-sample histories" if not keep else "")'),
+    # twentieth audit, lines: the unmeasured (all-zero) entries counted in the activity,
+    # blocks already full handed budget, the blocks' edges ending one line short
+    ("identification/lines",
+     "flat = flat[:, np.any(flat != 0, axis=0)]  # entries that were measured\n", ""),
+    ("identification/lines", "free = count < sizes\n    for _ in",
+     "free = count <= sizes\n    for _ in"),
+    ("identification/lines", "edges = np.linspace(0, s, n_blocks + 1)",
+     "edges = np.linspace(0, s - 1, n_blocks + 1)"),
+    # twentieth audit, holes: the mask read inverted (the holes as the measured entries),
+    # the metric's fitted part with the wrong index on its second factor, the metric's
+    # first load case skipped
+    ("identification/holes", "d = mask_j.astype(np.float64)", "d = (~mask_j).astype(np.float64)"),
+    ("identification/holes", '"sa,ab,sb->s", y.conj(), Q, y)', '"sa,ab,sa->s", y.conj(), Q, y)'),
+    ("identification/holes", "    for j in range(p):\n        d, lam, V, _ = _column_solve",
+     "    for j in range(1, p):\n        d, lam, V, _ = _column_solve"),
 ]
 
 
