@@ -4443,6 +4443,8 @@ AUDIT = [
     ("pod", "if d.ndim == 0:", "if d.ndim == 1:"),
     ("pod", "square of that channel ({measured[j]:.3g})",
      "square of that channel ({2 * measured[j]:.3g})"),
+    # (equivalent: numpy forms a matrix's transpose times itself with BLAS syrk, which
+    # mirrors one triangle, so u.T @ u is already symmetric bit for bit)
     ("pod", "R = u.T @ u / u.shape[0]\n    return 0.5 * (R + R.T)",
      "R = u.T @ u / u.shape[0]\n    return R"),
     ("pod", "eigenvalues = np.zeros(self.n)", "eigenvalues = np.zeros(theta.size)"),
@@ -4460,8 +4462,12 @@ AUDIT = [
      'with {r}-sample histories" if not keep else "")'),
     # twentieth audit, lines: the unmeasured (all-zero) entries counted in the activity,
     # blocks already full handed budget, the blocks' edges ending one line short
+    # (equivalent: an all-zero entry adds nothing to any block's ranges, so it scales
+    # every activity alike and the budget's shares are unchanged)
     ("identification/lines",
-     "flat = flat[:, np.any(flat != 0, axis=0)]  # entries that were measured\n", ""),
+     "    flat = flat[:, np.any(flat != 0, axis=0)]  # entries that were measured\n", ""),
+    # (equivalent: only the first pass's mask changes, and with one line each only for a
+    # block of one line — none exists past the target, and it would have no activity)
     ("identification/lines", "free = count < sizes\n    for _ in",
      "free = count <= sizes\n    for _ in"),
     ("identification/lines", "edges = np.linspace(0, s, n_blocks + 1)",
