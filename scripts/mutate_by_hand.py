@@ -4553,6 +4553,49 @@ AUDIT = [
     ("stabilisation",
      "return bool(eM.min() > 0 and eK.min() > 0 and eC.min() >= -rtol * scale_C)",
      "return bool(eM.min() > 0 and eK.min() > 0 and eC.min() >= 0)"),
+    # twentieth audit, pod: a scalar noise variance refused, the refusal's message naming
+    # twice the channel's mean square as the mean square, the snapshots' correlation no
+    # longer made exactly symmetric, the noise-corrected snapshot POD's eigenvalues cut to
+    # its rank, m beyond the snapshots' rank no longer refused
+    ("pod", "if d.ndim == 0:", "if d.ndim == 1:"),
+    ("pod", "square of that channel ({measured[j]:.3g})",
+     "square of that channel ({2 * measured[j]:.3g})"),
+    # (equivalent: numpy forms a matrix's transpose times itself with BLAS syrk, which
+    # mirrors one triangle, so u.T @ u is already symmetric bit for bit)
+    ("pod", "R = u.T @ u / u.shape[0]\n    return 0.5 * (R + R.T)",
+     "R = u.T @ u / u.shape[0]\n    return R"),
+    ("pod", "eigenvalues = np.zeros(self.n)", "eigenvalues = np.zeros(theta.size)"),
+    ("pod", "if m > self.n_modes:", "if m > self.n:"),
+    # twentieth audit, simulation: the record's band reversed without histories, a band of
+    # three numbers accepted, the Welch segments' mean taken over the segments instead of
+    # each segment's samples, the memory message naming histories when they are not kept
+    ("simulation",
+     "band_hz=(float(band_hz[0]), float(band_hz[1])),\n        )",
+     "band_hz=(float(band_hz[1]), float(band_hz[0])),\n        )"),
+    ("simulation", "if band.shape != (2,):", "if band.ndim != 1:"),
+    ("simulation", "seg = seg - seg.mean(axis=-1, keepdims=True)",
+     "seg = seg - seg.mean(axis=1, keepdims=True)"),
+    ("simulation", 'with {r}-sample histories" if keep else "")',
+     'with {r}-sample histories" if not keep else "")'),
+    # twentieth audit, lines: the unmeasured (all-zero) entries counted in the activity,
+    # blocks already full handed budget, the blocks' edges ending one line short
+    # (equivalent: an all-zero entry adds nothing to any block's ranges, so it scales
+    # every activity alike and the budget's shares are unchanged)
+    ("identification/lines",
+     "    flat = flat[:, np.any(flat != 0, axis=0)]  # entries that were measured\n", ""),
+    # (equivalent: only the first pass's mask changes, and with one line each only for a
+    # block of one line — none exists past the target, and it would have no activity)
+    ("identification/lines", "free = count < sizes\n    for _ in",
+     "free = count <= sizes\n    for _ in"),
+    ("identification/lines", "edges = np.linspace(0, s, n_blocks + 1)",
+     "edges = np.linspace(0, s - 1, n_blocks + 1)"),
+    # twentieth audit, holes: the mask read inverted (the holes as the measured entries),
+    # the metric's fitted part with the wrong index on its second factor, the metric's
+    # first load case skipped
+    ("identification/holes", "d = mask_j.astype(np.float64)", "d = (~mask_j).astype(np.float64)"),
+    ("identification/holes", '"sa,ab,sb->s", y.conj(), Q, y)', '"sa,ab,sa->s", y.conj(), Q, y)'),
+    ("identification/holes", "    for j in range(p):\n        d, lam, V, _ = _column_solve",
+     "    for j in range(1, p):\n        d, lam, V, _ = _column_solve"),
 ]
 
 

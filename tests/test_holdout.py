@@ -870,6 +870,21 @@ def test_a_block_given_three_lines_keeps_its_peak_and_its_dip():
     assert np.flatnonzero(keep[16:32]).tolist() == [0, 3, 8, 11, 15]
 
 
+def test_a_full_block_hands_its_share_of_the_budget_on():
+    """20 lines, a target of 16: four blocks of 5 lines and 12 lines to share beyond one
+    each. Log-magnitude ranges 10, 2, 0 and 0 (phase 0): the median activity is 1, the
+    excesses 9 and 1. The first pass gives the first block floor(12·9/10) = 10, more
+    than its 5 lines, and the second floor(12·1/10) = 1; the 7 lines left then go to
+    the one block that is not full and is active, the second, which takes all its 5. A
+    full block taking its share again would leave the second block its first and last
+    lines and the budget unspent."""
+    t = np.zeros(5)
+    t[2] = 1.0
+    U = np.exp(np.concatenate([10 * t, 2 * t, 0 * t, 0 * t])).reshape(20, 1, 1).astype(complex)
+    keep = informative_lines(U, 16)
+    assert np.flatnonzero(keep).tolist() == [*range(10), 10, 15, 19]
+
+
 def test_the_phase_counts_unwrapped_along_the_lines():
     """The first block's phase turns by 1 rad a line (15 rad over the block, unwrapped;
     taken modulo 2π it would span less than 2π), the second block's log-magnitude range

@@ -464,6 +464,11 @@ def test_noise_corrected_snapshots_are_the_rayleigh_ritz_pairs_on_the_data_span(
                                rtol=1e-9, atol=1e-12 * P.eigenvalues[0])
     off = T - np.diag(np.diag(T))
     assert np.abs(off).max() < 1e-10 * P.eigenvalues[0]
+    # one eigenvalue per DOF, as the uncorrected POD has: the 30 past the data's rank are
+    # zero, and the energy fraction runs over all 50 DOFs to 1
+    assert P.eigenvalues.shape == pod(noisy, method="snapshots").eigenvalues.shape == (50,)
+    assert P.eigenvalues[20:].tolist() == [0.0] * 30
+    assert P.energy_fraction.shape == (50,) and P.energy_fraction[-1] == 1.0
 
 
 def test_repr_says_the_side_and_the_noise_correction():
