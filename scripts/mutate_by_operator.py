@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import ast
 import io
+import re
 import sys
 import tokenize
 import warnings
@@ -63,6 +64,17 @@ MODULES = [
     "identification/latent", "identification/lines", "identification/holes",
     "identification/modal_start",
 ]
+
+def _each_read_transposed(mod: str, line: str, reads: str,
+                          reason: str) -> dict[tuple[str, str, str], str]:
+    """``EQUIVALENT`` entries for every read of ``M``, ``C`` or ``K`` in the part ``reads``
+    of ``line`` (once in it) read transposed, one at a time, all for one ``reason``."""
+    assert line.count(reads) == 1, (line, reads)
+    at = line.index(reads)
+    names = [m.end() for m in re.finditer(r"\b[MCK]\b(?![.=\"])", reads)]
+    return {(mod, line, line[:at] + reads[:e] + ".T" + reads[e:] + line[at + len(reads):]):
+            reason for e in names}
+
 
 #: reasons that several survivors share (EQUIVALENT below)
 _M_AND_K_SORT_AFTER_C = (
@@ -437,102 +449,40 @@ EQUIVALENT: dict[tuple[str, str, str], str] = {
      "mats = (model.M, model.C, model.K.T)"):
         "as for the mutant of the same line above: the same reason.",
     # identification/refinement, order, modal_start: a model's matrix read transposed
-    ("identification/refinement",
-     "return model.M, model.C, model.K, None",
-     "return model.M.T, model.C, model.K, None"):
-        _A_SYSTEM_START_IS_READ_SYMMETRISED,
-    ("identification/refinement",
-     "return model.M, model.C, model.K, None",
-     "return model.M, model.C.T, model.K, None"):
-        _A_SYSTEM_START_IS_READ_SYMMETRISED,
-    ("identification/refinement",
-     "return model.M, model.C, model.K, None",
-     "return model.M, model.C, model.K.T, None"):
-        _A_SYSTEM_START_IS_READ_SYMMETRISED,
-    ("identification/refinement", "return M, C, K, None", "return M.T, C, K, None"):
-        _A_TUPLE_START_IS_READ_SYMMETRISED,
-    ("identification/refinement", "return M, C, K, None", "return M, C.T, K, None"):
-        _A_TUPLE_START_IS_READ_SYMMETRISED,
-    ("identification/refinement", "return M, C, K, None", "return M, C, K.T, None"):
-        _A_TUPLE_START_IS_READ_SYMMETRISED,
-    ("identification/refinement",
-     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
-     'for X, name, tol in ((M.T, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):'):
-        _PHYSICAL_START_READS_THE_SYMMETRIC_PART,
-    ("identification/refinement",
-     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
-     'for X, name, tol in ((M, "M", rtol), (C.T, "C", 0.0), (K, "K", rtol)):'):
-        _PHYSICAL_START_READS_THE_SYMMETRIC_PART,
-    ("identification/refinement",
-     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
-     'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K.T, "K", rtol)):'):
-        _PHYSICAL_START_READS_THE_SYMMETRIC_PART,
-    ("identification/refinement",
-     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
-     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M.T, out.C, out.K))"):
-        _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT,
-    ("identification/refinement",
-     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
-     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C.T, out.K))"):
-        _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT,
-    ("identification/refinement",
-     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))",
-     "M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K.T))"):
-        _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT,
-    ("identification/refinement",
-     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
-     "M, C, K = (0.5 * (X + X.T) for X in (M.T, C, K))"):
-        _THE_SYMMETRISATION_COMMUTES,
-    ("identification/refinement",
-     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
-     "M, C, K = (0.5 * (X + X.T) for X in (M, C.T, K))"):
-        _THE_SYMMETRISATION_COMMUTES,
-    ("identification/refinement",
-     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K))",
-     "M, C, K = (0.5 * (X + X.T) for X in (M, C, K.T))"):
-        _THE_SYMMETRISATION_COMMUTES,
+    **_each_read_transposed(
+        'identification/refinement', 'return model.M, model.C, model.K, None',
+        'model.M, model.C, model.K', _A_SYSTEM_START_IS_READ_SYMMETRISED),
+    **_each_read_transposed(
+        'identification/refinement', 'return M, C, K, None',
+        'M, C, K', _A_TUPLE_START_IS_READ_SYMMETRISED),
+    **_each_read_transposed(
+        'identification/refinement',
+        'for X, name, tol in ((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol)):',
+        '((M, "M", rtol), (C, "C", 0.0), (K, "K", rtol))',
+        _PHYSICAL_START_READS_THE_SYMMETRIC_PART),
+    **_each_read_transposed(
+        'identification/refinement',
+        'M, C, K = (np.asarray(X, dtype=np.float64) for X in (out.M, out.C, out.K))',
+        '(out.M, out.C, out.K)', _THE_CORE_OUTPUT_IS_SYMMETRISED_NEXT),
+    **_each_read_transposed(
+        'identification/refinement', 'M, C, K = (0.5 * (X + X.T) for X in (M, C, K))',
+        '(M, C, K))', _THE_SYMMETRISATION_COMMUTES),
     ("identification/refinement", "M=M,", "M=M.T,"):
         _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement", "C=C,", "C=C.T,"):
         _SYMMETRISED_A_FEW_LINES_ABOVE,
     ("identification/refinement", "K=K,", "K=K.T,"):
         _SYMMETRISED_A_FEW_LINES_ABOVE,
-    ("identification/refinement",
-     "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
-     "residual_norm=residual_norm(M.T, C, K, data) if latent == 0 else math.nan,"):
-        _SYMMETRISED_A_FEW_LINES_ABOVE,
-    ("identification/refinement",
-     "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
-     "residual_norm=residual_norm(M, C.T, K, data) if latent == 0 else math.nan,"):
-        _SYMMETRISED_A_FEW_LINES_ABOVE,
-    ("identification/refinement",
-     "residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,",
-     "residual_norm=residual_norm(M, C, K.T, data) if latent == 0 else math.nan,"):
-        _SYMMETRISED_A_FEW_LINES_ABOVE,
-    ("identification/order",
-     "model = (best.model.M, best.model.C, best.model.K)",
-     "model = (best.model.M.T, best.model.C, best.model.K)"):
-        _THE_SWEEPS_FITS_ARE_SYMMETRIC,
-    ("identification/order",
-     "model = (best.model.M, best.model.C, best.model.K)",
-     "model = (best.model.M, best.model.C.T, best.model.K)"):
-        _THE_SWEEPS_FITS_ARE_SYMMETRIC,
-    ("identification/order",
-     "model = (best.model.M, best.model.C, best.model.K)",
-     "model = (best.model.M, best.model.C, best.model.K.T)"):
-        _THE_SWEEPS_FITS_ARE_SYMMETRIC,
-    ("identification/order",
-     "previous = (model.M, model.C, model.K)",
-     "previous = (model.M.T, model.C, model.K)"):
-        _REFINED_MODELS_ARE_SYMMETRIC,
-    ("identification/order",
-     "previous = (model.M, model.C, model.K)",
-     "previous = (model.M, model.C.T, model.K)"):
-        _REFINED_MODELS_ARE_SYMMETRIC,
-    ("identification/order",
-     "previous = (model.M, model.C, model.K)",
-     "previous = (model.M, model.C, model.K.T)"):
-        _REFINED_MODELS_ARE_SYMMETRIC,
+    **_each_read_transposed(
+        'identification/refinement',
+        'residual_norm=residual_norm(M, C, K, data) if latent == 0 else math.nan,',
+        '(M, C, K, data)', _SYMMETRISED_A_FEW_LINES_ABOVE),
+    **_each_read_transposed(
+        'identification/order', 'model = (best.model.M, best.model.C, best.model.K)',
+        '(best.model.M, best.model.C, best.model.K)', _THE_SWEEPS_FITS_ARE_SYMMETRIC),
+    **_each_read_transposed(
+        'identification/order', 'previous = (model.M, model.C, model.K)',
+        '(model.M, model.C, model.K)', _REFINED_MODELS_ARE_SYMMETRIC),
     ("identification/modal_start",
      "if not (M.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):",
      "if not (M.T.ndim == 2 and M.shape[0] == M.shape[1] and M.shape == C.shape == K.shape):"):
